@@ -1,0 +1,1 @@
+//! Shared seeded data generators for the criterion benches (see `benches/*.rs`).

@@ -1,0 +1,2 @@
+//! Virtual joint method (VJM) stiffness models of serial robots.
+#![deny(missing_docs)]
