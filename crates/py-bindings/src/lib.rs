@@ -1,8 +1,20 @@
 //! Python extension module `robot_stiffness._core`.
+//!
+//! Thin wrappers over the core crates `so3-stiffness` and `vjm`. Array conversions live in
+//! [`convert`], error mapping in [`errors`]; each binding module wraps one core module. The
+//! public, documented Python API is the pure-Python package `robot_stiffness`, which calls these.
+#![deny(missing_docs)]
+
 use pyo3::prelude::*;
+
+pub mod convert;
+pub mod errors;
+pub mod so3;
 
 /// The compiled core of the `robot_stiffness` Python package.
 #[pymodule]
-fn _core(_m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    so3::register(m)?;
     Ok(())
 }

@@ -1,0 +1,47 @@
+"""robot-stiffness: stiffness modelling, identification and diagnosis of robots.
+
+Submodules:
+
+* :mod:`robot_stiffness.so3` — the rotation group: ``exp``, ``log``, ``hat``, ``vee``,
+  ``adjoint``, ``left_jacobian``, ``right_jacobian``…
+* :mod:`robot_stiffness.csjm` — cable-driven spherical joint modules: identify the 3×3
+  rotational stiffness K (N·m/rad) from platform orientations and moments.
+* :mod:`robot_stiffness.vjm` — virtual-joint models of serial arms from URDF: Jacobians,
+  rank-revealing identification of joint compliances (rad/(N·m)), prediction.
+
+Units are SI (m, rad, N, N·m); frames are named in every docstring and follow
+``docs/conventions.md``. Every error derives from :class:`StiffnessError`.
+The console script ``robot-stiffness`` (see ``robot-stiffness --help``) drives the same code
+from measurement files.
+"""
+
+from __future__ import annotations
+
+from . import _core
+from ._errors import (
+    DataFileError,
+    IdentificationError,
+    InternalError,
+    InvalidValueError,
+    MissingFileError,
+    RobotModelError,
+    ShapeError,
+    StiffnessError,
+)
+
+__version__: str = _core.__version__
+
+from . import so3  # noqa: E402
+
+__all__ = [
+    "__version__",
+    "so3",
+    "StiffnessError",
+    "ShapeError",
+    "InvalidValueError",
+    "DataFileError",
+    "MissingFileError",
+    "RobotModelError",
+    "IdentificationError",
+    "InternalError",
+]

@@ -1,0 +1,57 @@
+"""Exception hierarchy of :mod:`robot_stiffness`.
+
+Every error raised by the package derives from :class:`StiffnessError`. Where a built-in
+exception is the natural category, the class also derives from it, so callers may catch either:
+``except ValueError`` catches a bad shape, ``except FileNotFoundError`` a missing file.
+The Rust core's error enums are mapped onto these classes in one place
+(``crates/py-bindings/src/errors.rs``).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "StiffnessError",
+    "ShapeError",
+    "InvalidValueError",
+    "DataFileError",
+    "MissingFileError",
+    "RobotModelError",
+    "IdentificationError",
+    "InternalError",
+]
+
+
+class StiffnessError(Exception):
+    """Base class of every error raised by :mod:`robot_stiffness`."""
+
+
+class ShapeError(StiffnessError, ValueError):
+    """An array has the wrong number of dimensions or a wrong size; the message names the dimension."""
+
+
+class InvalidValueError(StiffnessError, ValueError):
+    """A value is not acceptable: NaN/inf, a matrix that is not a rotation, an unknown option..."""
+
+
+class DataFileError(StiffnessError, ValueError):
+    """A measurement file cannot be used: missing column, unparsable cell, implausible units...
+
+    The message names the file, the row and/or the column.
+    """
+
+
+class MissingFileError(StiffnessError, FileNotFoundError):
+    """A file given by the user does not exist or cannot be read."""
+
+
+class RobotModelError(StiffnessError, ValueError):
+    """A robot description cannot be used: unknown link, base not an ancestor of tip, closed
+    chain, mimic or unsupported joint..."""
+
+
+class IdentificationError(StiffnessError, ValueError):
+    """Identification cannot proceed: too few measurements, a singular problem..."""
+
+
+class InternalError(StiffnessError, RuntimeError):
+    """A bug inside the Rust core (a caught panic). Please report it with the inputs."""

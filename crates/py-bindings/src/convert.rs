@@ -1,0 +1,199 @@
+//! numpy ⇄ Rust conversions: the only place where array layout, shape and dtype are handled.
+//!
+//! Inputs arrive as float64 numpy arrays (the Python layer converts other dtypes with
+//! `numpy.asarray(x, dtype=float64)`). A C-contiguous array is borrowed without copying; any other
+//! layout (Fortran order, strided views) is copied once into row-major order, which is the layout
+//! every core crate expects (see `docs/conventions.md`). Shape errors name the argument and the
+//! offending dimension.
+
+use std::borrow::Cow;
+
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+use crate::errors::shape_error;
+
+/// A row-major view (borrowed when possible) of an `(N, cols…)` float64 array.
+#[derive(Debug)]
+pub struct Rows<'a> {
+    /// Row-major data, `rows * row_len` values.
+    pub data: Cow<'a, [f64]>,
+    /// Number of rows N (the leading dimension).
+    pub rows: usize,
+}
+
+/// Row-major data of `arr`: borrowed if C-contiguous, one copy otherwise.
+pub fn row_major<'a>(arr: &'a PyReadonlyArrayDyn<'_, f64>) -> Cow<'a, [f64]> {
+    if arr.is_c_contiguous() {
+        if let Ok(slice) = arr.as_slice() {
+            return Cow::Borrowed(slice);
+        }
+    }
+    // ndarray iterates in logical (row-major) order whatever the memory layout.
+    Cow::Owned(arr.as_array().iter().copied().collect())
+}
+
+/// Describes a shape for messages: `(N, 6)`, `(N, 3, 3)`.
+fn describe(trailing: &[usize]) -> String {
+    let mut s = String::from("(N");
+    for d in trailing {
+        s.push_str(&format!(", {d}"));
+    }
+    s.push(')');
+    s
+}
+
+/// Checks that `arr` has shape `(N, trailing…)` and returns its rows in row-major order.
+///
+/// `name` is the argument's user-facing name; the error names the offending dimension.
+pub fn batch<'a>(
+    arr: &'a PyReadonlyArrayDyn<'_, f64>,
+    name: &str,
+    trailing: &[usize],
+) -> PyResult<Rows<'a>> {
+    let shape = arr.shape();
+    let expected = describe(trailing);
+    if shape.len() != trailing.len() + 1 {
+        return Err(shape_error(format!(
+            "{name} must have shape {expected}, got {} dimension(s) with shape {shape:?}",
+            shape.len()
+        )));
+    }
+    for (k, (&got, &want)) in shape[1..].iter().zip(trailing).enumerate() {
+        if got != want {
+            return Err(shape_error(format!(
+                "{name} must have shape {expected}: dimension {} has size {got}, expected {want} (shape {shape:?})",
+                k + 1
+            )));
+        }
+    }
+    Ok(Rows {
+        data: row_major(arr),
+        rows: shape[0],
+    })
+}
+
+/// Checks that `arr` has exactly the shape `expected` and returns it in row-major order.
+pub fn fixed<'a>(
+    arr: &'a PyReadonlyArrayDyn<'_, f64>,
+    name: &str,
+    expected: &[usize],
+) -> PyResult<Cow<'a, [f64]>> {
+    let shape = arr.shape();
+    if shape != expected {
+        let which = if shape.len() != expected.len() {
+            format!("{} dimension(s) instead of {}", shape.len(), expected.len())
+        } else {
+            let k = shape
+                .iter()
+                .zip(expected)
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
+            format!(
+                "dimension {k} has size {}, expected {}",
+                shape[k], expected[k]
+            )
+        };
+        return Err(shape_error(format!(
+            "{name} must have shape {expected:?}, got {shape:?}: {which}"
+        )));
+    }
+    Ok(row_major(arr))
+}
+
+/// Accepts either one item of shape `item` or a batch `(N, item…)`.
+///
+/// Returns the row-major data, N (1 for a single item) and whether the input was batched, so
+/// that the result can be given the same leading shape.
+pub fn single_or_batch<'a>(
+    arr: &'a PyReadonlyArrayDyn<'_, f64>,
+    name: &str,
+    item: &[usize],
+) -> PyResult<(Cow<'a, [f64]>, usize, bool)> {
+    if arr.shape() == item {
+        return Ok((row_major(arr), 1, false));
+    }
+    let shape = arr.shape();
+    if shape.len() == item.len() + 1 && &shape[1..] == item {
+        return Ok((row_major(arr), shape[0], true));
+    }
+    let single = format!(
+        "({}{})",
+        item.iter()
+            .map(|d| d.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        if item.len() == 1 { "," } else { "" }
+    );
+    let detail = if shape.len() == item.len() + 1 {
+        let k = shape[1..]
+            .iter()
+            .zip(item)
+            .position(|(a, b)| a != b)
+            .unwrap_or(0)
+            + 1;
+        format!(
+            "dimension {k} has size {}, expected {}",
+            shape[k],
+            item[k - 1]
+        )
+    } else if shape.len() == item.len() {
+        let k = shape
+            .iter()
+            .zip(item)
+            .position(|(a, b)| a != b)
+            .unwrap_or(0);
+        format!("dimension {k} has size {}, expected {}", shape[k], item[k])
+    } else {
+        format!("it has {} dimension(s)", shape.len())
+    };
+    Err(shape_error(format!(
+        "{name} must have shape {single} or {}, got {shape:?}: {detail}",
+        describe(item)
+    )))
+}
+
+/// Checks that every value is finite; the error names the argument and the index of the first
+/// offending entry (row-major `shape`).
+pub fn check_finite(data: &[f64], name: &str, shape: &[usize]) -> PyResult<()> {
+    if let Some(flat) = data.iter().position(|v| !v.is_finite()) {
+        let mut index = vec![0usize; shape.len()];
+        let mut rest = flat;
+        for (k, &d) in shape.iter().enumerate().rev() {
+            if d > 0 {
+                index[k] = rest % d;
+                rest /= d;
+            }
+        }
+        return Err(crate::errors::value_error(format!(
+            "{name} contains a non-finite value ({}) at index {index:?}",
+            data[flat]
+        )));
+    }
+    Ok(())
+}
+
+/// A new numpy array of shape `shape` owning `data` (row-major), without copying.
+pub fn to_numpy<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let arr = ArrayD::from_shape_vec(IxDyn(shape), data).map_err(|e| {
+        crate::errors::internal_error(format!("result of shape {shape:?} is inconsistent: {e}"))
+    })?;
+    Ok(PyArrayDyn::from_owned_array(py, arr))
+}
+
+/// A new numpy bool array of shape `shape` owning `data`.
+pub fn to_numpy_bool<'py>(
+    py: Python<'py>,
+    data: Vec<bool>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<bool>>> {
+    let arr = ArrayD::from_shape_vec(IxDyn(shape), data).map_err(|e| {
+        crate::errors::internal_error(format!("result of shape {shape:?} is inconsistent: {e}"))
+    })?;
+    Ok(PyArrayDyn::from_owned_array(py, arr))
+}

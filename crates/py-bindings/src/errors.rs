@@ -1,0 +1,123 @@
+//! The one place where Rust errors become Python exceptions.
+//!
+//! The exception classes are defined in Python (`robot_stiffness/_errors.py`) so that they can
+//! derive from both `StiffnessError` and the natural built-in (`ValueError`, `FileNotFoundError`);
+//! this module looks them up by name. Every heavy call runs through [`run`], which releases the
+//! GIL and turns a panic of the core into `InternalError`, so a panic never reaches Python.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use pyo3::exceptions::{PyFileNotFoundError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyType;
+
+/// The Python exception classes of `robot_stiffness._errors`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// Wrong number of dimensions or size (`ShapeError`, a `ValueError`).
+    Shape,
+    /// Bad value: NaN, not a rotation, unknown option (`InvalidValueError`, a `ValueError`).
+    Value,
+    /// Unusable measurement file (`DataFileError`, a `ValueError`).
+    DataFile,
+    /// Missing or unreadable file (`MissingFileError`, a `FileNotFoundError`).
+    MissingFile,
+    /// Unusable robot description (`RobotModelError`, a `ValueError`).
+    RobotModel,
+    /// Identification impossible (`IdentificationError`, a `ValueError`).
+    Identification,
+    /// A caught panic or an inconsistent result (`InternalError`, a `RuntimeError`).
+    Internal,
+}
+
+impl Kind {
+    fn class_name(self) -> &'static str {
+        match self {
+            Kind::Shape => "ShapeError",
+            Kind::Value => "InvalidValueError",
+            Kind::DataFile => "DataFileError",
+            Kind::MissingFile => "MissingFileError",
+            Kind::RobotModel => "RobotModelError",
+            Kind::Identification => "IdentificationError",
+            Kind::Internal => "InternalError",
+        }
+    }
+}
+
+/// A Python exception of the given kind carrying `message`.
+pub fn error(kind: Kind, message: impl Into<String>) -> PyErr {
+    let message = message.into();
+    Python::attach(|py| {
+        let class = py
+            .import("robot_stiffness._errors")
+            .and_then(|m| m.getattr(kind.class_name()))
+            .and_then(|c| c.cast_into::<PyType>().map_err(PyErr::from));
+        match class {
+            Ok(class) => PyErr::from_type(class, message),
+            // `_core` imported on its own (not through the package): fall back to built-ins.
+            Err(_) => match kind {
+                Kind::MissingFile => PyFileNotFoundError::new_err(message),
+                Kind::Internal => PyRuntimeError::new_err(message),
+                _ => PyValueError::new_err(message),
+            },
+        }
+    })
+}
+
+/// `ShapeError` with `message`.
+pub fn shape_error(message: impl Into<String>) -> PyErr {
+    error(Kind::Shape, message)
+}
+
+/// `InvalidValueError` with `message`.
+pub fn value_error(message: impl Into<String>) -> PyErr {
+    error(Kind::Value, message)
+}
+
+/// `InternalError` with `message`.
+pub fn internal_error(message: impl Into<String>) -> PyErr {
+    error(Kind::Internal, message)
+}
+
+/// Runs `f` with the GIL released, turning a panic into `InternalError`.
+pub fn run<T, F>(py: Python<'_>, f: F) -> PyResult<T>
+where
+    F: FnOnce() -> T + Send,
+    T: Send,
+{
+    py.detach(|| catch_unwind(AssertUnwindSafe(f)))
+        .map_err(|payload| {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            internal_error(format!(
+                "internal error in the Rust core (please report it with the inputs): {what}"
+            ))
+        })
+}
+
+/// Conversion of a core crate's error into the matching Python exception.
+pub trait IntoPyErr {
+    /// The Python exception for this error.
+    fn into_py_err(self) -> PyErr;
+}
+
+/// `result.py()?` converts a core error into its Python exception.
+pub trait PyResultExt<T> {
+    /// Maps the error with [`IntoPyErr`].
+    fn py(self) -> PyResult<T>;
+}
+
+impl<T, E: IntoPyErr> PyResultExt<T> for Result<T, E> {
+    fn py(self) -> PyResult<T> {
+        self.map_err(IntoPyErr::into_py_err)
+    }
+}
+
+impl IntoPyErr for so3_stiffness::So3Error {
+    fn into_py_err(self) -> PyErr {
+        value_error(self.to_string())
+    }
+}
