@@ -121,3 +121,28 @@ impl IntoPyErr for so3_stiffness::So3Error {
         value_error(self.to_string())
     }
 }
+
+impl IntoPyErr for vjm::VjmError {
+    fn into_py_err(self) -> PyErr {
+        use vjm::VjmError as E;
+        let kind = match &self {
+            E::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+                Kind::MissingFile
+            }
+            E::Io { .. } => Kind::MissingFile,
+            E::Urdf { .. }
+            | E::MissingLink { .. }
+            | E::NotAncestor { .. }
+            | E::ClosedChain { .. }
+            | E::MimicJoint { .. }
+            | E::UnsupportedJoint { .. }
+            | E::InvalidAxis { .. }
+            | E::NoActuatedJoints { .. } => Kind::RobotModel,
+            E::ShapeMismatch { .. } => Kind::Shape,
+            E::TooFewMeasurements { .. } | E::Numerical { .. } => Kind::Identification,
+            E::NonFinite { .. } | E::InvalidModel { .. } | E::InvalidOption { .. } => Kind::Value,
+            _ => Kind::Value,
+        };
+        error(kind, self.to_string())
+    }
+}

@@ -10,11 +10,13 @@ use pyo3::prelude::*;
 pub mod convert;
 pub mod errors;
 pub mod so3;
+pub mod vjm;
 
 /// The compiled core of the `robot_stiffness` Python package.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     so3::register(m)?;
+    vjm::register(m)?;
     Ok(())
 }

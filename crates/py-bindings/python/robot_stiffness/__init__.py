@@ -31,11 +31,12 @@ from ._errors import (
 
 __version__: str = _core.__version__
 
-from . import so3  # noqa: E402
+from . import so3, vjm  # noqa: E402
 
 __all__ = [
     "__version__",
     "so3",
+    "vjm",
     "StiffnessError",
     "ShapeError",
     "InvalidValueError",

@@ -1,0 +1,349 @@
+"""Virtual-joint stiffness models (VJM) of serial arms from URDF.
+
+A :class:`Robot` is an immutable serial chain between a base and a tip link. Its virtual springs
+are named ``J<joint><axis>``: joint 1-based from base to tip, axis ``z`` (torsion about the joint
+axis) or ``x``/``y`` (tilts, in the joint's child frame; see ``docs/conventions.md``). Models:
+``"traditional"`` (the n torsional springs), ``"extended"`` (3n springs, joint-major, ``[z, x, y]``
+per joint) or any list of labels such as ``["J1z", "J2x", "J2z"]`` listed base → tip.
+
+Units are SI: joint angles in rad, wrenches ``[fx, fy, fz, mx, my, mz]`` in N and N·m applied at
+the tip point with base-frame components, displacements in m and rotations in rad with
+base-frame components, compliances in rad/(N·m).
+
+Every batched method takes arrays with one row per configuration/measurement: q (N, n),
+wrench (N, 6), displacement (N, 3). C- and Fortran-ordered arrays are accepted; the work runs in
+Rust with the GIL released. :meth:`Robot.identify` also accepts a pandas DataFrame with the
+measurement-file columns.
+
+Example::
+
+    >>> import numpy as np
+    >>> from robot_stiffness.vjm import Robot
+    >>> robot = Robot.bundled()
+    >>> q = np.array([[0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8]])
+    >>> robot.jacobian(q, model="extended").shape
+    (1, 6, 21)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._arrays import f64
+from ._errors import ShapeError
+from ._tables import (
+    DISPLACEMENT,
+    ROTATION,
+    WRENCH,
+    columns,
+    is_table,
+    joint_columns,
+    optional_columns,
+)
+
+__all__ = ["Robot", "Identification", "Combination", "ModelSpec"]
+
+#: ``"traditional"``, ``"extended"`` or a sequence of spring labels like ``["J1z", "J2x"]``.
+ModelSpec = Union[str, Sequence[str]]
+
+Array = npt.NDArray[np.float64]
+
+
+def _model(model: ModelSpec) -> Union[str, List[str]]:
+    return model if isinstance(model, str) else [str(s) for s in model]
+
+
+def _nan(values: Sequence[Optional[float]]) -> Array:
+    return np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Combination:
+    """An identifiable linear combination of compliances (a base parameter).
+
+    ``value = Σ coefficient_k · c_k`` in rad/(N·m) over ``terms`` (label, coefficient); the first
+    term is the independent parameter with coefficient 1.
+    """
+
+    label: str
+    terms: List[Tuple[str, float]]
+    value: float
+    stderr: float
+    ci95: Tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Identification:
+    """The result of :meth:`Robot.identify`.
+
+    Per parameter (model order, arrays of shape (m,)): ``compliance`` in rad/(N·m), NaN where the
+    parameter is not identifiable on its own; ``stderr`` (NaN likewise); ``ci95`` (m, 2) 95 %
+    intervals; ``identifiable`` (bool). ``rank`` is the number of identifiable combinations,
+    listed in ``combinations``; ``aliases`` groups parameter labels that alias each other.
+    ``raw`` is the core's full result as a JSON-ready dict.
+    """
+
+    model: str
+    n_params: int
+    rank: int
+    n_equations: int
+    labels: List[str]
+    compliance: Array
+    stderr: Array
+    ci95: Array
+    identifiable: npt.NDArray[np.bool_]
+    combinations: List[Combination]
+    aliases: List[List[str]]
+    residual_rms: float
+    condition_number: float
+    singular_values: Array
+    raw: Dict[str, Any] = field(repr=False)
+
+    @classmethod
+    def _from_json(cls, text: str) -> "Identification":
+        raw = json.loads(text)
+        params = raw["parameters"]
+        labels = [f"J{p['joint']}{p['axis']}" for p in params]
+        ci = np.array(
+            [[np.nan, np.nan] if c is None else [float(c[0]), float(c[1])] for c in raw["ci95"]],
+            dtype=np.float64,
+        ).reshape(-1, 2)
+        combos = [
+            Combination(
+                label=c["label"],
+                terms=[(f"J{t['joint']}{t['axis']}", float(t["coefficient"])) for t in c["terms"]],
+                value=float(c["value"]),
+                stderr=np.nan if c.get("stderr") is None else float(c["stderr"]),
+                ci95=(np.nan, np.nan) if c.get("ci95") is None else (float(c["ci95"][0]), float(c["ci95"][1])),
+            )
+            for c in raw["combinations"]
+        ]
+        return cls(
+            model=raw["model"],
+            n_params=int(raw["n_params"]),
+            rank=int(raw["rank"]),
+            n_equations=int(raw["n_equations"]),
+            labels=labels,
+            compliance=_nan(raw["compliance"]),
+            stderr=_nan(raw["stderr"]),
+            ci95=ci,
+            identifiable=np.array(raw["identifiable"], dtype=bool),
+            combinations=combos,
+            aliases=[list(a) for a in raw.get("alias_labels", [])],
+            residual_rms=float(raw["residual_rms"]),
+            condition_number=float(raw["condition_number"]) if raw["condition_number"] is not None else np.inf,
+            singular_values=np.array(raw["singular_values"], dtype=np.float64),
+            raw=raw,
+        )
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The JSON form written by ``robot-stiffness identify vjm``: ``model``, ``n_params``,
+        ``rank``, ``parameters`` [{``joint`` (1-based), ``axis`` (z|x|y), ``compliance``
+        (rad/(N·m) or None), ``stderr``, ``identifiable``}], ``combinations`` (with ``value``),
+        plus ``aliases`` and diagnostics."""
+        raw = self.raw
+        return {
+            "model": raw["model"],
+            "n_params": raw["n_params"],
+            "rank": raw["rank"],
+            "n_equations": raw["n_equations"],
+            "parameters": [
+                {
+                    "joint": p["joint"],
+                    "axis": p["axis"],
+                    "joint_name": p.get("joint_name"),
+                    "compliance": p["compliance"],
+                    "stderr": p["stderr"],
+                    "ci95": p.get("ci95"),
+                    "identifiable": p["identifiable"],
+                }
+                for p in raw["parameters"]
+            ],
+            "combinations": raw["combinations"],
+            "aliases": raw.get("alias_labels", []),
+            "residual_rms": raw["residual_rms"],
+            "condition_number": raw["condition_number"],
+        }
+
+
+class Robot:
+    """A serial chain from a base link to a tip link, loaded from URDF (immutable).
+
+    Fixed joints are folded in; revolute and continuous joints are actuated. Construct it with
+    :meth:`bundled`, :meth:`from_urdf` or :meth:`from_urdf_string`.
+    """
+
+    __slots__ = ("_inner",)
+
+    def __init__(self, inner: Any) -> None:
+        """Wraps a ``robot_stiffness._core.Robot``; use the class methods instead."""
+        if not isinstance(inner, _core.Robot):
+            raise TypeError("use Robot.bundled(), Robot.from_urdf() or Robot.from_urdf_string()")
+        self._inner = inner
+
+    @classmethod
+    def bundled(cls, tip: Optional[str] = None) -> "Robot":
+        """The bundled 7-DoF Franka Emika Panda arm, base ``panda_link0``, tip the flange
+        ``panda_link8`` unless another link of the bundled URDF (e.g. ``panda_hand_tcp``) is named."""
+        return cls(_core.Robot.bundled(tip))
+
+    @classmethod
+    def from_urdf(cls, path: Union[str, "os.PathLike[str]"], base: str, tip: str) -> "Robot":
+        """The chain ``base`` → ``tip`` of the URDF file at ``path``.
+
+        Raises :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``) if the file
+        does not exist and :class:`~robot_stiffness.RobotModelError` naming the link or joint
+        when the chain cannot be built (unknown link, base not an ancestor of tip, mimic joint…).
+        """
+        return cls(_core.Robot.from_urdf(os.fspath(path), base, tip))
+
+    @classmethod
+    def from_urdf_string(cls, xml: str, base: str, tip: str) -> "Robot":
+        """The chain ``base`` → ``tip`` of a URDF document given as text."""
+        return cls(_core.Robot.from_urdf_string(xml, base, tip))
+
+    @property
+    def n_joints(self) -> int:
+        """Number of actuated joints n."""
+        return int(self._inner.n_joints)
+
+    @property
+    def joint_names(self) -> List[str]:
+        """Actuated joint names, base → tip."""
+        return list(self._inner.joint_names)
+
+    @property
+    def limits(self) -> List[Tuple[float, float]]:
+        """Joint position limits (lower, upper) in rad, base → tip (±inf for continuous joints)."""
+        return list(self._inner.limits)
+
+    @property
+    def base_link(self) -> str:
+        """Name of the base link (the frame of every base-frame quantity)."""
+        return str(self._inner.base_link)
+
+    @property
+    def tip_link(self) -> str:
+        """Name of the tip link; the tip point is its origin."""
+        return str(self._inner.tip_link)
+
+    def labels(self, model: ModelSpec = "extended") -> List[str]:
+        """Parameter labels of ``model`` in parameter order, e.g. ``["J1z", "J1x", "J1y", ...]``."""
+        return list(self._inner.model_labels(_model(model)))
+
+    def _q(self, q: Any) -> Tuple[Array, bool]:
+        arr = f64(q, "q")
+        if arr.ndim == 1:
+            return arr.reshape(1, -1), True
+        return arr, False
+
+    def forward_kinematics(self, q: Any) -> Array:
+        """Tip poses: homogeneous transforms of the tip frame in the base frame (m).
+
+        ``q``: joint angles in rad, (n,) or (N, n). Returns (4, 4) or (N, 4, 4).
+        """
+        arr, single = self._q(q)
+        out = self._inner.forward_kinematics(arr)
+        return out[0] if single else out
+
+    def jacobian(self, q: Any, model: ModelSpec = "extended") -> Array:
+        """Virtual-joint Jacobians at the tip point, base frame, rows ``[linear; angular]``.
+
+        ``q``: joint angles in rad, (n,) or (N, n). Column k is the tip twist (m/rad, rad/rad)
+        per rad of deflection of spring k of ``model``. Returns (6, m) or (N, 6, m).
+        """
+        arr, single = self._q(q)
+        out = self._inner.jacobian(arr, _model(model))
+        return out[0] if single else out
+
+    def identify(
+        self,
+        q: Any,
+        wrench: Any = None,
+        displacement: Any = None,
+        model: ModelSpec = "traditional",
+        *,
+        rotation: Any = None,
+        noise_sigma: Any = None,
+        noise_scale_known: bool = False,
+        nonnegative: bool = False,
+        dense: bool = False,
+    ) -> Identification:
+        """Rank-revealing weighted least-squares identification of the spring compliances.
+
+        Either arrays — ``q`` (N, n) joint angles in rad, ``wrench`` (N, 6) in N and N·m at the
+        tip point (base frame), ``displacement`` (N, 3) measured tip displacement in m (base
+        frame), optional ``rotation`` (N, 3) measured tip rotation vector in rad (base frame) —
+        or a single table (pandas DataFrame, dict of columns) with the measurement-file columns
+        ``q1..qn, fx..mz, dx,dy,dz`` (and ``rx,ry,rz`` when present) passed as ``q``.
+
+        ``noise_sigma``: per-axis noise standard deviations ``[dx, dy, dz, rx, ry, rz]`` (m, rad)
+        used as weights; only their ratios matter unless ``noise_scale_known``. ``nonnegative``
+        constrains compliances to be ≥ 0. ``dense`` uses the dense reference solver instead of
+        the streaming one (same answer to ~1e-10).
+
+        Parameters that cannot be identified from these data get NaN (never a number), and the
+        identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
+        naming the array and dimension, :class:`~robot_stiffness.InvalidValueError` for NaN,
+        :class:`~robot_stiffness.IdentificationError` for too few measurements.
+        """
+        if is_table(q) and wrench is None and displacement is None:
+            table = q
+            q = columns(table, joint_columns(self.n_joints), "joint angles")
+            wrench = columns(table, WRENCH, "the wrench")
+            displacement = columns(table, DISPLACEMENT, "the displacement")
+            if rotation is None:
+                rotation = optional_columns(table, ROTATION, "rotation")
+        elif wrench is None or displacement is None:
+            raise ShapeError(
+                "identify needs q, wrench and displacement arrays, or one table with the "
+                "measurement columns as its first argument"
+            )
+        q_arr = f64(q, "q")
+        text = self._inner.identify(
+            q_arr,
+            f64(wrench, "wrench"),
+            f64(displacement, "displacement"),
+            _model(model),
+            rotation=None if rotation is None else f64(rotation, "rotation"),
+            noise_sigma=None if noise_sigma is None else f64(noise_sigma, "noise_sigma"),
+            noise_scale_known=bool(noise_scale_known),
+            nonnegative=bool(nonnegative),
+            dense=bool(dense),
+        )
+        return Identification._from_json(text)
+
+    def predict_deflection(
+        self,
+        compliance: Any,
+        q: Any,
+        wrench: Any,
+        model: ModelSpec = "traditional",
+        with_kc: bool = False,
+    ) -> Array:
+        """Predicted tip deflection ``[dx, dy, dz, rx, ry, rz]`` (m, rad; base frame).
+
+        ``compliance``: (m,) rad/(N·m) for the springs of ``model`` (NaN not allowed: use 0 for
+        an unidentified spring only if that is what you mean). ``q``: (n,) or (N, n) rad;
+        ``wrench``: (6,) or (N, 6) N and N·m at the tip point, base frame. ``with_kc`` includes
+        the complementary stiffness K_C (geometric non-linearity under load).
+        Returns (6,) or (N, 6).
+        """
+        arr, single = self._q(q)
+        w = f64(wrench, "wrench")
+        if w.ndim == 1:
+            w = w.reshape(1, -1)
+        out = self._inner.predict_deflection(
+            f64(compliance, "compliance"), arr, w, _model(model), bool(with_kc)
+        )
+        return out[0] if single else out
+
+    def __repr__(self) -> str:
+        return f"Robot(base={self.base_link!r}, tip={self.tip_link!r}, n_joints={self.n_joints})"

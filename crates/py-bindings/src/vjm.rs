@@ -1,0 +1,314 @@
+//! Bindings of `vjm`: the robot (an immutable [`SerialChain`]), batched Jacobians, forward
+//! kinematics, identification and prediction. Every batch runs in Rust with the GIL released.
+
+use std::sync::Arc;
+
+use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+use vjm::{IdentifyOptions, SerialChain, Spring, SpringAxis, VirtualJointModel, Workspace};
+
+use crate::convert::{batch, fixed, to_numpy};
+use crate::errors::{run, value_error, PyResultExt};
+
+/// A serial chain between a base and a tip link (immutable; cheap to share).
+#[pyclass(frozen, module = "robot_stiffness._core", name = "Robot")]
+#[derive(Debug, Clone)]
+pub struct PyRobot {
+    pub(crate) chain: Arc<SerialChain>,
+}
+
+/// Parses a model spec: `"traditional"`, `"extended"`, or a sequence of spring labels such as
+/// `["J1z", "J2x"]` (1-based joint, axis z|x|y), listed base → tip.
+pub fn parse_model(n_joints: usize, spec: &Bound<'_, PyAny>) -> PyResult<VirtualJointModel> {
+    if spec.is_instance_of::<PyString>() {
+        let name: String = spec.extract()?;
+        return match name.as_str() {
+            "traditional" => Ok(VirtualJointModel::traditional(n_joints)),
+            "extended" => Ok(VirtualJointModel::extended(n_joints)),
+            other => Err(value_error(format!(
+                "unknown model `{other}`: expected \"traditional\", \"extended\" or a list of spring labels like [\"J1z\", \"J2x\"]"
+            ))),
+        };
+    }
+    let labels: Vec<String> = spec.extract().map_err(|_| {
+        value_error("model must be \"traditional\", \"extended\" or a list of spring labels like [\"J1z\", \"J2x\"]")
+    })?;
+    let mut springs = Vec::with_capacity(labels.len());
+    for (i, label) in labels.iter().enumerate() {
+        springs.push(parse_spring(label).ok_or_else(|| {
+            value_error(format!(
+                "model[{i}] = `{label}` is not a spring label: expected J<joint><axis> with joint 1..{n_joints} and axis z, x or y (e.g. \"J3x\")"
+            ))
+        })?);
+    }
+    VirtualJointModel::from_springs(n_joints, springs).py()
+}
+
+fn parse_spring(label: &str) -> Option<Spring> {
+    let rest = label
+        .strip_prefix('J')
+        .or_else(|| label.strip_prefix('j'))?;
+    let axis_char = rest.chars().last()?;
+    let joint: usize = rest[..rest.len() - axis_char.len_utf8()].parse().ok()?;
+    let axis: SpringAxis = axis_char.to_string().parse().ok()?;
+    (joint >= 1).then_some(Spring {
+        joint: joint - 1,
+        axis,
+    })
+}
+
+impl PyRobot {
+    fn n(&self) -> usize {
+        self.chain.n_joints()
+    }
+}
+
+#[pymethods]
+impl PyRobot {
+    /// The bundled Franka Emika Panda, `panda_link0` → `tip` (default the flange `panda_link8`).
+    #[staticmethod]
+    #[pyo3(signature = (tip = None))]
+    fn bundled(tip: Option<&str>) -> PyResult<Self> {
+        let chain = match tip {
+            None => SerialChain::bundled(),
+            Some(t) => SerialChain::bundled_with_tip(t).py()?,
+        };
+        Ok(Self {
+            chain: Arc::new(chain),
+        })
+    }
+
+    /// The chain `base` → `tip` of a URDF file.
+    #[staticmethod]
+    fn from_urdf(
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        base: &str,
+        tip: &str,
+    ) -> PyResult<Self> {
+        if !path.exists() {
+            return Err(crate::errors::error(
+                crate::errors::Kind::MissingFile,
+                format!("URDF file `{}` does not exist", path.display()),
+            ));
+        }
+        let chain = run(py, || SerialChain::from_urdf_file(&path, base, tip))?.py()?;
+        Ok(Self {
+            chain: Arc::new(chain),
+        })
+    }
+
+    /// The chain `base` → `tip` of a URDF document given as a string.
+    #[staticmethod]
+    fn from_urdf_string(xml: &str, base: &str, tip: &str) -> PyResult<Self> {
+        Ok(Self {
+            chain: Arc::new(SerialChain::from_urdf_str(xml, base, tip).py()?),
+        })
+    }
+
+    /// Number of actuated joints n.
+    #[getter]
+    fn n_joints(&self) -> usize {
+        self.n()
+    }
+
+    /// Names of the actuated joints, base → tip.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.chain.joint_names().to_vec()
+    }
+
+    /// Joint limits (lower, upper) in rad, base → tip.
+    #[getter]
+    fn limits(&self) -> Vec<(f64, f64)> {
+        self.chain.limits().to_vec()
+    }
+
+    /// Base link name.
+    #[getter]
+    fn base_link(&self) -> String {
+        self.chain.base_link().to_string()
+    }
+
+    /// Tip link name.
+    #[getter]
+    fn tip_link(&self) -> String {
+        self.chain.tip_link().to_string()
+    }
+
+    /// Parameter labels of a model spec, e.g. ["J1z", "J2z", ...].
+    fn model_labels(&self, model: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+        Ok(parse_model(self.n(), model)?.labels())
+    }
+
+    /// Tip poses (N, 4, 4), homogeneous, tip frame in base frame.
+    fn forward_kinematics<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.n();
+        let q = batch(&q, "q", &[n])?;
+        let chain = &self.chain;
+        let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
+            let mut out = Vec::with_capacity(16 * q.rows);
+            for qi in q.data.chunks_exact(n) {
+                let t = chain.forward_kinematics(qi)?.to_homogeneous();
+                for r in 0..4 {
+                    for c in 0..4 {
+                        out.push(t[(r, c)]);
+                    }
+                }
+            }
+            Ok(out)
+        })?
+        .py()?;
+        to_numpy(py, out, &[q.rows, 4, 4])
+    }
+
+    /// Virtual-joint Jacobians (N, 6, m): tip point, base frame, rows [linear; angular].
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+        model: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.n();
+        let model = parse_model(n, model)?;
+        let m = model.n_params();
+        let q = batch(&q, "q", &[n])?;
+        let chain = &self.chain;
+        let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
+            let mut ws = Workspace::new(chain, &model)?;
+            // The core writes column-major 6×m blocks; numpy wants (N, 6, m) row-major.
+            let mut col_major = vec![0.0; q.rows * 6 * m];
+            vjm::jacobian_batch_in_place(chain, &model, &q.data, &mut ws, &mut col_major)?;
+            let mut out = vec![0.0; q.rows * 6 * m];
+            for (src, dst) in col_major
+                .chunks_exact(6 * m)
+                .zip(out.chunks_exact_mut(6 * m))
+            {
+                for k in 0..m {
+                    for r in 0..6 {
+                        dst[r * m + k] = src[6 * k + r];
+                    }
+                }
+            }
+            Ok(out)
+        })?
+        .py()?;
+        to_numpy(py, out, &[q.rows, 6, m])
+    }
+
+    /// Rank-revealing identification; returns the result as JSON text (the core's serde form).
+    #[pyo3(signature = (q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false))]
+    #[allow(clippy::too_many_arguments)]
+    fn identify<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+        wrench: PyReadonlyArrayDyn<'py, f64>,
+        displacement: PyReadonlyArrayDyn<'py, f64>,
+        model: &Bound<'py, PyAny>,
+        rotation: Option<PyReadonlyArrayDyn<'py, f64>>,
+        noise_sigma: Option<PyReadonlyArrayDyn<'py, f64>>,
+        noise_scale_known: bool,
+        nonnegative: bool,
+        dense: bool,
+    ) -> PyResult<String> {
+        let n = self.n();
+        let model = parse_model(n, model)?;
+        let q = batch(&q, "q", &[n])?;
+        let w = batch(&wrench, "wrench", &[6])?;
+        let d = batch(&displacement, "displacement", &[3])?;
+        let r = match &rotation {
+            Some(r) => Some(batch(r, "rotation", &[3])?),
+            None => None,
+        };
+        check_rows(q.rows, &[("wrench", w.rows), ("displacement", d.rows)])?;
+        if let Some(r) = &r {
+            check_rows(q.rows, &[("rotation", r.rows)])?;
+        }
+        let mut opts = IdentifyOptions::default();
+        if let Some(s) = &noise_sigma {
+            let s = fixed(s, "noise_sigma", &[6])?;
+            opts.noise_sigma.copy_from_slice(&s);
+        }
+        opts.noise_scale_known = noise_scale_known;
+        opts.nonnegative = nonnegative;
+        opts.use_rotations = r.is_some();
+        let chain = &self.chain;
+        let rot = r.as_ref().map(|r| &*r.data);
+        let id = run(py, || {
+            if dense {
+                vjm::identify_dense(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
+            } else {
+                vjm::identify(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
+            }
+        })?
+        .py()?;
+        serde_json::to_string(&id)
+            .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))
+    }
+
+    /// Predicted tip deflections (N, 6) `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame).
+    #[pyo3(signature = (compliance, q, wrench, model, with_kc = false))]
+    fn predict_deflection<'py>(
+        &self,
+        py: Python<'py>,
+        compliance: PyReadonlyArrayDyn<'py, f64>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+        wrench: PyReadonlyArrayDyn<'py, f64>,
+        model: &Bound<'py, PyAny>,
+        with_kc: bool,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.n();
+        let model = parse_model(n, model)?;
+        let c = fixed(&compliance, "compliance", &[model.n_params()])?;
+        let q = batch(&q, "q", &[n])?;
+        let w = batch(&wrench, "wrench", &[6])?;
+        check_rows(q.rows, &[("wrench", w.rows)])?;
+        let chain = &self.chain;
+        let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
+            let mut out = Vec::with_capacity(6 * q.rows);
+            for (qi, wi) in q.data.chunks_exact(n).zip(w.data.chunks_exact(6)) {
+                let mut f = [0.0; 6];
+                f.copy_from_slice(wi);
+                out.extend_from_slice(&vjm::predict_deflection(
+                    chain, &model, &c, qi, &f, with_kc,
+                )?);
+            }
+            Ok(out)
+        })?
+        .py()?;
+        to_numpy(py, out, &[q.rows, 6])
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Robot(base={:?}, tip={:?}, n_joints={})",
+            self.chain.base_link(),
+            self.chain.tip_link(),
+            self.n()
+        )
+    }
+}
+
+/// All arrays must have as many rows as `q`.
+fn check_rows(n: usize, others: &[(&str, usize)]) -> PyResult<()> {
+    for (name, rows) in others {
+        if *rows != n {
+            return Err(crate::errors::shape_error(format!(
+                "{name} has {rows} rows (dimension 0) but q has {n}: one row per measurement"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Registers the class on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyRobot>()?;
+    Ok(())
+}
