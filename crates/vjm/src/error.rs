@@ -1,0 +1,139 @@
+//! The error type of the crate.
+
+/// Everything that can go wrong in `vjm`.
+///
+/// Every variant names the offending item (link, joint, spring, row, column, option)
+/// so that a user can fix the input without a debugger.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum VjmError {
+    /// The URDF file could not be read.
+    #[error("cannot read URDF file `{path}`: {source}")]
+    Io {
+        /// The path as given.
+        path: String,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The URDF text could not be parsed.
+    #[error("invalid URDF: {message}")]
+    Urdf {
+        /// The parser's message.
+        message: String,
+    },
+    /// A link named by the caller does not exist in the URDF.
+    #[error("the {role} link `{name}` does not exist in the URDF (links: {available})")]
+    MissingLink {
+        /// `"base"` or `"tip"`.
+        role: &'static str,
+        /// The name asked for.
+        name: String,
+        /// Comma-separated names of the links that exist (truncated).
+        available: String,
+    },
+    /// The base link is not an ancestor of the tip link.
+    #[error("the base link `{base}` is not an ancestor of the tip link `{tip}` (the tip's root is `{root}`)")]
+    NotAncestor {
+        /// Base link name.
+        base: String,
+        /// Tip link name.
+        tip: String,
+        /// The root reached walking up from the tip.
+        root: String,
+    },
+    /// A link has more than one parent joint, i.e. the URDF is not a tree.
+    #[error("closed kinematic chain: link `{link}` is the child of several joints ({joints})")]
+    ClosedChain {
+        /// The link with several parents.
+        link: String,
+        /// The joints that all claim it as child.
+        joints: String,
+    },
+    /// A joint on the chain mimics another one; mimic joints are not independent coordinates.
+    #[error("joint `{joint}` on the chain mimics `{mimics}`; mimic joints are not supported on the base-tip chain")]
+    MimicJoint {
+        /// The mimic joint.
+        joint: String,
+        /// The joint it mimics.
+        mimics: String,
+    },
+    /// A joint on the chain has a type this crate does not model.
+    #[error("joint `{joint}` on the chain is {kind}; only revolute, continuous and fixed joints are supported")]
+    UnsupportedJoint {
+        /// The joint name.
+        joint: String,
+        /// Its URDF type (prismatic, floating, planar, spherical).
+        kind: String,
+    },
+    /// A joint axis is zero or not finite.
+    #[error("joint `{joint}` has an invalid axis {axis:?} (must be finite and non-zero)")]
+    InvalidAxis {
+        /// The joint name.
+        joint: String,
+        /// The axis as written in the URDF.
+        axis: [f64; 3],
+    },
+    /// The chain between base and tip has no actuated joint.
+    #[error("the chain from `{base}` to `{tip}` has no revolute or continuous joint")]
+    NoActuatedJoints {
+        /// Base link name.
+        base: String,
+        /// Tip link name.
+        tip: String,
+    },
+    /// A value is NaN or infinite.
+    #[error("non-finite value {value} in {what} at row {row}, column {column}")]
+    NonFinite {
+        /// Which input (`"q"`, `"wrench"`, `"displacement"`, `"rotation"`, `"compliance"`, ...).
+        what: &'static str,
+        /// 0-based row (measurement / configuration index).
+        row: usize,
+        /// 0-based column.
+        column: usize,
+        /// The offending value.
+        value: f64,
+    },
+    /// A slice has the wrong length.
+    #[error("shape mismatch in {what}: expected {expected} values, got {got}")]
+    ShapeMismatch {
+        /// Which input or output buffer.
+        what: &'static str,
+        /// Expected length.
+        expected: usize,
+        /// Actual length.
+        got: usize,
+    },
+    /// Not enough measurement equations to identify the model.
+    #[error(
+        "too few measurements: {have} measurement equations, at least {need} are needed ({why})"
+    )]
+    TooFewMeasurements {
+        /// Number of scalar measurement equations supplied.
+        have: usize,
+        /// Number needed.
+        need: usize,
+        /// Why that many are needed.
+        why: String,
+    },
+    /// A virtual-joint model does not fit the chain or is malformed.
+    #[error("invalid virtual-joint model: {message}")]
+    InvalidModel {
+        /// What is wrong, naming the spring or joint.
+        message: String,
+    },
+    /// An option has an invalid value.
+    #[error("invalid option `{name}`: {message}")]
+    InvalidOption {
+        /// The option's field name.
+        name: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A numerical routine failed (e.g. SVD did not converge, or a load beyond buckling).
+    #[error("numerical failure: {message}")]
+    Numerical {
+        /// What failed.
+        message: String,
+    },
+}

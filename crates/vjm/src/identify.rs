@@ -1,0 +1,542 @@
+//! Batched, rank-revealing identification of the virtual-spring compliances
+//! (seed eqs. 8–12), streaming (TSQR over rayon threads) or dense.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::chain::{check_finite, SerialChain};
+use crate::error::VjmError;
+use crate::kinematics::Workspace;
+use crate::lsq::{
+    self, RankRevealingSolution, SolveOptions, TriangularAccumulator, TriangularFactor,
+};
+use crate::model::{SpringAxis, VirtualJointModel};
+use crate::regressor::Measured;
+use crate::stats::student_t_975;
+
+/// Options of [`identify`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct IdentifyOptions {
+    /// Standard deviation of the measurement noise per axis `[dx, dy, dz, rx, ry, rz]`
+    /// (m, m, m, rad, rad, rad). Rows are divided by these (weighted least squares). Only
+    /// ratios matter unless `noise_scale_known`.
+    pub noise_sigma: [f64; 6],
+    /// `true`: `noise_sigma` are the true standard deviations (σ² = 1 after whitening);
+    /// `false`: the common scale is estimated from the residuals.
+    pub noise_scale_known: bool,
+    /// Use the measured rotations (6 rows per measurement) — requires `rotation` data.
+    pub use_rotations: bool,
+    /// Constrain every compliance to be ≥ 0.
+    pub nonnegative: bool,
+    /// Relative singular-value cut-off of the column-scaled design for the rank.
+    pub rank_rtol: f64,
+    /// Threshold on null-space entries for identifiability/aliasing decisions.
+    pub null_tol: f64,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        let s = SolveOptions::default();
+        Self {
+            noise_sigma: [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5],
+            noise_scale_known: false,
+            use_rotations: false,
+            nonnegative: false,
+            rank_rtol: s.rank_rtol,
+            null_tol: s.null_tol,
+        }
+    }
+}
+
+impl IdentifyOptions {
+    fn solve_options(&self) -> SolveOptions {
+        SolveOptions {
+            rank_rtol: self.rank_rtol,
+            null_tol: self.null_tol,
+            noise_scale_known: self.noise_scale_known,
+            nonnegative: self.nonnegative,
+        }
+    }
+    fn measured(&self) -> Measured {
+        if self.use_rotations {
+            Measured::Full
+        } else {
+            Measured::Translation
+        }
+    }
+}
+
+/// One parameter in user-facing form (JSON-ready).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParameterEstimate {
+    /// 1-based actuated joint index, base → tip.
+    pub joint: usize,
+    /// Name of the actuated joint.
+    pub joint_name: String,
+    /// Spring axis: `z` torsion, `x`/`y` tilt.
+    pub axis: SpringAxis,
+    /// Compliance in rad/(N·m), `None` when not identifiable.
+    pub compliance: Option<f64>,
+    /// Standard error, rad/(N·m).
+    pub stderr: Option<f64>,
+    /// 95 % confidence interval.
+    pub ci95: Option<(f64, f64)>,
+    /// Whether the compliance is identifiable on its own.
+    pub identifiable: bool,
+}
+
+/// One term of a [`Combination`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CombinationTerm {
+    /// 0-based parameter index.
+    pub param: usize,
+    /// 1-based joint.
+    pub joint: usize,
+    /// Spring axis.
+    pub axis: SpringAxis,
+    /// Coefficient (dimensionless: all parameters are rad/(N·m)).
+    pub coefficient: f64,
+}
+
+/// An identifiable linear combination of compliances (a base parameter):
+/// `c_indep + Σ β c_dep`, rad/(N·m).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Combination {
+    /// Human-readable form, e.g. `J1y + 1.000000*J2z`.
+    pub label: String,
+    /// The terms; the first is the independent parameter with coefficient 1.
+    pub terms: Vec<CombinationTerm>,
+    /// Estimated value.
+    pub value: f64,
+    /// Standard error.
+    pub stderr: Option<f64>,
+    /// 95 % confidence interval.
+    pub ci95: Option<(f64, f64)>,
+}
+
+/// The result of [`identify`], ready for `serde_json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identification {
+    /// Model name (`traditional`, `extended`, `custom`).
+    pub model: String,
+    /// Number of parameters m.
+    pub n_params: usize,
+    /// Numerical rank (number of identifiable combinations).
+    pub rank: usize,
+    /// Number of scalar equations used.
+    pub n_equations: usize,
+    /// Per parameter (model order): compliance rad/(N·m), `None` when not identifiable.
+    pub compliance: Vec<Option<f64>>,
+    /// Per parameter: standard error.
+    pub stderr: Vec<Option<f64>>,
+    /// Per parameter: 95 % interval.
+    pub ci95: Vec<Option<(f64, f64)>>,
+    /// Per parameter: identifiable alone.
+    pub identifiable: Vec<bool>,
+    /// Per parameter, user-facing.
+    pub parameters: Vec<ParameterEstimate>,
+    /// The `rank` base parameters.
+    pub combinations: Vec<Combination>,
+    /// Groups of parameter indices that alias each other.
+    pub aliases: Vec<Vec<usize>>,
+    /// The same groups as labels (`J1y`, ...).
+    pub alias_labels: Vec<Vec<String>>,
+    /// RMS of the whitened residuals (dimensionless; ≈ 1 when `noise_sigma` is right).
+    pub residual_rms: f64,
+    /// σ² used for the standard errors.
+    pub sigma2: Option<f64>,
+    /// Singular values of the column-scaled, whitened design, descending.
+    pub singular_values: Vec<f64>,
+    /// σ_1/σ_r of the column-scaled design over its identifiable part.
+    pub condition_number: f64,
+    /// The low-level solution (null space, covariance).
+    #[serde(skip)]
+    pub solution: RankRevealingSolution,
+}
+
+/// Identifies the spring compliances from N measurements, streaming: the regressor is
+/// never stored; rows are folded into per-thread triangular factors (rayon) that are merged
+/// at the end. Memory is O(m²) per thread whatever N.
+///
+/// Inputs (row-major, base frame, SI): `q` N×n (rad), `wrench` N×6 (N, N·m, at the tip
+/// point), `displacement` N×3 (m), `rotation` N×3 (rad, small rotation vector) or `None`.
+pub fn identify(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+) -> Result<Identification, VjmError> {
+    let factor = accumulate(chain, model, q, wrench, displacement, rotation, opts)?;
+    finish(chain, model, &factor, opts)
+}
+
+/// The same as [`identify`] through the dense path: builds the whole whitened design
+/// ([`build_design`]) and factors it with faer's QR. For checking and small problems.
+pub fn identify_dense(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+) -> Result<Identification, VjmError> {
+    let (design, rhs) = build_design(chain, model, q, wrench, displacement, rotation, opts)?;
+    let m = model.n_params();
+    let factor = lsq::dense_factor(&design, rhs.len(), m, &rhs)?;
+    finish(chain, model, &factor, opts)
+}
+
+/// Solves from an accumulated factor (e.g. one merged from several batches).
+pub fn identify_from_factor(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    factor: &TriangularFactor,
+    opts: &IdentifyOptions,
+) -> Result<Identification, VjmError> {
+    model.check_chain(chain)?;
+    if factor.ncols() != model.n_params() + 1 {
+        return Err(VjmError::ShapeMismatch {
+            what: "factor columns (m + 1)",
+            expected: model.n_params() + 1,
+            got: factor.ncols(),
+        });
+    }
+    finish(chain, model, factor, opts)
+}
+
+struct Inputs {
+    rows: usize,
+    measured: Measured,
+    inv_sigma: [f64; 6],
+}
+
+fn validate(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+) -> Result<Inputs, VjmError> {
+    model.check_chain(chain)?;
+    let n = chain.n_joints();
+    for (i, s) in opts.noise_sigma.iter().enumerate() {
+        if !(s.is_finite() && *s > 0.0) {
+            return Err(VjmError::InvalidOption {
+                name: "noise_sigma",
+                message: format!("entry {i} must be finite and > 0, got {s}"),
+            });
+        }
+    }
+    if q.len() % n != 0 || q.is_empty() {
+        return Err(VjmError::ShapeMismatch {
+            what: "q (N×n row-major, n = number of joints)",
+            expected: (q.len() / n).max(1) * n,
+            got: q.len(),
+        });
+    }
+    let rows = q.len() / n;
+    let check_len = |what: &'static str, data: &[f64], cols: usize| {
+        if data.len() != rows * cols {
+            Err(VjmError::ShapeMismatch {
+                what,
+                expected: rows * cols,
+                got: data.len(),
+            })
+        } else {
+            Ok(())
+        }
+    };
+    check_len("wrench (N×6)", wrench, 6)?;
+    check_len("displacement (N×3)", displacement, 3)?;
+    if opts.use_rotations {
+        let Some(rot) = rotation else {
+            return Err(VjmError::InvalidOption {
+                name: "use_rotations",
+                message: "is true but no rotation data (N×3) was given".into(),
+            });
+        };
+        check_len("rotation (N×3)", rot, 3)?;
+    }
+    let all_finite = |what: &'static str, data: &[f64], cols: usize| -> Result<(), VjmError> {
+        if data.iter().all(|v| v.is_finite()) {
+            return Ok(());
+        }
+        for (i, row) in data.chunks_exact(cols).enumerate() {
+            check_finite(what, row, i, 0)?;
+        }
+        Ok(())
+    };
+    all_finite("q", q, n)?;
+    all_finite("wrench", wrench, 6)?;
+    all_finite("displacement", displacement, 3)?;
+    if let (true, Some(rot)) = (opts.use_rotations, rotation) {
+        all_finite("rotation", rot, 3)?;
+    }
+    let measured = opts.measured();
+    let m = model.n_params();
+    let have = rows * measured.rows();
+    if have < m {
+        return Err(VjmError::TooFewMeasurements {
+            have,
+            need: m,
+            why: format!(
+                "{rows} measurements × {} rows each; the {} model has {m} parameters",
+                measured.rows(),
+                model.name()
+            ),
+        });
+    }
+    let mut inv_sigma = [0.0; 6];
+    for (o, s) in inv_sigma.iter_mut().zip(&opts.noise_sigma) {
+        *o = 1.0 / s;
+    }
+    Ok(Inputs {
+        rows,
+        measured,
+        inv_sigma,
+    })
+}
+
+/// Measurements per rayon task: large enough to amortise the task and the final merge,
+/// small enough to balance two cores.
+const CHUNK: usize = 4096;
+
+/// The streaming factor of the whitened `[A b]` (see [`identify`]).
+pub fn accumulate(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+) -> Result<TriangularFactor, VjmError> {
+    let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
+    let ws0 = Workspace::new(chain, model)?;
+    let m = model.n_params();
+    let n = chain.n_joints();
+    let n_chunks = inputs.rows.div_ceil(CHUNK);
+    let acc = (0..n_chunks)
+        .into_par_iter()
+        .fold(
+            || (ws0.clone(), TriangularAccumulator::new(m + 1), vec![0.0; m]),
+            |(mut ws, mut acc, mut g), c| {
+                let end = ((c + 1) * CHUNK).min(inputs.rows);
+                for i in c * CHUNK..end {
+                    ws.evaluate(chain, &q[i * n..(i + 1) * n]);
+                    let f = &wrench[i * 6..i * 6 + 6];
+                    push_measurement(
+                        &mut ws,
+                        &mut acc,
+                        &mut g,
+                        f,
+                        i,
+                        displacement,
+                        rotation,
+                        &inputs,
+                    );
+                }
+                (ws, acc, g)
+            },
+        )
+        .map(|(_, acc, _)| acc)
+        .reduce_with(|mut a, b| {
+            // Same column count by construction.
+            let _ = a.merge(b);
+            a
+        })
+        .unwrap_or_else(|| TriangularAccumulator::new(m + 1));
+    Ok(acc.finish())
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn push_measurement(
+    ws: &mut Workspace,
+    acc: &mut TriangularAccumulator,
+    g: &mut [f64],
+    f: &[f64],
+    i: usize,
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    inputs: &Inputs,
+) {
+    let mut jac = std::mem::take(&mut ws.jac);
+    ws.write_jacobian(&mut jac);
+    for (k, gk) in g.iter_mut().enumerate() {
+        let col = &jac[6 * k..6 * k + 6];
+        *gk = col[0] * f[0]
+            + col[1] * f[1]
+            + col[2] * f[2]
+            + col[3] * f[3]
+            + col[4] * f[4]
+            + col[5] * f[5];
+    }
+    for r in 0..inputs.measured.rows() {
+        let rhs = if r < 3 {
+            displacement[3 * i + r]
+        } else {
+            rotation.map_or(0.0, |rot| rot[3 * i + r - 3])
+        };
+        acc.push_product_row(
+            inputs.inv_sigma[r],
+            jac.iter().skip(r).step_by(6).copied(),
+            g,
+            rhs,
+        );
+    }
+    ws.jac = jac;
+}
+
+/// The whitened dense design (row-major, (N·rows)×m) and right-hand side of the
+/// identification problem: row (i, r) is `A_i[r, :]/σ_r` and `Δx_i[r]/σ_r`.
+pub fn build_design(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+) -> Result<(Vec<f64>, Vec<f64>), VjmError> {
+    let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
+    let mut ws = Workspace::new(chain, model)?;
+    let m = model.n_params();
+    let n = chain.n_joints();
+    let rpm = inputs.measured.rows();
+    let mut design = vec![0.0; inputs.rows * rpm * m];
+    let mut rhs = vec![0.0; inputs.rows * rpm];
+    let mut block = vec![0.0; rpm * m];
+    for i in 0..inputs.rows {
+        let mut f = [0.0; 6];
+        f.copy_from_slice(&wrench[i * 6..i * 6 + 6]);
+        crate::regressor::regressor_rows(
+            chain,
+            model,
+            &q[i * n..(i + 1) * n],
+            &f,
+            inputs.measured,
+            &mut ws,
+            &mut block,
+        )?;
+        for r in 0..rpm {
+            let row = i * rpm + r;
+            let s = inputs.inv_sigma[r];
+            for k in 0..m {
+                design[row * m + k] = block[r * m + k] * s;
+            }
+            let y = if r < 3 {
+                displacement[3 * i + r]
+            } else {
+                rotation.map_or(0.0, |rot| rot[3 * i + r - 3])
+            };
+            rhs[row] = y * s;
+        }
+    }
+    Ok((design, rhs))
+}
+
+fn finish(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    factor: &TriangularFactor,
+    opts: &IdentifyOptions,
+) -> Result<Identification, VjmError> {
+    let sol = lsq::solve_factor(factor, &opts.solve_options())?;
+    let t = student_t_975(if opts.noise_scale_known {
+        usize::MAX
+    } else {
+        sol.dof
+    });
+    let t = if opts.noise_scale_known {
+        Some(1.959_963_984_540_054)
+    } else {
+        t
+    };
+    let ci = |v: Option<f64>, s: Option<f64>| match (v, s, t) {
+        (Some(v), Some(s), Some(t)) => Some((v - t * s, v + t * s)),
+        _ => None,
+    };
+    let labels = model.labels();
+    let springs = model.springs();
+    let ci95: Vec<_> = (0..sol.n_params)
+        .map(|k| ci(sol.estimate[k], sol.stderr[k]))
+        .collect();
+    let parameters = springs
+        .iter()
+        .enumerate()
+        .map(|(k, s)| ParameterEstimate {
+            joint: s.joint + 1,
+            joint_name: chain.joint_names()[s.joint].clone(),
+            axis: s.axis,
+            compliance: sol.estimate[k],
+            stderr: sol.stderr[k],
+            ci95: ci95[k],
+            identifiable: sol.identifiable[k],
+        })
+        .collect();
+    let combinations = sol
+        .combinations
+        .iter()
+        .map(|c| {
+            let terms: Vec<CombinationTerm> = c
+                .terms
+                .iter()
+                .map(|&(param, coefficient)| CombinationTerm {
+                    param,
+                    joint: springs[param].joint + 1,
+                    axis: springs[param].axis,
+                    coefficient,
+                })
+                .collect();
+            let mut label = labels[c.terms[0].0].clone();
+            for &(p, coef) in &c.terms[1..] {
+                let sign = if coef < 0.0 { '-' } else { '+' };
+                label.push_str(&format!(" {sign} {:.6}*{}", coef.abs(), labels[p]));
+            }
+            Combination {
+                label,
+                terms,
+                value: c.value,
+                stderr: c.stderr,
+                ci95: ci(Some(c.value), c.stderr),
+            }
+        })
+        .collect();
+    let alias_labels = sol
+        .aliases
+        .iter()
+        .map(|g| g.iter().map(|&k| labels[k].clone()).collect())
+        .collect();
+    let condition_number = if sol.rank > 0 {
+        sol.singular_values[0] / sol.singular_values[sol.rank - 1]
+    } else {
+        f64::INFINITY
+    };
+    Ok(Identification {
+        model: model.name().to_string(),
+        n_params: sol.n_params,
+        rank: sol.rank,
+        n_equations: sol.n_equations,
+        compliance: sol.estimate.clone(),
+        stderr: sol.stderr.clone(),
+        ci95,
+        identifiable: sol.identifiable.clone(),
+        parameters,
+        combinations,
+        aliases: sol.aliases.clone(),
+        alias_labels,
+        residual_rms: (sol.rss / sol.n_equations.max(1) as f64).sqrt(),
+        sigma2: sol.sigma2,
+        singular_values: sol.singular_values.clone(),
+        condition_number,
+        solution: sol,
+    })
+}

@@ -1,0 +1,347 @@
+//! Forward kinematics with virtual joints, the 6×m virtual-joint Jacobian and the
+//! complementary stiffness K_C.
+//!
+//! Every virtual spring k is a revolute joint about the unit axis w_k through the point
+//! c_k (its joint's spring centre), both in base-frame components. At the undeflected
+//! state its Jacobian column at the tip point p is `[w_k × (p − c_k); w_k]`.
+
+use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Translation3, Vector3};
+
+use crate::chain::{check_finite, rotation_about, SerialChain};
+use crate::error::VjmError;
+use crate::model::{spring_axes, SpringAxis, VirtualJointModel};
+
+/// Reusable scratch for batched kinematics (Data in pinocchio's Model/Data split).
+///
+/// Create one per thread with [`Workspace::new`] and pass it to the `_in_place` functions;
+/// they then allocate nothing per configuration.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    n_joints: usize,
+    /// Spring axes in their joint's child frame.
+    local_axes: Vec<Vector3<f64>>,
+    spring_joint: Vec<usize>,
+    offsets: Vec<Vector3<f64>>,
+    /// A copy of the model's springs and offsets, to reject a workspace built for another model.
+    model: VirtualJointModel,
+    rot: Vec<Matrix3<f64>>,
+    pos: Vec<Vector3<f64>>,
+    /// Base-frame spring axes w_k and centres c_k of the last evaluation.
+    pub(crate) w: Vec<Vector3<f64>>,
+    pub(crate) c: Vec<Vector3<f64>>,
+    /// Tip point of the last evaluation.
+    pub(crate) p: Vector3<f64>,
+    /// 6×m column-major Jacobian scratch used by the regressor.
+    pub(crate) jac: Vec<f64>,
+}
+
+impl Workspace {
+    /// Scratch for `model` on `chain`.
+    pub fn new(chain: &SerialChain, model: &VirtualJointModel) -> Result<Self, VjmError> {
+        model.check_chain(chain)?;
+        let m = model.n_params();
+        let n = chain.n_joints();
+        let local_axes = model
+            .springs()
+            .iter()
+            .map(|s| {
+                let [z, x, y] = spring_axes(chain.joints()[s.joint].axis());
+                match s.axis {
+                    SpringAxis::Z => z,
+                    SpringAxis::X => x,
+                    SpringAxis::Y => y,
+                }
+            })
+            .collect();
+        Ok(Self {
+            n_joints: n,
+            local_axes,
+            spring_joint: model.springs().iter().map(|s| s.joint).collect(),
+            offsets: model.offsets().to_vec(),
+            model: model.clone(),
+            rot: vec![Matrix3::identity(); n],
+            pos: vec![Vector3::zeros(); n],
+            w: vec![Vector3::zeros(); m],
+            c: vec![Vector3::zeros(); m],
+            p: Vector3::zeros(),
+            jac: vec![0.0; 6 * m],
+        })
+    }
+
+    /// Number of parameters m this workspace was built for.
+    pub fn n_params(&self) -> usize {
+        self.local_axes.len()
+    }
+
+    fn check(&self, chain: &SerialChain, model: &VirtualJointModel) -> Result<(), VjmError> {
+        if self.n_joints != chain.n_joints() || &self.model != model {
+            return Err(VjmError::InvalidModel {
+                message: "the workspace was built for another chain or model; create it with Workspace::new(chain, model)".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Evaluates joint frames, spring axes/centres and the tip point at `q` (no checks).
+    #[inline]
+    pub(crate) fn evaluate(&mut self, chain: &SerialChain, q: &[f64]) {
+        let mut r = Matrix3::identity();
+        let mut t = Vector3::zeros();
+        for (j, joint) in chain.joints().iter().enumerate() {
+            let (s, c) = q[j].sin_cos();
+            // Rodrigues, premultiplied by the fixed origin rotation (see ActuatedJoint::b0).
+            let local = joint.b0 + joint.b1 * s + joint.b2 * (1.0 - c);
+            t += r * joint.t;
+            r *= local;
+            self.rot[j] = r;
+            self.pos[j] = t;
+        }
+        let tip = chain.tip_offset().translation.vector;
+        self.p = t + r * tip;
+        for k in 0..self.local_axes.len() {
+            let j = self.spring_joint[k];
+            self.w[k] = self.rot[j] * self.local_axes[k];
+            self.c[k] = self.pos[j] + self.rot[j] * self.offsets[j];
+        }
+    }
+
+    /// Writes the 6×m Jacobian of the last evaluation into `out`, column-major.
+    #[inline]
+    pub(crate) fn write_jacobian(&self, out: &mut [f64]) {
+        for (k, col) in out.chunks_exact_mut(6).enumerate() {
+            let w = self.w[k];
+            let lin = w.cross(&(self.p - self.c[k]));
+            col[0] = lin.x;
+            col[1] = lin.y;
+            col[2] = lin.z;
+            col[3] = w.x;
+            col[4] = w.y;
+            col[5] = w.z;
+        }
+    }
+}
+
+/// Checks a wrench `[fx, fy, fz, mx, my, mz]` for finite values.
+pub(crate) fn check_wrench(wrench: &[f64; 6], row: usize) -> Result<(), VjmError> {
+    check_finite("wrench", wrench, row, 0)
+}
+
+/// The 6×m virtual-joint Jacobian at joint positions `q` (rad): rows `[linear; angular]`,
+/// base-frame components, linear part at the tip point; column k belongs to spring k.
+///
+/// ```
+/// use vjm::{jacobian, SerialChain, VirtualJointModel};
+/// let panda = SerialChain::bundled();
+/// let j = jacobian(&panda, &VirtualJointModel::extended(7), &[0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8]).unwrap();
+/// assert_eq!(j.shape(), (6, 21));
+/// ```
+pub fn jacobian(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+) -> Result<DMatrix<f64>, VjmError> {
+    let mut ws = Workspace::new(chain, model)?;
+    let mut out = vec![0.0; 6 * model.n_params()];
+    jacobian_in_place(chain, model, q, &mut ws, &mut out)?;
+    Ok(DMatrix::from_column_slice(6, model.n_params(), &out))
+}
+
+/// [`jacobian`] into a caller-owned buffer: `out` has 6·m entries, **column-major**
+/// (`out[6*k + r]` is row r of column k, as nalgebra stores a 6×m matrix). No allocation.
+pub fn jacobian_in_place(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    ws: &mut Workspace,
+    out: &mut [f64],
+) -> Result<(), VjmError> {
+    ws.check(chain, model)?;
+    chain.check_q(q, 0)?;
+    if out.len() != 6 * model.n_params() {
+        return Err(VjmError::ShapeMismatch {
+            what: "Jacobian output buffer (6·m)",
+            expected: 6 * model.n_params(),
+            got: out.len(),
+        });
+    }
+    ws.evaluate(chain, q);
+    ws.write_jacobian(out);
+    Ok(())
+}
+
+/// Jacobians of N configurations: `q` is N×n row-major, `out` is N blocks of 6·m
+/// column-major Jacobians. One workspace, no allocation per configuration.
+pub fn jacobian_batch_in_place(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    ws: &mut Workspace,
+    out: &mut [f64],
+) -> Result<(), VjmError> {
+    ws.check(chain, model)?;
+    let n = chain.n_joints();
+    let m6 = 6 * model.n_params();
+    if q.len() % n != 0 {
+        return Err(VjmError::ShapeMismatch {
+            what: "q (N×n row-major)",
+            expected: q.len().div_ceil(n) * n,
+            got: q.len(),
+        });
+    }
+    let rows = q.len() / n;
+    if out.len() != rows * m6 {
+        return Err(VjmError::ShapeMismatch {
+            what: "batched Jacobian output (N·6·m)",
+            expected: rows * m6,
+            got: out.len(),
+        });
+    }
+    for (i, qi) in q.chunks_exact(n).enumerate() {
+        check_finite("q", qi, i, 0)?;
+    }
+    for (qi, oi) in q.chunks_exact(n).zip(out.chunks_exact_mut(m6)) {
+        ws.evaluate(chain, qi);
+        ws.write_jacobian(oi);
+    }
+    Ok(())
+}
+
+/// The tip pose with the virtual joints deflected by `theta` (rad, one per spring):
+/// at each joint, after its actuated rotation, the springs' rotations are composed in
+/// model order about their axes through the spring centre. An independent, slow,
+/// allocation-based code path, used to check [`jacobian`] and for nonlinear equilibria.
+pub fn forward_kinematics_deflected(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    theta: &[f64],
+) -> Result<Isometry3<f64>, VjmError> {
+    let (frames, tip) = deflected_frames(chain, model, q, theta)?;
+    drop(frames);
+    Ok(tip)
+}
+
+/// The 6×m virtual-joint Jacobian at the deflected state `theta` (see
+/// [`forward_kinematics_deflected`]); at `theta = 0` it equals [`jacobian`].
+pub fn jacobian_deflected(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    theta: &[f64],
+) -> Result<DMatrix<f64>, VjmError> {
+    let (frames, tip) = deflected_frames(chain, model, q, theta)?;
+    let p = tip.translation.vector;
+    let mut jac = DMatrix::zeros(6, model.n_params());
+    for (k, (w, c)) in frames.iter().enumerate() {
+        let lin = w.cross(&(p - c));
+        jac.fixed_view_mut::<3, 1>(0, k).copy_from(&lin);
+        jac.fixed_view_mut::<3, 1>(3, k).copy_from(w);
+    }
+    Ok(jac)
+}
+
+/// For every spring, its base-frame axis and centre at the deflected state; and the tip pose.
+#[allow(clippy::type_complexity)]
+fn deflected_frames(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    theta: &[f64],
+) -> Result<(Vec<(Vector3<f64>, Vector3<f64>)>, Isometry3<f64>), VjmError> {
+    model.check_chain(chain)?;
+    chain.check_q(q, 0)?;
+    if theta.len() != model.n_params() {
+        return Err(VjmError::ShapeMismatch {
+            what: "theta (virtual joint deflections)",
+            expected: model.n_params(),
+            got: theta.len(),
+        });
+    }
+    check_finite("theta", theta, 0, 0)?;
+    let mut t = Isometry3::identity();
+    let mut out = Vec::with_capacity(model.n_params());
+    for (j, joint) in chain.joints().iter().enumerate() {
+        t = t * joint.origin() * rotation_about(joint.axis(), q[j]);
+        let axes = spring_axes(joint.axis());
+        let d = model.offsets()[j];
+        for (k, s) in model.springs().iter().enumerate() {
+            if s.joint != j {
+                continue;
+            }
+            let local = match s.axis {
+                SpringAxis::Z => axes[0],
+                SpringAxis::X => axes[1],
+                SpringAxis::Y => axes[2],
+            };
+            let w = t.rotation * local;
+            let c = (t * Point3::from(d)).coords;
+            out.push((w, c));
+            let shift = Isometry3::from_parts(Translation3::from(d), Default::default());
+            t = t * shift * rotation_about(&local, theta[k]) * shift.inverse();
+        }
+    }
+    Ok((out, t * chain.tip_offset()))
+}
+
+/// The complementary stiffness K_C = (∂Jᵀ/∂θ)F (seed eq. 4), m×m, N·m/rad:
+/// `K_C[(k, i)] = ∂(J_kᵀ F)/∂θ_i` at the undeflected state, for the wrench
+/// `[fx, fy, fz, mx, my, mz]` (N, N·m, base frame) applied at the tip point.
+///
+/// Analytic: for springs i before k in the chain, ∂w_k/∂θ_i = w_i × w_k and
+/// ∂(p − c_k)/∂θ_i = w_i × (p − c_k); for i at or after k only the tip point moves,
+/// ∂p/∂θ_i = w_i × (p − c_i).
+pub fn complementary_stiffness(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64; 6],
+) -> Result<DMatrix<f64>, VjmError> {
+    let mut ws = Workspace::new(chain, model)?;
+    let m = model.n_params();
+    let mut out = vec![0.0; m * m];
+    complementary_stiffness_in_place(chain, model, q, wrench, &mut ws, &mut out)?;
+    Ok(DMatrix::from_column_slice(m, m, &out))
+}
+
+/// [`complementary_stiffness`] into `out` (m·m entries, column-major). No allocation.
+pub fn complementary_stiffness_in_place(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64; 6],
+    ws: &mut Workspace,
+    out: &mut [f64],
+) -> Result<(), VjmError> {
+    ws.check(chain, model)?;
+    chain.check_q(q, 0)?;
+    check_wrench(wrench, 0)?;
+    let m = model.n_params();
+    if out.len() != m * m {
+        return Err(VjmError::ShapeMismatch {
+            what: "K_C output buffer (m·m)",
+            expected: m * m,
+            got: out.len(),
+        });
+    }
+    ws.evaluate(chain, q);
+    let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
+    let mo = Vector3::new(wrench[3], wrench[4], wrench[5]);
+    for i in 0..m {
+        let wi = ws.w[i];
+        // Tip motion when θ_i moves; used for every k ≤ i.
+        let dp = wi.cross(&(ws.p - ws.c[i]));
+        for k in 0..m {
+            let wk = ws.w[k];
+            let value = if i < k {
+                let r = ws.p - ws.c[k];
+                let dw = wi.cross(&wk);
+                let dlin = dw.cross(&r) + wk.cross(&wi.cross(&r));
+                dlin.dot(&f) + dw.dot(&mo)
+            } else {
+                wk.cross(&dp).dot(&f)
+            };
+            out[i * m + k] = value;
+        }
+    }
+    Ok(())
+}

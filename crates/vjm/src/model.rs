@@ -1,0 +1,245 @@
+//! Virtual-joint (spring) models: which virtual springs sit at which actuated joint.
+
+use std::fmt;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use crate::chain::SerialChain;
+use crate::error::VjmError;
+
+/// The axis of a virtual spring, in the child frame of its actuated joint.
+///
+/// For a joint axis a: `Z` is torsion about a; `X` and `Y` are the tilting springs about
+/// u = normalize(x̂ − (x̂·a)a) (ŷ instead of x̂ when x̂ ∥ a) and v = a × u. When a = ẑ these
+/// are the joint frame's x and y axes. Displayed and serialised as `"z"`, `"x"`, `"y"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpringAxis {
+    /// Torsion about the joint axis.
+    Z,
+    /// Tilt about u (the joint frame's x axis when the joint axis is z).
+    X,
+    /// Tilt about v = a × u.
+    Y,
+}
+
+impl fmt::Display for SpringAxis {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            SpringAxis::Z => "z",
+            SpringAxis::X => "x",
+            SpringAxis::Y => "y",
+        })
+    }
+}
+
+impl std::str::FromStr for SpringAxis {
+    type Err = VjmError;
+    fn from_str(s: &str) -> Result<Self, VjmError> {
+        match s {
+            "z" | "Z" => Ok(SpringAxis::Z),
+            "x" | "X" => Ok(SpringAxis::X),
+            "y" | "Y" => Ok(SpringAxis::Y),
+            other => Err(VjmError::InvalidModel {
+                message: format!("unknown spring axis `{other}` (expected z, x or y)"),
+            }),
+        }
+    }
+}
+
+/// One virtual spring: a virtual revolute joint at actuated joint `joint` (0-based, base → tip).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+pub struct Spring {
+    /// 0-based index of the actuated joint, base → tip.
+    pub joint: usize,
+    /// Axis of the spring in that joint's child frame.
+    pub axis: SpringAxis,
+}
+
+impl fmt::Display for Spring {
+    /// 1-based user-facing label, e.g. `J3x`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "J{}{}", self.joint + 1, self.axis)
+    }
+}
+
+/// The unit spring axes `[z, x, y] = [a, u, v]` of a joint with unit axis `a` (joint-frame
+/// components), following docs/conventions.md.
+pub fn spring_axes(a: &Vector3<f64>) -> [Vector3<f64>; 3] {
+    let a = a.normalize();
+    let x = Vector3::x();
+    let mut u = x - a * a.dot(&x);
+    // x̂ ∥ a leaves a residual of rounding size only; switch to ŷ then.
+    if u.norm() < 1e-9 {
+        let y = Vector3::y();
+        u = y - a * a.dot(&y);
+    }
+    let u = u.normalize();
+    let v = a.cross(&u);
+    [a, u, v]
+}
+
+/// A virtual-joint stiffness model: an ordered list of springs (the parameters) and
+/// optional per-joint offsets of where the springs sit.
+///
+/// Parameter order is the order of [`springs`](Self::springs); presets use the
+/// conventions' order (joint-major, `[z, x, y]` within a joint). Springs must be listed
+/// base → tip (non-decreasing joint index); within one joint the listed order is the
+/// order in which the virtual rotations are composed (it matters only for the second
+/// derivatives in [`complementary_stiffness`](crate::complementary_stiffness)).
+///
+/// ```
+/// use vjm::{SpringAxis, VirtualJointModel};
+/// let m = VirtualJointModel::extended(7);
+/// assert_eq!(m.n_params(), 21);
+/// assert_eq!(m.springs()[4].axis, SpringAxis::X); // joint 2, tilt x
+/// assert_eq!(m.labels()[4], "J2x");
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct VirtualJointModel {
+    n_joints: usize,
+    springs: Vec<Spring>,
+    /// Per joint: position of the springs' common centre in the joint's child frame (m),
+    /// relative to the joint origin (the seed's extra frames O_d).
+    offsets: Vec<Vector3<f64>>,
+    name: String,
+}
+
+impl VirtualJointModel {
+    /// One torsional spring per joint (n parameters), the classic VJM.
+    pub fn traditional(n_joints: usize) -> Self {
+        let springs = (0..n_joints)
+            .map(|joint| Spring {
+                joint,
+                axis: SpringAxis::Z,
+            })
+            .collect();
+        Self {
+            n_joints,
+            springs,
+            offsets: vec![Vector3::zeros(); n_joints],
+            name: "traditional".into(),
+        }
+    }
+
+    /// Three springs per joint `[z, x, y]` (3n parameters), the seed's extended model.
+    pub fn extended(n_joints: usize) -> Self {
+        let springs = (0..n_joints)
+            .flat_map(|joint| {
+                [SpringAxis::Z, SpringAxis::X, SpringAxis::Y]
+                    .into_iter()
+                    .map(move |axis| Spring { joint, axis })
+            })
+            .collect();
+        Self {
+            n_joints,
+            springs,
+            offsets: vec![Vector3::zeros(); n_joints],
+            name: "extended".into(),
+        }
+    }
+
+    /// Any subset of springs for a chain of `n_joints` joints, listed base → tip.
+    pub fn from_springs(n_joints: usize, springs: Vec<Spring>) -> Result<Self, VjmError> {
+        if springs.is_empty() {
+            return Err(VjmError::InvalidModel {
+                message: "the model has no spring".into(),
+            });
+        }
+        for (i, s) in springs.iter().enumerate() {
+            if s.joint >= n_joints {
+                return Err(VjmError::InvalidModel {
+                    message: format!(
+                        "spring {i} ({s}) is on joint {} but the chain has {n_joints} joints",
+                        s.joint + 1
+                    ),
+                });
+            }
+            if springs[..i].contains(s) {
+                return Err(VjmError::InvalidModel {
+                    message: format!("spring {i} ({s}) is listed twice"),
+                });
+            }
+            if i > 0 && springs[i - 1].joint > s.joint {
+                return Err(VjmError::InvalidModel {
+                    message: format!(
+                        "spring {i} ({s}) comes after {}; list springs base → tip",
+                        springs[i - 1]
+                    ),
+                });
+            }
+        }
+        Ok(Self {
+            n_joints,
+            springs,
+            offsets: vec![Vector3::zeros(); n_joints],
+            name: "custom".into(),
+        })
+    }
+
+    /// The same model with the springs of each joint centred at `offsets[j]` (child frame
+    /// of joint j, m) instead of at the joint origin.
+    pub fn with_offsets(mut self, offsets: Vec<Vector3<f64>>) -> Result<Self, VjmError> {
+        if offsets.len() != self.n_joints {
+            return Err(VjmError::ShapeMismatch {
+                what: "spring offsets (one per joint)",
+                expected: self.n_joints,
+                got: offsets.len(),
+            });
+        }
+        for (j, o) in offsets.iter().enumerate() {
+            if let Some(c) = o.iter().position(|v| !v.is_finite()) {
+                return Err(VjmError::NonFinite {
+                    what: "spring offsets",
+                    row: j,
+                    column: c,
+                    value: o[c],
+                });
+            }
+        }
+        self.offsets = offsets;
+        Ok(self)
+    }
+
+    /// Number of parameters (springs) m.
+    pub fn n_params(&self) -> usize {
+        self.springs.len()
+    }
+    /// Number of actuated joints the model is written for.
+    pub fn n_joints(&self) -> usize {
+        self.n_joints
+    }
+    /// The springs in parameter order.
+    pub fn springs(&self) -> &[Spring] {
+        &self.springs
+    }
+    /// Per-joint spring centres in the joint's child frame (m).
+    pub fn offsets(&self) -> &[Vector3<f64>] {
+        &self.offsets
+    }
+    /// `"traditional"`, `"extended"` or `"custom"`.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// 1-based labels of the parameters, e.g. `["J1z", "J1x", ...]`.
+    pub fn labels(&self) -> Vec<String> {
+        self.springs.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// Checks that the model was written for `chain`.
+    pub(crate) fn check_chain(&self, chain: &SerialChain) -> Result<(), VjmError> {
+        if chain.n_joints() != self.n_joints {
+            return Err(VjmError::InvalidModel {
+                message: format!(
+                    "the model is for {} joints but the chain `{}`→`{}` has {}",
+                    self.n_joints,
+                    chain.base_link(),
+                    chain.tip_link(),
+                    chain.n_joints()
+                ),
+            });
+        }
+        Ok(())
+    }
+}
