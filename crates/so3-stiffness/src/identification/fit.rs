@@ -1,0 +1,472 @@
+//! Stiffness identification from load increments: K_D ≈ ΨΩ⁺ (seed eq. 49) plus the
+//! connection term, solved by a rank-revealing SVD (faer).
+//!
+//! # Model
+//! With Δζ_k = log(R₀ᵀR_k) (rad, body frame A at R₀) and τ_k the external moment (N·m, A):
+//!
+//! - first order: `τ_k = τ₀ + c + K_D Δζ_k + e_k`
+//! - second order: `τ_k = τ₀ + c + K_D Δζ_k + ½ [Δζ_kᵀ H_i Δζ_k]_i + e_k`
+//!
+//! `c` is an optional offset (on by default): it absorbs the noise of the single reference
+//! measurement, which eq. 49 would otherwise spread into every entry of K_D. The seed's
+//! eq. 49 is the first-order model with `c = 0`.
+//!
+//! The stiffness is the covariant Hessian of the potential, `K = K_D + K_L`. Along the
+//! exponential curve R₀exp(ζ) the measured moment is the body-frame gradient, while the
+//! Euclidean gradient of f(ζ) = Φ(R₀exp ζ) is `J_r(ζ)ᵀ τ(ζ) ≈ τ − ½ hat(τ₀) ζ`; exponential
+//! coordinates are normal coordinates of the bi-invariant metric, so
+//! **`K_L = −½ hat(τ₀)`**. The seed's eq. 48b writes `−hat(τ₀)` because its structure
+//! constants (eq. 31) are ±2 instead of ±1 (`[σ̂₁, σ̂₂] = σ̂₃`). Both are available through
+//! [`ConnectionTerm`]; `docs/csjm-identification.md` has the derivation and the test that
+//! pins it.
+
+use faer::Mat;
+use nalgebra::{Matrix3, Vector3};
+
+use super::dataset::CsjmDataset;
+use super::error::IdentificationError;
+use crate::so3;
+
+/// Default limit on the condition number of the column-scaled regression matrix.
+///
+/// Well-excited data (loads about all three axes) give 1–20; data that only load one or two
+/// axes give σ_min at the pose-noise level, i.e. conditions of several hundred and more.
+pub const DEFAULT_MAX_CONDITION: f64 = 1e3;
+
+/// Order of the local model τ(Δζ).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum FitOrder {
+    /// Linear in Δζ (seed eq. 49). Biased by the curvature of τ(Δζ) for large increments.
+    First,
+    /// Linear plus quadratic terms in Δζ: K_D is the slope at Δζ = 0 even for large increments.
+    Second,
+}
+
+impl FitOrder {
+    /// 1 or 2.
+    pub fn as_u8(self) -> u8 {
+        match self {
+            FitOrder::First => 1,
+            FitOrder::Second => 2,
+        }
+    }
+}
+
+/// Which connection term turns K_D into K.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ConnectionTerm {
+    /// `K_L = −½ hat(τ₀)`: Levi-Civita connection of the bi-invariant metric with the true
+    /// structure constants of so(3). Gives the symmetric covariant Hessian. The default.
+    LeviCivita,
+    /// `K_L = −hat(τ₀)`, as printed in seed eq. 48b/50 (structure constants ±2). Reproduces the
+    /// seed's Table 3; not symmetric for a conservative system.
+    SeedEq48b,
+    /// `K_L = 0`: the Euclidean slope K_D alone.
+    None,
+}
+
+impl ConnectionTerm {
+    /// The matrix K_L for a pre-load `tau0` (N·m, frame A).
+    pub fn k_l(self, tau0: &Vector3<f64>) -> Matrix3<f64> {
+        match self {
+            ConnectionTerm::LeviCivita => -0.5 * so3::hat(tau0),
+            ConnectionTerm::SeedEq48b => -so3::hat(tau0),
+            ConnectionTerm::None => Matrix3::zeros(),
+        }
+    }
+
+    /// Factor f in K_L = −f·hat(τ₀).
+    fn factor(self) -> f64 {
+        match self {
+            ConnectionTerm::LeviCivita => 0.5,
+            ConnectionTerm::SeedEq48b => 1.0,
+            ConnectionTerm::None => 0.0,
+        }
+    }
+}
+
+/// Options of the stiffness fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct FitOptions {
+    /// First- or second-order model.
+    pub order: FitOrder,
+    /// Connection term K_L.
+    pub connection: ConnectionTerm,
+    /// Fit an offset c (see the module docs). With it, τ₀ used in K_L is τ₀ + c.
+    pub fit_offset: bool,
+    /// Limit on the condition number of the column-scaled regression matrix; above it the
+    /// fit fails with [`IdentificationError::IllConditioned`] instead of inverting blindly.
+    pub max_condition: f64,
+    /// Compute the det(K)-versus-N series (one extra fit per prefix of the data).
+    pub convergence_series: bool,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            order: FitOrder::First,
+            connection: ConnectionTerm::LeviCivita,
+            fit_offset: true,
+            max_condition: DEFAULT_MAX_CONDITION,
+            convergence_series: true,
+        }
+    }
+}
+
+impl FitOptions {
+    /// Default options with the given model order.
+    pub fn with_order(order: FitOrder) -> Self {
+        FitOptions {
+            order,
+            ..FitOptions::default()
+        }
+    }
+
+    /// Number of regression coefficients per moment component.
+    pub fn parameters(&self) -> usize {
+        let linear = 3 + usize::from(self.fit_offset);
+        match self.order {
+            FitOrder::First => linear,
+            FitOrder::Second => linear + 6,
+        }
+    }
+
+    /// Minimum number of load increments the fit needs (the reference row counts as a sample
+    /// when an offset is fitted).
+    pub fn min_increments(&self) -> usize {
+        self.parameters() - usize::from(self.fit_offset)
+    }
+}
+
+/// One point of the det(K)-versus-N series (seed Fig. 5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetPoint {
+    /// Number of load increments used (the first `n` in data order).
+    pub n: usize,
+    /// det(K) of the fit on those increments, (N·m/rad)³.
+    pub det: f64,
+}
+
+/// Result of a stiffness identification at the reference pose R₀.
+///
+/// All matrices are in N·m/rad with components in frame A at R₀:
+/// `K = K_D + K_L`, `δτ ≈ K δζ`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StiffnessEstimate {
+    /// Identified stiffness K = K_D + K_L.
+    pub k: Matrix3<f64>,
+    /// Slope K_D = ∂τ/∂ζ at Δζ = 0.
+    pub k_d: Matrix3<f64>,
+    /// Connection term K_L (see [`ConnectionTerm`]).
+    pub k_l: Matrix3<f64>,
+    /// Standard error of every entry of K (NaN when the fit has no residual degrees of freedom).
+    pub k_stderr: Matrix3<f64>,
+    /// Pre-load used in K_L (N·m, frame A): the reference moment, plus the fitted offset if any.
+    pub tau0: Vector3<f64>,
+    /// Fitted offset c (zero without [`FitOptions::fit_offset`]), N·m.
+    pub offset: Vector3<f64>,
+    /// Second-order fits: Hessians H_i of τ_i(Δζ) at 0, τ_i ≈ … + ½ Δζᵀ H_i Δζ (N·m/rad²).
+    pub curvature: Option<[Matrix3<f64>; 3]>,
+    /// Number of load increments used.
+    pub n: usize,
+    /// Model order, 1 or 2.
+    pub order: u8,
+    /// Residual degrees of freedom per moment component.
+    pub dof: usize,
+    /// RMS of the moment residuals per component, N·m.
+    pub residual_rms: Vector3<f64>,
+    /// Singular values of Ω = [Δζ₁ … Δζ_N] (3×N), descending, rad.
+    pub omega_singular_values: [f64; 3],
+    /// Condition number σ_max/σ_min of Ω.
+    pub omega_condition: f64,
+    /// Condition number of the column-scaled regression matrix actually solved.
+    pub regressor_condition: f64,
+    /// det(K) against the number of increments used (empty if not requested).
+    pub det_convergence: Vec<DetPoint>,
+}
+
+impl StiffnessEstimate {
+    /// Symmetric part (K + Kᵀ)/2.
+    pub fn k_symmetric(&self) -> Matrix3<f64> {
+        0.5 * (self.k + self.k.transpose())
+    }
+
+    /// Relative asymmetry ‖K − Kᵀ‖_F / ‖K‖_F (0 for a conservative system without noise).
+    pub fn asymmetry(&self) -> f64 {
+        (self.k - self.k.transpose()).norm() / self.k.norm()
+    }
+}
+
+/// Identifies K at the dataset's reference pose.
+///
+/// ```
+/// use nalgebra::{Matrix3, Vector3};
+/// use so3_stiffness::identification::{identify, CsjmDataset, CsjmMeasurement, FitOptions};
+/// use so3_stiffness::so3;
+/// // A linear, symmetric joint: τ = τ₀ + K_D Δζ with K_D = K + ½hat(τ₀).
+/// let k_true = Matrix3::new(30.0, 1.0, 0.5, 1.0, 28.0, -1.0, 0.5, -1.0, 7.0);
+/// let tau0 = Vector3::new(0.1, -0.5, 0.2);
+/// let k_d = k_true + 0.5 * so3::hat(&tau0);
+/// let r0 = so3::exp(&Vector3::new(0.1, 0.2, -0.1));
+/// let steps = [Vector3::new(0.01, 0.0, 0.0), Vector3::new(0.0, 0.01, 0.0),
+///              Vector3::new(0.0, 0.0, 0.01), Vector3::new(-0.01, 0.005, 0.002)];
+/// let poses = steps.iter().map(|z| CsjmMeasurement::new(r0 * so3::exp(z), tau0 + k_d * z)).collect();
+/// let data = CsjmDataset::new(CsjmMeasurement::new(r0, tau0), poses).unwrap();
+/// let est = identify(&data, &FitOptions::default()).unwrap();
+/// assert!((est.k - k_true).norm() < 1e-9);
+/// ```
+pub fn identify(
+    data: &CsjmDataset,
+    options: &FitOptions,
+) -> Result<StiffnessEstimate, IdentificationError> {
+    let (dzeta, dtau) = data.increments();
+    identify_increments(&data.reference().moment, &dzeta, &dtau, options)
+}
+
+/// Identifies K from increments: `dzeta[k]` = Δζ_k (rad, frame A at R₀), `dtau[k]` = Δτ_k
+/// (N·m, frame A), `tau0` = the reference moment (N·m, frame A).
+pub fn identify_increments(
+    tau0: &Vector3<f64>,
+    dzeta: &[Vector3<f64>],
+    dtau: &[Vector3<f64>],
+    options: &FitOptions,
+) -> Result<StiffnessEstimate, IdentificationError> {
+    if dzeta.len() != dtau.len() {
+        return Err(IdentificationError::LengthMismatch {
+            what: "identify_increments",
+            left: dzeta.len(),
+            right: dtau.len(),
+        });
+    }
+    if !tau0.iter().all(|x| x.is_finite()) {
+        return Err(IdentificationError::NonFiniteInput { what: "tau0" });
+    }
+    if !dzeta
+        .iter()
+        .chain(dtau)
+        .all(|v| v.iter().all(|x| x.is_finite()))
+    {
+        return Err(IdentificationError::NonFiniteInput { what: "increments" });
+    }
+    if !(options.max_condition >= 1.0) {
+        return Err(IdentificationError::InvalidSetting {
+            field: "max_condition",
+            message: format!("must be ≥ 1, got {}", options.max_condition),
+        });
+    }
+    let mut estimate = fit(tau0, dzeta, dtau, options)?;
+    if options.convergence_series {
+        let first = options.min_increments();
+        estimate.det_convergence = (first..=dzeta.len())
+            .filter_map(|n| fit(tau0, &dzeta[..n], &dtau[..n], options).ok())
+            .map(|e| DetPoint {
+                n: e.n,
+                det: e.k.determinant(),
+            })
+            .collect();
+    }
+    Ok(estimate)
+}
+
+/// Regressor row for one sample.
+fn regressor(z: &Vector3<f64>, options: &FitOptions, out: &mut Vec<f64>) {
+    out.clear();
+    if options.fit_offset {
+        out.push(1.0);
+    }
+    out.extend_from_slice(z.as_slice());
+    if options.order == FitOrder::Second {
+        out.extend_from_slice(&[
+            z.x * z.x,
+            z.y * z.y,
+            z.z * z.z,
+            z.x * z.y,
+            z.x * z.z,
+            z.y * z.z,
+        ]);
+    }
+}
+
+fn singular_values_of_omega(dzeta: &[Vector3<f64>]) -> Result<[f64; 3], IdentificationError> {
+    let omega_t = Mat::<f64>::from_fn(dzeta.len(), 3, |i, j| dzeta[i][j]);
+    let s = omega_t
+        .singular_values()
+        .map_err(|_| IdentificationError::SvdFailed)?;
+    let mut out = [0.0; 3];
+    for (o, v) in out.iter_mut().zip(s) {
+        *o = v;
+    }
+    Ok(out)
+}
+
+fn fit(
+    tau0: &Vector3<f64>,
+    dzeta: &[Vector3<f64>],
+    dtau: &[Vector3<f64>],
+    options: &FitOptions,
+) -> Result<StiffnessEstimate, IdentificationError> {
+    let n = dzeta.len();
+    let required = options.min_increments();
+    if n < required {
+        return Err(IdentificationError::TooFewMeasurements {
+            what: match options.order {
+                FitOrder::First => "first-order fit",
+                FitOrder::Second => "second-order fit",
+            },
+            usable: n,
+            required,
+        });
+    }
+    let p = options.parameters();
+    // Samples: the increments, plus the reference itself (Δζ = 0, Δτ = 0) when an offset is
+    // fitted — then the reference is one noisy sample among others rather than an exact anchor.
+    let zero = Vector3::zeros();
+    let samples: Vec<(&Vector3<f64>, &Vector3<f64>)> = if options.fit_offset {
+        std::iter::once((&zero, &zero))
+            .chain(dzeta.iter().zip(dtau))
+            .collect()
+    } else {
+        dzeta.iter().zip(dtau).collect()
+    };
+    let m = samples.len();
+
+    let mut row = Vec::with_capacity(p);
+    let mut x = Mat::<f64>::zeros(m, p);
+    for (i, (z, _)) in samples.iter().enumerate() {
+        regressor(z, options, &mut row);
+        for (j, v) in row.iter().enumerate() {
+            x[(i, j)] = *v;
+        }
+    }
+    // Column scaling makes the condition number independent of units and load size.
+    let mut scale = vec![0.0; p];
+    for (j, s) in scale.iter_mut().enumerate() {
+        *s = (0..m).map(|i| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
+    }
+    let omega_singular_values = singular_values_of_omega(dzeta)?;
+    let omega_condition = omega_singular_values[0] / omega_singular_values[2];
+    if scale.iter().any(|s| !(*s > 0.0)) {
+        return Err(IdentificationError::IllConditioned {
+            condition: f64::INFINITY,
+            max_condition: options.max_condition,
+            omega_singular_values,
+        });
+    }
+    for j in 0..p {
+        for i in 0..m {
+            x[(i, j)] /= scale[j];
+        }
+    }
+    let svd = x.thin_svd().map_err(|_| IdentificationError::SvdFailed)?;
+    let s: Vec<f64> = (0..p).map(|k| svd.S().column_vector()[k]).collect();
+    let condition = s[0] / s[p - 1];
+    if !(condition <= options.max_condition) {
+        return Err(IdentificationError::IllConditioned {
+            condition,
+            max_condition: options.max_condition,
+            omega_singular_values,
+        });
+    }
+    let u = svd.U();
+    let v = svd.V();
+    // β = D⁻¹ V Σ⁻¹ Uᵀ y for each moment component; cov(β) = σ² D⁻¹ V Σ⁻² Vᵀ D⁻¹.
+    let mut beta = vec![[0.0; 3]; p];
+    for comp in 0..3 {
+        let uty: Vec<f64> = (0..p)
+            .map(|k| (0..m).map(|i| u[(i, k)] * samples[i].1[comp]).sum::<f64>() / s[k])
+            .collect();
+        for (j, b) in beta.iter_mut().enumerate() {
+            b[comp] = (0..p).map(|k| v[(j, k)] * uty[k]).sum::<f64>() / scale[j];
+        }
+    }
+    let cov_diag: Vec<f64> = (0..p)
+        .map(|j| (0..p).map(|k| (v[(j, k)] / s[k]).powi(2)).sum::<f64>() / (scale[j] * scale[j]))
+        .collect();
+
+    let mut rss = Vector3::zeros();
+    for (z, dt) in &samples {
+        regressor(z, options, &mut row);
+        for comp in 0..3 {
+            let predicted: f64 = row.iter().zip(&beta).map(|(r, b)| r * b[comp]).sum();
+            rss[comp] += (dt[comp] - predicted).powi(2);
+        }
+    }
+    let dof = m - p;
+    let sigma2 = if dof > 0 {
+        rss / dof as f64
+    } else {
+        Vector3::repeat(f64::NAN)
+    };
+
+    let first_linear = usize::from(options.fit_offset);
+    let offset = if options.fit_offset {
+        Vector3::new(beta[0][0], beta[0][1], beta[0][2])
+    } else {
+        Vector3::zeros()
+    };
+    let mut k_d = Matrix3::zeros();
+    let mut k_d_var = Matrix3::zeros();
+    for i in 0..3 {
+        for j in 0..3 {
+            k_d[(i, j)] = beta[first_linear + j][i];
+            k_d_var[(i, j)] = sigma2[i] * cov_diag[first_linear + j];
+        }
+    }
+    // Variance of the pre-load used in K_L: the fitted τ₀ + c, or the single reference sample.
+    let tau0_var: Vector3<f64> = if options.fit_offset {
+        sigma2 * cov_diag[0]
+    } else {
+        sigma2
+    };
+    let tau0_used = tau0 + offset;
+    let k_l = options.connection.k_l(&tau0_used);
+    let f2 = options.connection.factor().powi(2);
+    let mut k_stderr = Matrix3::zeros();
+    for i in 0..3 {
+        for j in 0..3 {
+            // hat(τ)_ij involves τ_k with k ∉ {i, j} for i ≠ j; components are independent.
+            let kl_var = if i == j {
+                0.0
+            } else {
+                f2 * tau0_var[3 - i - j]
+            };
+            k_stderr[(i, j)] = (k_d_var[(i, j)] + kl_var).sqrt();
+        }
+    }
+    let curvature = (options.order == FitOrder::Second).then(|| {
+        let q = first_linear + 3;
+        let mut h = [Matrix3::zeros(); 3];
+        for (i, hi) in h.iter_mut().enumerate() {
+            hi[(0, 0)] = 2.0 * beta[q][i];
+            hi[(1, 1)] = 2.0 * beta[q + 1][i];
+            hi[(2, 2)] = 2.0 * beta[q + 2][i];
+            hi[(0, 1)] = beta[q + 3][i];
+            hi[(1, 0)] = beta[q + 3][i];
+            hi[(0, 2)] = beta[q + 4][i];
+            hi[(2, 0)] = beta[q + 4][i];
+            hi[(1, 2)] = beta[q + 5][i];
+            hi[(2, 1)] = beta[q + 5][i];
+        }
+        h
+    });
+    Ok(StiffnessEstimate {
+        k: k_d + k_l,
+        k_d,
+        k_l,
+        k_stderr,
+        tau0: tau0_used,
+        offset,
+        curvature,
+        n,
+        order: options.order.as_u8(),
+        dof,
+        residual_rms: (rss / m as f64).map(f64::sqrt),
+        omega_singular_values,
+        omega_condition,
+        regressor_condition: condition,
+        det_convergence: Vec::new(),
+    })
+}
