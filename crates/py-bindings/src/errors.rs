@@ -146,3 +146,29 @@ impl IntoPyErr for vjm::VjmError {
         error(kind, self.to_string())
     }
 }
+
+impl IntoPyErr for so3_stiffness::identification::IdentificationError {
+    fn into_py_err(self) -> PyErr {
+        use so3_stiffness::identification::IdentificationError as E;
+        let kind = match &self {
+            E::Io { .. } => Kind::MissingFile,
+            E::Csv { .. }
+            | E::MissingColumn { .. }
+            | E::DuplicateColumn { .. }
+            | E::Parse { .. }
+            | E::NonFinite { .. }
+            | E::BadReferenceFlag { .. }
+            | E::NotARotation { .. }
+            | E::Reflection { .. }
+            | E::MissingReference
+            | E::MultipleReferences { .. } => Kind::DataFile,
+            E::TooFewMeasurements { .. }
+            | E::IllConditioned { .. }
+            | E::SingularStiffness { .. }
+            | E::SvdFailed => Kind::Identification,
+            E::LengthMismatch { .. } => Kind::Shape,
+            _ => Kind::Value,
+        };
+        error(kind, self.to_string())
+    }
+}

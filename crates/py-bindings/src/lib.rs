@@ -8,6 +8,7 @@
 use pyo3::prelude::*;
 
 pub mod convert;
+pub mod csjm;
 pub mod errors;
 pub mod so3;
 pub mod vjm;
@@ -17,6 +18,7 @@ pub mod vjm;
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     so3::register(m)?;
+    csjm::register(m)?;
     vjm::register(m)?;
     Ok(())
 }

@@ -31,10 +31,11 @@ from ._errors import (
 
 __version__: str = _core.__version__
 
-from . import so3, vjm  # noqa: E402
+from . import csjm, so3, vjm  # noqa: E402
 
 __all__ = [
     "__version__",
+    "csjm",
     "so3",
     "vjm",
     "StiffnessError",

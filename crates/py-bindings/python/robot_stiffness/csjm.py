@@ -1,0 +1,181 @@
+"""Cable-driven spherical joint modules (CSJM): identify the rotational stiffness K.
+
+Frames (``docs/conventions.md``): B is the base, A the moving platform, both with origin at the
+joint centre O. ``R = ᴮ_A R`` maps A-components to B-components. τ is the external moment on the
+platform about O with components in A, in N·m. Displacements are body-frame:
+``R = R₀ · exp(hat(Δζ))``. ``K = ∂τ/∂ζ`` (covariant), in N·m/rad, components in A at R₀.
+
+The fit is the seed's K_D ≈ Ψ Ω⁺ (eq. 49) solved rank-revealingly, then ``K = K_D + K_L`` with
+the connection term ``K_L = −½ hat(τ₀)`` (the seed prints −hat(τ₀); see ``docs/``).
+
+Example::
+
+    >>> import numpy as np
+    >>> from robot_stiffness import csjm, so3
+    >>> K = np.array([[30.0, 1.0, 0.5], [1.0, 28.0, -1.0], [0.5, -1.0, 7.0]])
+    >>> steps = 0.01 * np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0.5, 0.2]])
+    >>> R = np.concatenate([np.eye(3)[None], so3.exp(steps)])
+    >>> tau = np.concatenate([np.zeros((1, 3)), steps @ K.T])
+    >>> fit = csjm.identify(R, tau, ref=0)
+    >>> bool(np.allclose(fit.K, K, rtol=1e-9))
+    True
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any, Dict, Optional, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._arrays import f64
+from ._errors import DataFileError, ShapeError
+from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
+
+__all__ = ["StiffnessFit", "identify", "identify_csv", "read_measurements"]
+
+Array = npt.NDArray[np.float64]
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+@dataclass(frozen=True)
+class StiffnessFit:
+    """The identified stiffness at the reference pose R₀ (all in frame A at R₀).
+
+    ``K`` (3, 3) N·m/rad, ``K_D`` the slope ∂τ/∂Δζ, ``K_L`` the connection term,
+    ``K_stderr`` the standard error of every entry of K (NaN without residual degrees of
+    freedom), ``tau0`` (3,) the pre-load in N·m used in K_L, ``n`` the number of load increments
+    used, ``order`` 1 or 2. ``det_convergence`` is (k, 2): number of increments, det(K) in
+    (N·m/rad)³ (the seed's Fig. 5). ``raw`` holds every other diagnostic of the core.
+    """
+
+    K: Array
+    K_D: Array
+    K_L: Array
+    K_stderr: Array
+    tau0: Array
+    n: int
+    order: int
+    residual_rms: Array
+    omega_condition: float
+    asymmetry: float
+    det_convergence: Array
+    raw: Dict[str, Any] = field(repr=False)
+
+    @classmethod
+    def _from_core(cls, d: Dict[str, Any]) -> "StiffnessFit":
+        conv = np.column_stack([d["det_convergence_n"], d["det_convergence_det"]]).reshape(-1, 2)
+        return cls(
+            K=d["K"],
+            K_D=d["K_D"],
+            K_L=d["K_L"],
+            K_stderr=d["K_stderr"],
+            tau0=d["tau0"],
+            n=int(d["n"]),
+            order=int(d["order"]),
+            residual_rms=d["residual_rms"],
+            omega_condition=float(d["omega_condition"]),
+            asymmetry=float(d["asymmetry"]),
+            det_convergence=conv,
+            raw=d,
+        )
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The JSON form written by ``robot-stiffness identify csjm``: ``K``, ``K_D`` and
+        ``K_stderr`` as 3×3 nested lists (row-major, N·m/rad), ``tau0``, ``n``, ``order``, plus
+        ``K_L``, diagnostics and the det(K) convergence series."""
+
+        def clean(x: Any) -> Any:
+            if isinstance(x, np.ndarray):
+                return [clean(v) for v in x.tolist()] if x.ndim else clean(x.item())
+            if isinstance(x, list):
+                return [clean(v) for v in x]
+            if isinstance(x, float) and not np.isfinite(x):
+                return None
+            return x
+
+        return {
+            "K": clean(self.K),
+            "K_D": clean(self.K_D),
+            "K_stderr": clean(self.K_stderr),
+            "tau0": clean(self.tau0),
+            "n": self.n,
+            "order": self.order,
+            "K_L": clean(self.K_L),
+            "residual_rms": clean(self.residual_rms),
+            "omega_condition": clean(self.omega_condition),
+            "regressor_condition": clean(float(self.raw["regressor_condition"])),
+            "asymmetry": clean(self.asymmetry),
+            "det_convergence": [
+                {"n": int(n), "det": clean(float(d))} for n, d in self.det_convergence
+            ],
+        }
+
+
+def identify(
+    R: Any,
+    tau: Any = None,
+    ref: Optional[int] = None,
+    *,
+    order: int = 1,
+    project: bool = False,
+    tol: Optional[float] = None,
+    convergence: bool = True,
+) -> StiffnessFit:
+    """Identify K at the reference pose from N ≥ 4 static equilibria.
+
+    ``R``: (N, 3, 3) platform orientations ᴮ_A R; ``tau``: (N, 3) external moments on the
+    platform about O, components in A, N·m; ``ref``: index of the reference row (R₀, τ₀).
+    Alternatively pass one table (pandas DataFrame) with the measurement-file columns
+    ``r11..r33, tx, ty, tz, ref`` as ``R``.
+
+    ``order=2`` also fits the curvature of τ(Δζ) so that large load increments do not bias K.
+    Matrices farther than ``tol`` (default 5e-3) from SO(3) raise
+    :class:`~robot_stiffness.InvalidValueError` naming the row, unless ``project=True``.
+    An ill-conditioned problem raises :class:`~robot_stiffness.IdentificationError`.
+    """
+    if is_table(R) and tau is None:
+        table = R
+        r9 = columns(table, ROTATION_MATRIX, "the orientation")
+        tau = columns(table, MOMENT, "the moment")
+        flags = columns(table, ["ref"], "the reference flag")[:, 0]
+        hits = np.flatnonzero(flags == 1)
+        if len(hits) != 1:
+            raise DataFileError(
+                f"exactly one row must have ref = 1, found {len(hits)} (rows {hits.tolist()})"
+            )
+        ref = int(hits[0])
+        R = r9.reshape(-1, 3, 3)
+    elif tau is None or ref is None:
+        raise ShapeError("identify needs R (N, 3, 3), tau (N, 3) and ref, or one table")
+    d = _core.csjm_identify(
+        f64(R, "R"),
+        f64(tau, "tau"),
+        int(ref),
+        order=int(order),
+        project=bool(project),
+        tol=None if tol is None else float(tol),
+        convergence=bool(convergence),
+    )
+    return StiffnessFit._from_core(d)
+
+
+def read_measurements(path: PathLike, *, project: bool = False) -> Tuple[Array, Array, int]:
+    """Read a CSJM measurement file: returns ``(R (N, 3, 3), tau (N, 3) in N·m, ref index)``.
+
+    Columns ``r11..r33`` (ᴮ_A R, row-major), ``tx,ty,tz`` (moment in A, N·m), ``ref`` (1 on
+    exactly one row). Errors name the row and column; a missing file raises
+    :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``).
+    """
+    R, tau, ref = _core.csjm_read_csv(os.fspath(path), project=bool(project))
+    return R, tau, int(ref)
+
+
+def identify_csv(path: PathLike, *, order: int = 1, project: bool = False) -> StiffnessFit:
+    """Read a CSJM measurement file and identify K (see :func:`identify`)."""
+    return StiffnessFit._from_core(
+        _core.csjm_identify_csv(os.fspath(path), order=int(order), project=bool(project))
+    )

@@ -1,0 +1,212 @@
+//! Bindings of `so3_stiffness::identification`: the CSJM stiffness fit from orientations and
+//! moments (arrays or the measurement file), returned as a dict of numpy arrays.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use numpy::PyReadonlyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use so3_stiffness::identification::{
+    dataset::DEFAULT_ORTHOGONALITY_TOL, identify, CsjmDataset, CsjmMeasurement, FitOptions,
+    FitOrder, ReadOptions, StiffnessEstimate,
+};
+use so3_stiffness::so3;
+
+use crate::convert::{batch, check_finite, to_numpy};
+use crate::errors::{run, shape_error, value_error, PyResultExt};
+
+fn mat_to_vec(m: &Matrix3<f64>) -> Vec<f64> {
+    (0..3)
+        .flat_map(|r| (0..3).map(move |c| (r, c)))
+        .map(|(r, c)| m[(r, c)])
+        .collect()
+}
+
+fn fit_options(order: u8, convergence: bool) -> PyResult<FitOptions> {
+    let order = match order {
+        1 => FitOrder::First,
+        2 => FitOrder::Second,
+        other => return Err(value_error(format!("order must be 1 or 2, got {other}"))),
+    };
+    let mut opts = FitOptions::with_order(order);
+    opts.convergence_series = convergence;
+    Ok(opts)
+}
+
+/// The estimate as a dict: matrices (3, 3) row-major in N·m/rad, frame A at R₀.
+fn estimate_to_dict<'py>(py: Python<'py>, est: &StiffnessEstimate) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("K", to_numpy(py, mat_to_vec(&est.k), &[3, 3])?)?;
+    d.set_item("K_D", to_numpy(py, mat_to_vec(&est.k_d), &[3, 3])?)?;
+    d.set_item("K_L", to_numpy(py, mat_to_vec(&est.k_l), &[3, 3])?)?;
+    d.set_item(
+        "K_stderr",
+        to_numpy(py, mat_to_vec(&est.k_stderr), &[3, 3])?,
+    )?;
+    d.set_item("tau0", to_numpy(py, est.tau0.as_slice().to_vec(), &[3])?)?;
+    d.set_item(
+        "offset",
+        to_numpy(py, est.offset.as_slice().to_vec(), &[3])?,
+    )?;
+    d.set_item("n", est.n)?;
+    d.set_item("order", est.order)?;
+    d.set_item("dof", est.dof)?;
+    d.set_item(
+        "residual_rms",
+        to_numpy(py, est.residual_rms.as_slice().to_vec(), &[3])?,
+    )?;
+    d.set_item(
+        "omega_singular_values",
+        to_numpy(py, est.omega_singular_values.to_vec(), &[3])?,
+    )?;
+    d.set_item("omega_condition", est.omega_condition)?;
+    d.set_item("regressor_condition", est.regressor_condition)?;
+    d.set_item("asymmetry", est.asymmetry())?;
+    let (ns, dets): (Vec<f64>, Vec<f64>) = est
+        .det_convergence
+        .iter()
+        .map(|p| (p.n as f64, p.det))
+        .unzip();
+    let len = ns.len();
+    d.set_item("det_convergence_n", to_numpy(py, ns, &[len])?)?;
+    d.set_item("det_convergence_det", to_numpy(py, dets, &[len])?)?;
+    match &est.curvature {
+        Some(h) => {
+            let flat: Vec<f64> = h.iter().flat_map(mat_to_vec).collect();
+            d.set_item("curvature", to_numpy(py, flat, &[3, 3, 3])?)?;
+        }
+        None => d.set_item("curvature", py.None())?,
+    }
+    Ok(d)
+}
+
+/// K from arrays: `r` (N, 3, 3) orientations ᴮ_A R, `tau` (N, 3) moments in A (N·m), `reference`
+/// the row of R₀/τ₀. Matrices farther than `tol` from SO(3) are rejected (naming the row)
+/// unless `project`; accepted ones are replaced by their nearest rotation, as the file reader does.
+#[pyfunction]
+#[pyo3(signature = (r, tau, reference, order = 1, project = false, tol = None, convergence = true))]
+#[allow(clippy::too_many_arguments)]
+pub fn csjm_identify<'py>(
+    py: Python<'py>,
+    r: PyReadonlyArrayDyn<'py, f64>,
+    tau: PyReadonlyArrayDyn<'py, f64>,
+    reference: i64,
+    order: u8,
+    project: bool,
+    tol: Option<f64>,
+    convergence: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let rr = batch(&r, "R", &[3, 3])?;
+    let tt = batch(&tau, "tau", &[3])?;
+    if rr.rows != tt.rows {
+        return Err(shape_error(format!(
+            "tau has {} rows (dimension 0) but R has {}: one row per measurement",
+            tt.rows, rr.rows
+        )));
+    }
+    let n = rr.rows;
+    check_finite(&rr.data, "R", &[n, 3, 3])?;
+    check_finite(&tt.data, "tau", &[n, 3])?;
+    let reference = usize::try_from(reference)
+        .ok()
+        .filter(|&i| i < n)
+        .ok_or_else(|| {
+            value_error(format!(
+                "ref = {reference} is not a row index of R (0 ≤ ref < {n})"
+            ))
+        })?;
+    let tol = tol.unwrap_or(DEFAULT_ORTHOGONALITY_TOL);
+    let mut measurements = Vec::with_capacity(n);
+    for i in 0..n {
+        let m = Matrix3::from_row_slice(&rr.data[9 * i..9 * i + 9]);
+        let err = so3::orthogonality_error(&m);
+        if !project && !(err <= tol) {
+            return Err(value_error(format!(
+                "R[{i}] is not a rotation matrix: orthogonality error ‖RᵀR − I‖_F = {err:.3e} exceeds the tolerance {tol:.3e} (pass project=True to project measured matrices onto SO(3))"
+            )));
+        }
+        let rot: Rotation3<f64> =
+            so3::project_to_rotation(&m).map_err(|e| value_error(format!("R[{i}]: {e}")))?;
+        let moment = Vector3::new(tt.data[3 * i], tt.data[3 * i + 1], tt.data[3 * i + 2]);
+        let mut meas = CsjmMeasurement::new(rot, moment);
+        meas.orthogonality_error = err;
+        meas.row = i + 1;
+        measurements.push(meas);
+    }
+    let r0 = measurements.remove(reference);
+    let data = CsjmDataset::new(r0, measurements).py()?;
+    let opts = fit_options(order, convergence)?;
+    let est = run(py, || identify(&data, &opts))?.py()?;
+    estimate_to_dict(py, &est)
+}
+
+/// Reads a CSJM measurement file: returns (R (N, 3, 3), tau (N, 3), ref index).
+#[pyfunction]
+#[pyo3(signature = (path, project = false))]
+pub fn csjm_read_csv<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    project: bool,
+) -> PyResult<(
+    Bound<'py, numpy::PyArrayDyn<f64>>,
+    Bound<'py, numpy::PyArrayDyn<f64>>,
+    usize,
+)> {
+    let opts = if project {
+        ReadOptions::projecting()
+    } else {
+        ReadOptions::default()
+    };
+    let data = run(py, || CsjmDataset::from_csv_path(&path, &opts))?.py()?;
+    let all: Vec<&CsjmMeasurement> = std::iter::once(data.reference())
+        .chain(data.measurements())
+        .collect();
+    // Keep file order: the reference goes back to its own row.
+    let mut rows: Vec<(usize, &CsjmMeasurement)> = all.iter().map(|m| (m.row, *m)).collect();
+    rows.sort_by_key(|(row, _)| *row);
+    let reference = rows
+        .iter()
+        .position(|(row, _)| *row == data.reference().row)
+        .unwrap_or(0);
+    let n = rows.len();
+    let mut r = Vec::with_capacity(9 * n);
+    let mut t = Vec::with_capacity(3 * n);
+    for (_, m) in &rows {
+        r.extend(mat_to_vec(m.orientation.matrix()));
+        t.extend_from_slice(m.moment.as_slice());
+    }
+    Ok((
+        to_numpy(py, r, &[n, 3, 3])?,
+        to_numpy(py, t, &[n, 3])?,
+        reference,
+    ))
+}
+
+/// Identifies K from a measurement file (the CLI path).
+#[pyfunction]
+#[pyo3(signature = (path, order = 1, project = false))]
+pub fn csjm_identify_csv<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    order: u8,
+    project: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let read = if project {
+        ReadOptions::projecting()
+    } else {
+        ReadOptions::default()
+    };
+    let opts = fit_options(order, true)?;
+    let est = run(py, || {
+        CsjmDataset::from_csv_path(&path, &read).and_then(|data| identify(&data, &opts))
+    })?
+    .py()?;
+    estimate_to_dict(py, &est)
+}
+
+/// Registers the functions on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(csjm_identify, m)?)?;
+    m.add_function(wrap_pyfunction!(csjm_read_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(csjm_identify_csv, m)?)?;
+    Ok(())
+}
