@@ -172,3 +172,15 @@ impl IntoPyErr for so3_stiffness::identification::IdentificationError {
         error(kind, self.to_string())
     }
 }
+
+impl IntoPyErr for vjm::dataset::DatasetError {
+    fn into_py_err(self) -> PyErr {
+        use vjm::dataset::DatasetError as E;
+        let kind = match &self {
+            E::Io { .. } => Kind::MissingFile,
+            E::Shape { .. } => Kind::Shape,
+            _ => Kind::DataFile,
+        };
+        error(kind, self.to_string())
+    }
+}

@@ -9,9 +9,11 @@ use pyo3::prelude::*;
 
 pub mod convert;
 pub mod csjm;
+pub mod diagnose;
 pub mod errors;
 pub mod so3;
 pub mod vjm;
+pub mod vjm_data;
 
 /// The compiled core of the `robot_stiffness` Python package.
 #[pymodule]
@@ -19,6 +21,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     so3::register(m)?;
     csjm::register(m)?;
+    diagnose::register(m)?;
     vjm::register(m)?;
+    vjm_data::register(m)?;
     Ok(())
 }

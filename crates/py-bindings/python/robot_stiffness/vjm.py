@@ -38,6 +38,15 @@ import numpy.typing as npt
 from . import _core
 from ._arrays import f64
 from ._errors import ShapeError
+from ._vjm_data import (
+    Campaign,
+    Diagnosis,
+    Measurements,
+    diagnose,
+    read_measurements,
+    seed_study,
+    simulate,
+)
 from ._tables import (
     DISPLACEMENT,
     ROTATION,
@@ -48,7 +57,19 @@ from ._tables import (
     optional_columns,
 )
 
-__all__ = ["Robot", "Identification", "Combination", "ModelSpec"]
+__all__ = [
+    "Robot",
+    "Identification",
+    "Combination",
+    "ModelSpec",
+    "Measurements",
+    "Campaign",
+    "Diagnosis",
+    "read_measurements",
+    "simulate",
+    "diagnose",
+    "seed_study",
+]
 
 #: ``"traditional"``, ``"extended"`` or a sequence of spring labels like ``["J1z", "J2x"]``.
 ModelSpec = Union[str, Sequence[str]]

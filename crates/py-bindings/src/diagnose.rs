@@ -1,0 +1,85 @@
+//! Binding of `vjm::diagnose`: baseline fit, residual structure, named effects, extended model.
+//! The result is the core's JSON (issue 5's output contract plus report material).
+
+use numpy::PyReadonlyArrayDyn;
+use pyo3::prelude::*;
+use vjm::diagnose::{diagnose_with_progress, DiagnoseError, DiagnoseOptions, Progress};
+
+use crate::errors::{error, run, IntoPyErr, Kind};
+use crate::vjm::{parse_model, PyRobot};
+use crate::vjm_data::dataset_from_arrays;
+
+impl IntoPyErr for DiagnoseError {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            DiagnoseError::Model(e) => e.into_py_err(),
+            DiagnoseError::Dataset(e) => e.into_py_err(),
+            DiagnoseError::JointCount { .. } => error(Kind::Shape, self.to_string()),
+            DiagnoseError::TooFewRows { .. } => error(Kind::Identification, self.to_string()),
+            other => error(Kind::Value, other.to_string()),
+        }
+    }
+}
+
+/// Diagnoses a measurement table on `robot`; returns the result as JSON text.
+///
+/// `progress`, when given, is called as `progress(stage, done, total)` (the GIL is taken
+/// back only for that call).
+#[pyfunction]
+#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_diagnose<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q: PyReadonlyArrayDyn<'py, f64>,
+    wrench: PyReadonlyArrayDyn<'py, f64>,
+    displacement: PyReadonlyArrayDyn<'py, f64>,
+    rotation: Option<PyReadonlyArrayDyn<'py, f64>>,
+    pose: Option<Vec<i64>>,
+    set: Option<Vec<String>>,
+    baseline: Option<Bound<'py, PyAny>>,
+    fdr: Option<f64>,
+    test_fraction: Option<f64>,
+    split_seed: Option<u64>,
+    max_findings: Option<usize>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<String> {
+    let chain = &robot.chain;
+    let n = chain.n_joints();
+    let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
+    let mut opts = DiagnoseOptions::default();
+    if let Some(b) = &baseline {
+        opts.baseline = Some(parse_model(n, b)?);
+    }
+    if let Some(v) = fdr {
+        opts.fdr = v;
+    }
+    if let Some(v) = test_fraction {
+        opts.test_fraction = v;
+    }
+    if let Some(v) = split_seed {
+        opts.split_seed = v;
+    }
+    if let Some(v) = max_findings {
+        opts.max_findings = v;
+    }
+    let result = run(py, || {
+        let mut report = |p: Progress| {
+            if let Some(cb) = &progress {
+                Python::attach(|py| {
+                    // A failing progress callback must not abort the diagnosis.
+                    let _ = cb.call1(py, (p.stage, p.done, p.total));
+                });
+            }
+        };
+        diagnose_with_progress(chain, &data, &opts, &mut report)
+    })?
+    .map_err(IntoPyErr::into_py_err)?;
+    Ok(result.to_json())
+}
+
+/// Registers the function on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(vjm_diagnose, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,336 @@
+//! The VJM measurement file and campaigns: reading/validating a file or arrays into a
+//! [`Dataset`], simulating campaigns with the testbed, and the seed's study.
+
+use numpy::PyReadonlyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use vjm::dataset::{Dataset, SetLabel};
+use vjm::testbed::{self, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
+use vjm::SpringAxis;
+
+use crate::convert::{batch, fixed, to_numpy};
+use crate::errors::{run, value_error, PyResultExt};
+use crate::vjm::PyRobot;
+
+/// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
+/// (N, 3) or None, `pose` list[int] or None, `set` list[str] or None.
+pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset) -> PyResult<Bound<'py, PyDict>> {
+    let n = d.len();
+    let out = PyDict::new(py);
+    out.set_item("q", to_numpy(py, d.q_flat().to_vec(), &[n, d.n_joints()])?)?;
+    out.set_item("wrench", to_numpy(py, d.wrench_flat().to_vec(), &[n, 6])?)?;
+    out.set_item(
+        "displacement",
+        to_numpy(py, d.displacement_flat().to_vec(), &[n, 3])?,
+    )?;
+    let rotation: Option<Vec<f64>> = (0..n)
+        .map(|i| d.rotation(i))
+        .collect::<Option<Vec<[f64; 3]>>>()
+        .map(|v| v.concat());
+    match rotation {
+        Some(r) => out.set_item("rotation", to_numpy(py, r, &[n, 3])?)?,
+        None => out.set_item("rotation", py.None())?,
+    }
+    let pose: Option<Vec<i64>> = (0..n).map(|i| d.pose(i)).collect();
+    out.set_item("pose", pose)?;
+    let set: Option<Vec<&str>> = (0..n).map(|i| d.set(i).map(SetLabel::as_str)).collect();
+    out.set_item("set", set)?;
+    Ok(out)
+}
+
+/// A dataset from arrays, validated exactly as the file reader validates (row i = line i + 2).
+#[allow(clippy::too_many_arguments)]
+pub fn dataset_from_arrays(
+    n_joints: usize,
+    q: &PyReadonlyArrayDyn<'_, f64>,
+    wrench: &PyReadonlyArrayDyn<'_, f64>,
+    displacement: &PyReadonlyArrayDyn<'_, f64>,
+    rotation: Option<&PyReadonlyArrayDyn<'_, f64>>,
+    pose: Option<Vec<i64>>,
+    set: Option<Vec<String>>,
+) -> PyResult<Dataset> {
+    let q = batch(q, "q", &[n_joints])?;
+    let w = batch(wrench, "wrench", &[6])?;
+    let d = batch(displacement, "displacement", &[3])?;
+    let r = rotation.map(|r| batch(r, "rotation", &[3])).transpose()?;
+    let set = set
+        .map(|labels| {
+            labels
+                .iter()
+                .enumerate()
+                .map(|(i, s)| match s.trim().to_ascii_lowercase().as_str() {
+                    "train" => Ok(SetLabel::Train),
+                    "test" => Ok(SetLabel::Test),
+                    other => Err(value_error(format!(
+                        "set[{i}] = `{other}`: expected \"train\" or \"test\""
+                    ))),
+                })
+                .collect::<PyResult<Vec<_>>>()
+        })
+        .transpose()?;
+    Dataset::new(
+        n_joints,
+        q.data.into_owned(),
+        w.data.into_owned(),
+        d.data.into_owned(),
+        r.map(|r| r.data.into_owned()),
+        pose,
+        set,
+    )
+    .py()
+}
+
+/// Reads and validates a VJM measurement file for a chain of `n_joints` joints.
+#[pyfunction]
+pub fn vjm_read_csv<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    n_joints: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let data = run(py, || Dataset::read_csv(&path, n_joints))?.py()?;
+    dataset_to_dict(py, &data)
+}
+
+/// Validates arrays as a measurement table and returns the CSV text (full precision).
+#[pyfunction]
+#[pyo3(signature = (n_joints, q, wrench, displacement, rotation = None, pose = None, set = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_to_csv(
+    n_joints: usize,
+    q: PyReadonlyArrayDyn<'_, f64>,
+    wrench: PyReadonlyArrayDyn<'_, f64>,
+    displacement: PyReadonlyArrayDyn<'_, f64>,
+    rotation: Option<PyReadonlyArrayDyn<'_, f64>>,
+    pose: Option<Vec<i64>>,
+    set: Option<Vec<String>>,
+) -> PyResult<String> {
+    let data = dataset_from_arrays(
+        n_joints,
+        &q,
+        &wrench,
+        &displacement,
+        rotation.as_ref(),
+        pose,
+        set,
+    )?;
+    let mut buf = Vec::new();
+    data.to_writer(&mut buf).py()?;
+    String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))
+}
+
+fn get<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, i: usize, key: &str) -> PyResult<T> {
+    let item = d
+        .get_item(key)?
+        .ok_or_else(|| value_error(format!("effects[{i}] needs the key `{key}`")))?;
+    item.extract::<T>().map_err(|_| {
+        value_error(format!(
+            "effects[{i}][`{key}`] has the wrong type ({})",
+            item.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        ))
+    })
+}
+
+fn joint0(i: usize, joint: usize, n: usize) -> PyResult<usize> {
+    if joint == 0 || joint > n {
+        return Err(value_error(format!(
+            "effects[{i}]: joint {joint} does not exist (joints are 1..{n}, base → tip)"
+        )));
+    }
+    Ok(joint - 1)
+}
+
+/// Parses one effect: a dict with `effect` and its parameters (1-based `joint`, SI units).
+fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) -> PyResult<Effect> {
+    let name: String = get(d, i, "effect")?;
+    Ok(match name.as_str() {
+        "joint_tilt" => {
+            let joint = joint0(i, get(d, i, "joint")?, n)?;
+            let axis: String = get(d, i, "axis")?;
+            let axis = match axis.as_str() {
+                "x" => SpringAxis::X,
+                "y" => SpringAxis::Y,
+                other => {
+                    return Err(value_error(format!(
+                        "effects[{i}]: tilt axis `{other}` must be x or y"
+                    )))
+                }
+            };
+            Effect::JointTilt {
+                joint,
+                axis,
+                compliance: get(d, i, "compliance")?,
+            }
+        }
+        "joint_torsion_nonlinear" => {
+            let joint = joint0(i, get(d, i, "joint")?, n)?;
+            let spring = if d.contains("k1")? {
+                HarmonicDriveSpring {
+                    k1: get(d, i, "k1")?,
+                    k2: get(d, i, "k2")?,
+                    k3: get(d, i, "k3")?,
+                    t1: get(d, i, "t1")?,
+                    t2: get(d, i, "t2")?,
+                }
+            } else {
+                // Stiffening by `ratio` per segment from the joint's own linear compliance.
+                let c1 = truth.compliance[3 * joint];
+                if !(c1 > 0.0) {
+                    return Err(value_error(format!(
+                        "effects[{i}]: joint {} has no torsional compliance to stiffen; give k1, k2, k3",
+                        joint + 1
+                    )));
+                }
+                HarmonicDriveSpring::stiffening(
+                    c1,
+                    get(d, i, "ratio")?,
+                    get(d, i, "t1")?,
+                    get(d, i, "t2")?,
+                )
+            };
+            Effect::TorsionNonlinear { joint, spring }
+        }
+        "joint_backlash" => Effect::Backlash {
+            joint: joint0(i, get(d, i, "joint")?, n)?,
+            lost_motion: get(d, i, "lost_motion")?,
+        },
+        "wrench_bias" => Effect::WrenchBias {
+            bias: get(d, i, "bias")?,
+        },
+        "frame_misalignment" => Effect::FrameMisalignment {
+            rotation: get(d, i, "rotation")?,
+        },
+        "geometric_nonlinearity" => Effect::GeometricNonlinearity,
+        "pose_drift" => Effect::PoseDrift {
+            sigma: get(d, i, "sigma")?,
+        },
+        other => {
+            return Err(value_error(format!(
+                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift)"
+            )))
+        }
+    })
+}
+
+/// The true model: torsional compliances (n,) or the nominal ones, plus effects.
+fn true_model(
+    n: usize,
+    torsion: Option<PyReadonlyArrayDyn<'_, f64>>,
+    effects: &Bound<'_, PyList>,
+) -> PyResult<TrueModel> {
+    let mut truth = match torsion {
+        Some(t) => TrueModel::torsion_only(&fixed(&t, "torsion", &[n])?),
+        None => TrueModel::nominal(n),
+    };
+    for (i, e) in effects.iter().enumerate() {
+        let d = e
+            .cast::<PyDict>()
+            .map_err(|_| value_error(format!("effects[{i}] must be a dict")))?;
+        let effect = parse_effect(d, i, &truth, n)?;
+        truth = truth.with_effect(effect);
+    }
+    Ok(truth)
+}
+
+fn testbed_err(e: testbed::TestbedError) -> PyErr {
+    match e {
+        testbed::TestbedError::Dataset(d) => crate::errors::IntoPyErr::into_py_err(d),
+        other => value_error(other.to_string()),
+    }
+}
+
+/// Simulates a measurement campaign; returns a dict with the dataset arrays, the CSV text and
+/// the hidden truth (`true_displacement`, `applied_wrench`, `truth` as JSON).
+#[pyfunction]
+#[pyo3(signature = (robot, effects, n_poses = 40, wrenches_per_pose = 4, seed = 0, noise = true, torsion = None, force_max = None, moment_max = None, test_fraction = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_simulate<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    effects: &Bound<'py, PyList>,
+    n_poses: usize,
+    wrenches_per_pose: usize,
+    seed: u64,
+    noise: bool,
+    torsion: Option<PyReadonlyArrayDyn<'py, f64>>,
+    force_max: Option<f64>,
+    moment_max: Option<f64>,
+    test_fraction: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let chain = &robot.chain;
+    let truth = true_model(chain.n_joints(), torsion, effects)?;
+    let mut spec = CampaignSpec {
+        n_poses,
+        wrenches_per_pose,
+        seed,
+        noise,
+        ..CampaignSpec::default()
+    };
+    if let Some(f) = force_max {
+        spec.force_range = (spec.force_range.0.min(f), f);
+    }
+    if let Some(m) = moment_max {
+        spec.moment_max = m;
+    }
+    if let Some(t) = test_fraction {
+        spec.test_fraction = t;
+    }
+    let campaign = run(py, || testbed::simulate(chain, &truth, &spec))?.map_err(testbed_err)?;
+    let out = dataset_to_dict(py, &campaign.dataset)?;
+    let n = campaign.dataset.len();
+    out.set_item(
+        "true_displacement",
+        to_numpy(py, campaign.true_displacement.concat(), &[n, 3])?,
+    )?;
+    out.set_item(
+        "applied_wrench",
+        to_numpy(py, campaign.applied_wrench.concat(), &[n, 6])?,
+    )?;
+    out.set_item("tip", to_numpy(py, campaign.tip.concat(), &[n, 3])?)?;
+    let mut buf = Vec::new();
+    campaign.dataset.to_writer(&mut buf).py()?;
+    out.set_item(
+        "csv",
+        String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))?,
+    )?;
+    out.set_item(
+        "truth",
+        serde_json::to_string(&truth).map_err(|e| crate::errors::internal_error(e.to_string()))?,
+    )?;
+    out.set_item(
+        "spec",
+        serde_json::to_string(&spec).map_err(|e| crate::errors::internal_error(e.to_string()))?,
+    )?;
+    Ok(out)
+}
+
+/// The seed's study (Table I configurations, two wrenches each) with tilting springs of
+/// `tilt_ratio` × the torsional compliance; returns its JSON.
+#[pyfunction]
+#[pyo3(signature = (robot, tilt_ratio = 0.5, noise = true, seed = 0))]
+pub fn vjm_seed_study(
+    py: Python<'_>,
+    robot: &PyRobot,
+    tilt_ratio: f64,
+    noise: bool,
+    seed: u64,
+) -> PyResult<String> {
+    let chain = &robot.chain;
+    let n = chain.n_joints();
+    let torsion: Vec<f64> = (0..n).map(|j| testbed::NOMINAL_TORSION[j % 7]).collect();
+    let truth = TrueModel::with_tilts(&torsion, tilt_ratio);
+    let study =
+        run(py, || testbed::seed_study(chain, &truth, noise, seed))?.map_err(testbed_err)?;
+    serde_json::to_string(&study).map_err(|e| crate::errors::internal_error(e.to_string()))
+}
+
+/// Registers the functions on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(vjm_read_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_to_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_seed_study, m)?)?;
+    Ok(())
+}
