@@ -1,0 +1,367 @@
+"""A readable diagnosis report: Markdown with PNG plots (matplotlib, Agg backend).
+
+:func:`write_report` turns the result of :func:`robot_stiffness.vjm.diagnose` into a directory
+holding ``report.md`` and three plots:
+
+* ``residuals.png`` — residual norm per measurement row, baseline vs extended model;
+* ``errors_per_pose.png`` — mean relative error per pose, baseline vs extended, held-out poses
+  marked;
+* ``effects.png`` — the evidence for every candidate effect (first-step F-test p-values), with
+  the named effects highlighted.
+
+The directory is built under a temporary name next to ``out_dir`` and renamed at the end, so a
+failure never leaves a half-written report.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+
+__all__ = ["write_report", "story", "percent", "atomic_directory"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def percent(x: Optional[float]) -> str:
+    """``0.0775`` → ``"7.75 %"``; None/NaN → ``"n/a"``."""
+    if x is None or not math.isfinite(x):
+        return "n/a"
+    return f"{100.0 * x:.2f} %"
+
+
+def _pval(p: Optional[float]) -> str:
+    if p is None or not math.isfinite(p):
+        return "n/a"
+    return f"{p:.1e}" if p < 1e-3 else f"{p:.3f}"
+
+
+def _where(f: Dict[str, Any]) -> str:
+    parts = []
+    if f.get("joint") is not None:
+        parts.append(f"joint {f['joint']}")
+    if f.get("axis") is not None:
+        parts.append(f"axis {f['axis']}")
+    return f" at {', '.join(parts)}" if parts else ""
+
+
+def _alias_text(f: Dict[str, Any]) -> str:
+    aliases = f.get("aliases") or []
+    if not aliases:
+        return ""
+    names = []
+    for a in aliases:
+        label = a.get("effect", f.get("effect", ""))
+        names.append(label + _where(a))
+    return "; indistinguishable on these data from " + ", ".join(names)
+
+
+def _what_is_wrong(r: Dict[str, Any], alpha: float = 0.01) -> str:
+    """The residual-structure statistics of one fit, in words, significant ones only."""
+    parts = []
+    rms = r.get("scaled_rms")
+    if rms is not None and math.isfinite(rms):
+        parts.append(f"its residuals are {rms:.1f}× the noise level")
+    anova = r.get("per_pose_anova", {}).get("p_value")
+    if anova is not None and anova < alpha:
+        parts.append(f"they differ between configurations (per-pose ANOVA p = {_pval(anova)})")
+    mag = r.get("load_magnitude")
+    if mag and mag.get("p_value", 1.0) < alpha:
+        parts.append(f"they grow with the load magnitude (Spearman ρ = {mag['rho']:+.2f}, p = {_pval(mag['p_value'])})")
+    best = None
+    for t in r.get("torque", []):
+        c = t.get("correlation")
+        if c and c.get("p_value", 1.0) < alpha and (best is None or c["p_value"] < best[1]["p_value"]):
+            best = (t["joint"], c)
+    if best is not None:
+        parts.append(f"they correlate with the torque of joint {best[0]} (ρ = {best[1]['rho']:+.2f}, p = {_pval(best[1]['p_value'])})")
+    d = r.get("load_direction")
+    if d and d.get("p_bonferroni", 1.0) < alpha:
+        parts.append(f"residual {d['residual_axis']} depends on the force direction {d['force_axis']} "
+                     f"(ρ = {d['correlation']['rho']:+.2f}, p = {_pval(d['p_bonferroni'])})")
+    return "; ".join(parts)
+
+
+def story(result: Dict[str, Any]) -> List[str]:
+    """A few sentences: what the baseline got wrong, the named cause, the gain on held-out rows."""
+    base = result["baseline"]
+    ext = result["extended"]
+    lines = [
+        f"Baseline ({base['model']}, {base['n_params']} parameters): mean relative error "
+        f"{percent(base['test_mean_rel_error'])} on held-out poses."
+    ]
+    wrong = _what_is_wrong(result.get("residuals", {}).get("baseline", {}))
+    if wrong:
+        lines.append("What it gets wrong: " + wrong + ".")
+    findings = result.get("findings", [])
+    if findings:
+        for f in findings:
+            ev = f.get("evidence", {})
+            p = ev.get("f_test", {}).get("p_value")
+            lines.append(
+                f"Named cause: {f['effect']}{_where(f)} (F-test p = {_pval(p)}, confirmed on "
+                f"held-out rows){_alias_text(f)}."
+            )
+    else:
+        lines.append("No effect of the catalogue improves the baseline significantly.")
+    gain = result.get("gain")
+    lines.append(
+        f"Extended model ({ext['model']}, {ext['n_params']} parameters): "
+        f"{percent(ext['test_mean_rel_error'])} on held-out poses"
+        + (f", {percent(gain)} lower than the baseline." if gain is not None and math.isfinite(gain) else ".")
+    )
+    if result.get("unexplained"):
+        lines.append(
+            "Structured residual remains that no candidate explains (per-pose ANOVA still significant)."
+        )
+    return lines
+
+
+def _plot_residuals(result: Dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result.get("rows", [])
+    meas = np.array([r["measured"] for r in rows], dtype=float).reshape(-1, 3)
+    base = np.array([r["baseline"] for r in rows], dtype=float).reshape(-1, 3)
+    ext = np.array([r["extended"] for r in rows], dtype=float).reshape(-1, 3)
+    test = np.array([r["set"] == "test" for r in rows], dtype=bool)
+    idx = np.arange(len(rows))
+    fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, sharey=True)
+    for ax, pred, title in ((axes[0], base, "baseline"), (axes[1], ext, "extended")):
+        err = 1e6 * np.linalg.norm(pred - meas, axis=1)
+        ax.bar(idx[~test], err[~test], color="tab:blue", label="training rows", width=1.0)
+        ax.bar(idx[test], err[test], color="tab:orange", label="held-out rows", width=1.0)
+        ax.set_ylabel("‖d_pred − d_meas‖ (µm)")
+        ax.set_title(f"Residuals, {title}: {result[title]['model']}", fontsize=10)
+        ax.legend(loc="upper right", fontsize=8)
+    axes[1].set_xlabel("measurement row")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_per_pose(result: Dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    poses = result.get("per_pose", [])
+    x = np.arange(len(poses))
+    b = np.array([100.0 * p["baseline"] for p in poses], dtype=float)
+    e = np.array([100.0 * p["extended"] for p in poses], dtype=float)
+    test = [p["set"] == "test" for p in poses]
+    fig, ax = plt.subplots(figsize=(9, 3.8))
+    ax.bar(x - 0.2, b, width=0.4, label="baseline", color="tab:red")
+    ax.bar(x + 0.2, e, width=0.4, label="extended", color="tab:green")
+    for xi, t in zip(x, test):
+        if t:
+            ax.axvspan(xi - 0.5, xi + 0.5, color="0.9", zorder=0)
+    ax.set_xticks(x)
+    ax.set_xticklabels([str(p["pose"]) for p in poses], fontsize=7)
+    ax.set_xlabel("pose (shaded: held out)")
+    ax.set_ylabel("mean relative error (%)")
+    ax.set_title("Error per pose", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_effects(result: Dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scores = [s for s in result.get("scores", []) if s.get("testable") and s.get("f_test")]
+    scores.sort(key=lambda s: s["f_test"]["p_value"])
+    scores = scores[:20]
+    found = {(f["effect"], f.get("joint"), f.get("axis")) for f in result.get("findings", [])}
+    labels = [s["label"] for s in scores]
+    vals = [-math.log10(max(s["f_test"]["p_value"], 1e-300)) for s in scores]
+    colors = [
+        "tab:green" if (s["effect"], s.get("joint"), s.get("axis")) in found else "tab:gray"
+        for s in scores
+    ]
+    fig, ax = plt.subplots(figsize=(9, max(2.5, 0.3 * len(scores) + 1)))
+    y = np.arange(len(scores))
+    ax.barh(y, vals, color=colors)
+    ax.set_yticks(y)
+    ax.set_yticklabels(labels, fontsize=8)
+    ax.invert_yaxis()
+    fdr = result.get("fdr", 0.01)
+    n = max(1, len([s for s in result.get("scores", []) if s.get("testable")]))
+    ax.axvline(-math.log10(fdr / n), color="k", linestyle="--", linewidth=0.8,
+               label=f"strictest BH threshold (q = {fdr})")
+    ax.set_xlabel("−log10 p (first-step F test against the baseline)")
+    ax.set_title("Candidate effects (green: named)", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _markdown(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
+    base, ext = result["baseline"], result["extended"]
+    out = [f"# {title}", ""]
+    if source:
+        out += [f"Data: `{source}` — {result.get('n_train', '?')} training rows, "
+                f"{result.get('n_test', '?')} held-out rows.", ""]
+    out += ["## Summary", ""] + [f"- {s}" for s in story(result)] + [""]
+    gain = result.get("gain")
+    if gain is not None and math.isfinite(gain):
+        out += [f"**The extended model's held-out error is {percent(gain)} lower than the baseline's** "
+                f"({percent(base['test_mean_rel_error'])} → {percent(ext['test_mean_rel_error'])}).", ""]
+    out += [
+        "## Models", "",
+        "| model | parameters | held-out mean rel. error | training mean rel. error |",
+        "|---|---|---|---|",
+        f"| baseline: {base['model']} | {base['n_params']} | {percent(base['test_mean_rel_error'])} | {percent(base.get('train_mean_rel_error'))} |",
+        f"| extended: {ext['model']} | {ext['n_params']} | {percent(ext['test_mean_rel_error'])} | {percent(ext.get('train_mean_rel_error'))} |",
+        "",
+        "The error is the mean over rows of ‖d_pred − d_meas‖ / ‖d_meas‖ (translation only).",
+        "",
+        "![Residuals before and after](residuals.png)", "",
+        "![Error per pose](errors_per_pose.png)", "",
+        "## What the baseline gets wrong", "",
+    ]
+    rs = result.get("residuals", {})
+    out += ["| statistic | baseline | extended |", "|---|---|---|"]
+
+    def stat(which: str, key: str) -> str:
+        r = rs.get(which, {})
+        if key == "scaled_rms":
+            v = r.get("scaled_rms")
+            return "n/a" if v is None else f"{v:.2f}"
+        if key == "anova":
+            return f"p = {_pval(r.get('per_pose_anova', {}).get('p_value'))}"
+        if key == "magnitude":
+            c = r.get("load_magnitude")
+            return "n/a" if not c else f"ρ = {c['rho']:+.2f}, p = {_pval(c['p_value'])}"
+        if key == "direction":
+            c = r.get("load_direction")
+            if not c:
+                return "n/a"
+            return (f"residual {c['residual_axis']} vs force {c['force_axis']}: ρ = "
+                    f"{c['correlation']['rho']:+.2f}, p = {_pval(c['p_bonferroni'])}")
+        if key == "torque":
+            best = None
+            for t in r.get("torque", []):
+                c = t.get("correlation")
+                if c and (best is None or c["p_value"] < best[1]["p_value"]):
+                    best = (t["joint"], c)
+            return "n/a" if best is None else f"joint {best[0]}: ρ = {best[1]['rho']:+.2f}, p = {_pval(best[1]['p_value'])}"
+        return "n/a"
+
+    for label, key in (
+        ("scaled residual RMS (1 = noise only)", "scaled_rms"),
+        ("per-pose ANOVA (configuration)", "anova"),
+        ("strongest joint-torque correlation", "torque"),
+        ("correlation with load magnitude", "magnitude"),
+        ("strongest load-direction correlation (Bonferroni)", "direction"),
+    ):
+        out.append(f"| {label} | {stat('baseline', key)} | {stat('extended', key)} |")
+    out += ["", "## Named effects", "", "![Candidate effects](effects.png)", ""]
+    findings = result.get("findings", [])
+    if not findings:
+        out += ["No candidate effect passed the false-discovery-rate selection and the held-out check.", ""]
+    for f in findings:
+        ev = f.get("evidence", {})
+        ft = ev.get("f_test", {})
+        out += [
+            f"### {f['effect']}{_where(f)}", "",
+            f"- selection step {ev.get('step')}: F = {ft.get('f', float('nan')):.1f} "
+            f"({ft.get('df_num')}, {ft.get('df_den')}), p = {_pval(ft.get('p_value'))}, "
+            f"Benjamini–Hochberg threshold {_pval(ev.get('bh_threshold'))} over {ev.get('n_candidates')} candidates;",
+            f"- removes {percent(ev.get('sse_reduction'))} of the training whitened SSE; held-out whitened SSE "
+            f"{ev.get('heldout_sse_before', float('nan')):.1f} → {ev.get('heldout_sse_after', float('nan')):.1f};",
+            f"- estimate: {', '.join(f'{v:.3e}' for v in ev.get('estimate', []))} {ev.get('unit', '')}.",
+        ]
+        if f.get("aliases"):
+            out.append("- cannot be told apart on these data from: " + ", ".join(
+                f"{a.get('effect', f['effect'])}{_where(a)} (Δχ² = {a.get('delta_chi2', float('nan')):.2f})"
+                for a in f["aliases"]
+            ) + ".")
+        out.append("")
+    rejected = result.get("rejected_on_holdout") or []
+    if rejected:
+        out += ["Significant on the training rows but not confirmed on held-out rows: "
+                + ", ".join(rejected) + ".", ""]
+    out += ["## Unexplained structure", ""]
+    out.append(
+        "Structured residual remains after the extension that no candidate explains."
+        if result.get("unexplained")
+        else "No significant structure remains in the extended model's residuals."
+    )
+    out += ["", "## Fitted parameters (extended model)", "", "| parameter | value | unit |", "|---|---|---|"]
+    for p in ext.get("parameters", []):
+        out.append(f"| {p['label']} | {p['value']:.4e} | {p['unit']} |")
+    out.append("")
+    return "\n".join(out)
+
+
+class atomic_directory:
+    """Context manager: yields a temporary directory next to ``path`` and renames it to
+    ``path`` on success (replacing an existing directory); on failure it is removed."""
+
+    def __init__(self, path: PathLike) -> None:
+        self.path = Path(path)
+        self.tmp: Optional[Path] = None
+
+    def __enter__(self) -> Path:
+        if self.path.exists() and not self.path.is_dir():
+            raise FileExistsError(f"{self.path} exists and is not a directory")
+        parent = self.path.parent if str(self.path.parent) else Path(".")
+        parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.tmp-", dir=parent))
+        return self.tmp
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        assert self.tmp is not None
+        if exc_type is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            return
+        self.commit()
+
+    def commit(self) -> None:
+        assert self.tmp is not None
+        old = None
+        if self.path.exists():
+            old = self.path.with_name(f".{self.path.name}.old-{os.getpid()}")
+            os.replace(self.path, old)
+        os.chmod(self.tmp, 0o755)
+        os.replace(self.tmp, self.path)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def render_report(result: Dict[str, Any], directory: PathLike, *, title: str = "Stiffness diagnosis",
+                  source: Optional[str] = None) -> Path:
+    """Writes ``report.md`` and the plots into an existing ``directory`` (no atomicity)."""
+    d = Path(directory)
+    _plot_residuals(result, d / "residuals.png")
+    _plot_per_pose(result, d / "errors_per_pose.png")
+    _plot_effects(result, d / "effects.png")
+    md = d / "report.md"
+    md.write_text(_markdown(result, title, source), encoding="utf-8")
+    return md
+
+
+def write_report(result: Any, out_dir: PathLike, *, title: str = "Stiffness diagnosis",
+                 source: Optional[str] = None) -> Path:
+    """Write the report of a diagnosis (a :class:`~robot_stiffness.vjm.Diagnosis` or its dict)
+    into ``out_dir`` atomically; returns the path of ``report.md``."""
+    data = result.to_dict() if hasattr(result, "to_dict") else dict(result)
+    with atomic_directory(out_dir) as tmp:
+        render_report(data, tmp, title=title, source=source)
+    return Path(out_dir) / "report.md"
