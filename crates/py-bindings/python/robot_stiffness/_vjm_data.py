@@ -65,7 +65,7 @@ class Measurements:
 
     def to_dataframe(self) -> Any:
         """A pandas DataFrame with the measurement-file columns (requires pandas)."""
-        import pandas as pd
+        import pandas as pd  # type: ignore[import-untyped,unused-ignore]
 
         n = self.q.shape[1]
         data: Dict[str, Any] = {}

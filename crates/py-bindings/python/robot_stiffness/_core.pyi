@@ -1,0 +1,143 @@
+# Hand-written stubs of the compiled extension `robot_stiffness._core` (Rust, pyo3).
+# Private API: the documented entry points are robot_stiffness.so3 / .csjm / .vjm.
+# Arrays are float64; the pure-Python wrappers convert other dtypes first.
+import os
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, final
+
+import numpy as np
+import numpy.typing as npt
+
+_F64 = npt.NDArray[np.float64]
+_Model = Union[str, Sequence[str]]
+_Path = Union[str, os.PathLike[str]]
+
+__all__ = [
+    "Robot",
+    "__version__",
+    "csjm_identify",
+    "csjm_identify_csv",
+    "csjm_read_csv",
+    "so3_adjoint",
+    "so3_distance",
+    "so3_exp",
+    "so3_hat",
+    "so3_left_jacobian",
+    "so3_left_jacobian_inverse",
+    "so3_log",
+    "so3_orthogonality_error",
+    "so3_project_to_rotation",
+    "so3_right_jacobian",
+    "so3_right_jacobian_inverse",
+    "so3_vee",
+    "vjm_diagnose",
+    "vjm_read_csv",
+    "vjm_seed_study",
+    "vjm_simulate",
+    "vjm_to_csv",
+]
+
+__version__: str
+
+def so3_hat(w: _F64) -> _F64: ...
+def so3_vee(m: _F64) -> _F64: ...
+def so3_exp(w: _F64) -> _F64: ...
+def so3_log(r: _F64, tol: float) -> _F64: ...
+def so3_adjoint(r: _F64, tol: float) -> _F64: ...
+def so3_left_jacobian(w: _F64) -> _F64: ...
+def so3_right_jacobian(w: _F64) -> _F64: ...
+def so3_left_jacobian_inverse(w: _F64) -> _F64: ...
+def so3_right_jacobian_inverse(w: _F64) -> _F64: ...
+def so3_distance(a: _F64, b: _F64, tol: float) -> _F64: ...
+def so3_project_to_rotation(m: _F64) -> _F64: ...
+def so3_orthogonality_error(m: _F64) -> _F64: ...
+def csjm_identify(
+    r: _F64,
+    tau: _F64,
+    reference: int,
+    order: int = 1,
+    project: bool = False,
+    tol: Optional[float] = None,
+    convergence: bool = True,
+) -> Dict[str, Any]: ...
+def csjm_read_csv(path: _Path, project: bool = False) -> Tuple[_F64, _F64, int]: ...
+def csjm_identify_csv(path: _Path, order: int = 1, project: bool = False) -> Dict[str, Any]: ...
+def vjm_read_csv(path: _Path, n_joints: int) -> Dict[str, Any]: ...
+def vjm_to_csv(
+    n_joints: int,
+    q: _F64,
+    wrench: _F64,
+    displacement: _F64,
+    rotation: Optional[_F64] = None,
+    pose: Optional[Sequence[int]] = None,
+    set: Optional[Sequence[str]] = None,
+) -> str: ...
+def vjm_simulate(
+    robot: Robot,
+    effects: List[Dict[str, Any]],
+    n_poses: int = 40,
+    wrenches_per_pose: int = 4,
+    seed: int = 0,
+    noise: bool = True,
+    torsion: Optional[_F64] = None,
+    force_max: Optional[float] = None,
+    moment_max: Optional[float] = None,
+    test_fraction: Optional[float] = None,
+) -> Dict[str, Any]: ...
+def vjm_seed_study(robot: Robot, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> str: ...
+def vjm_diagnose(
+    robot: Robot,
+    q: _F64,
+    wrench: _F64,
+    displacement: _F64,
+    rotation: Optional[_F64] = None,
+    pose: Optional[Sequence[int]] = None,
+    set: Optional[Sequence[str]] = None,
+    baseline: Optional[_Model] = None,
+    fdr: Optional[float] = None,
+    test_fraction: Optional[float] = None,
+    split_seed: Optional[int] = None,
+    max_findings: Optional[int] = None,
+    progress: Optional[Callable[[str, int, int], Any]] = None,
+) -> str: ...
+
+@final
+class Robot:
+    @staticmethod
+    def bundled(tip: Optional[str] = None) -> Robot: ...
+    @staticmethod
+    def from_urdf(path: _Path, base: str, tip: str) -> Robot: ...
+    @staticmethod
+    def from_urdf_string(xml: str, base: str, tip: str) -> Robot: ...
+    @property
+    def n_joints(self) -> int: ...
+    @property
+    def joint_names(self) -> List[str]: ...
+    @property
+    def limits(self) -> List[Tuple[float, float]]: ...
+    @property
+    def base_link(self) -> str: ...
+    @property
+    def tip_link(self) -> str: ...
+    def model_labels(self, model: _Model) -> List[str]: ...
+    def forward_kinematics(self, q: _F64) -> _F64: ...
+    def jacobian(self, q: _F64, model: _Model) -> _F64: ...
+    def identify(
+        self,
+        q: _F64,
+        wrench: _F64,
+        displacement: _F64,
+        model: _Model,
+        rotation: Optional[_F64] = None,
+        noise_sigma: Optional[_F64] = None,
+        noise_scale_known: bool = False,
+        nonnegative: bool = False,
+        dense: bool = False,
+    ) -> str: ...
+    def predict_deflection(
+        self,
+        compliance: _F64,
+        q: _F64,
+        wrench: _F64,
+        model: _Model,
+        with_kc: bool = False,
+    ) -> _F64: ...
