@@ -1,0 +1,10 @@
+//! Integration tests of so3-stiffness.
+
+mod bad_input;
+mod finite_differences;
+mod identification;
+mod kinetostatics;
+mod simulator;
+mod so3;
+mod stiffness;
+mod strategies;
