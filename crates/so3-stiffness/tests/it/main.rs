@@ -2,7 +2,6 @@
 
 mod bad_input;
 mod finite_differences;
-mod identification;
 mod kinetostatics;
 mod simulator;
 mod so3;
