@@ -156,9 +156,8 @@ pub(crate) fn stiffness_from_kinematics(
     let j = kin.jacobian();
     // Derivative of the cable moment JᵀT along body perturbations: D − Jᵀ diag(k) J (eq. 45).
     let mut cable_moment_derivative = kin.jacobian_derivative_times_tensions(tensions);
-    for i in 0..CABLES {
-        let row = j.row(i).transpose();
-        cable_moment_derivative -= cable_stiffness[i] * row * row.transpose();
+    for (row, &k) in j.row_iter().zip(cable_stiffness) {
+        cable_moment_derivative -= k * row.transpose() * row;
     }
     let mut internal_moment = kin.cable_moment(tensions);
     let mut internal_moment_derivative = cable_moment_derivative;

@@ -138,6 +138,7 @@ fn unloaded_symmetric_prototype_has_no_connection_term() {
 fn closed_form_stiffness(sim: &CsjmSimulator, r: &Rotation3<f64>) -> Matrix3<f64> {
     let t = sim.tensions(r).unwrap();
     let mut k = Matrix3::zeros();
+    #[allow(clippy::needless_range_loop)] // s indexes four parallel per-cable arrays
     for s in 0..6 {
         let a = sim.geometry().platform_point(s);
         let c_a = r.inverse() * sim.geometry().base_point(s) - a;
