@@ -134,12 +134,6 @@ pub enum CsjmError {
         /// What it must satisfy (e.g. "finite and ≥ 0").
         requirement: &'static str,
     },
-    /// The 6×3 cable Jacobian is rank deficient: the cables cannot resist every moment.
-    #[error("cable Jacobian is rank deficient at this pose (smallest singular value {smallest_singular_value:.3e} m)")]
-    DegenerateJacobian {
-        /// σ_min(J), m.
-        smallest_singular_value: f64,
-    },
     /// A solver option is out of range.
     #[error("invalid solver option {what} = {value:e}")]
     InvalidOption {
