@@ -157,6 +157,24 @@ pub enum CsjmError {
         /// Why it stopped.
         reason: &'static str,
     },
+    /// A batch output buffer does not match its input.
+    #[error("{what}: output has length {got}, expected {expected} (one per input)")]
+    LengthMismatch {
+        /// Which buffer.
+        what: &'static str,
+        /// Required length.
+        expected: usize,
+        /// Given length.
+        got: usize,
+    },
+    /// One item of a batch failed; nothing after it was computed.
+    #[error("item {index} (0-based) of the batch: {source}")]
+    InBatch {
+        /// 0-based index of the failing item.
+        index: usize,
+        /// What went wrong there.
+        source: Box<CsjmError>,
+    },
     /// An SO(3) input was invalid.
     #[error(transparent)]
     So3(#[from] So3Error),

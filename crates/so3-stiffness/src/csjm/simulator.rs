@@ -385,4 +385,86 @@ impl CsjmSimulator {
             reason: "iteration limit reached",
         })
     }
+
+    /// Equilibria along a load path (allocating level): solve for each external moment in
+    /// turn (N·m, frame A), each solve starting from the previous solution (continuation), the
+    /// first from `options.initial_pose`. Small load steps make every solve a few Newton steps.
+    ///
+    /// Errors with [`CsjmError::InBatch`] naming the first load that fails.
+    pub fn equilibrium_path(
+        &self,
+        external_moments_in_a: &[Vector3<f64>],
+        options: &EquilibriumOptions,
+    ) -> Result<Vec<Equilibrium>, CsjmError> {
+        let mut out = Vec::with_capacity(external_moments_in_a.len());
+        let mut opts = *options;
+        for (index, tau) in external_moments_in_a.iter().enumerate() {
+            let eq = self
+                .equilibrium(tau, &opts)
+                .map_err(|e| CsjmError::InBatch {
+                    index,
+                    source: Box::new(e),
+                })?;
+            opts.initial_pose = eq.pose;
+            out.push(eq);
+        }
+        Ok(out)
+    }
+
+    /// Batch level of [`Self::equilibrium_path`]: writes only the poses into `poses_out`
+    /// (same length as `external_moments_in_a`), no allocation. On error the poses before the
+    /// failing item are written and the rest untouched.
+    pub fn equilibrium_path_in_place(
+        &self,
+        external_moments_in_a: &[Vector3<f64>],
+        options: &EquilibriumOptions,
+        poses_out: &mut [Rotation3<f64>],
+    ) -> Result<(), CsjmError> {
+        if poses_out.len() != external_moments_in_a.len() {
+            return Err(CsjmError::LengthMismatch {
+                what: "poses_out",
+                expected: external_moments_in_a.len(),
+                got: poses_out.len(),
+            });
+        }
+        let mut opts = *options;
+        for (index, (tau, out)) in external_moments_in_a
+            .iter()
+            .zip(poses_out.iter_mut())
+            .enumerate()
+        {
+            let eq = self
+                .equilibrium(tau, &opts)
+                .map_err(|e| CsjmError::InBatch {
+                    index,
+                    source: Box::new(e),
+                })?;
+            opts.initial_pose = eq.pose;
+            *out = eq.pose;
+        }
+        Ok(())
+    }
+
+    /// Stiffness at many poses into `out` (same length as `poses`), no allocation.
+    /// Errors with [`CsjmError::InBatch`] naming the first failing pose.
+    pub fn stiffness_in_place(
+        &self,
+        poses: &[Rotation3<f64>],
+        out: &mut [Stiffness],
+    ) -> Result<(), CsjmError> {
+        if out.len() != poses.len() {
+            return Err(CsjmError::LengthMismatch {
+                what: "stiffness out",
+                expected: poses.len(),
+                got: out.len(),
+            });
+        }
+        for (index, (pose, slot)) in poses.iter().zip(out.iter_mut()).enumerate() {
+            *slot = self.stiffness(pose).map_err(|e| CsjmError::InBatch {
+                index,
+                source: Box::new(e),
+            })?;
+        }
+        Ok(())
+    }
 }

@@ -145,3 +145,65 @@ fn seed_eq_60_load_increments_in_frame_a_follow_k_d_not_k() {
         "K prediction error {err_k:e} should be first-order visible"
     );
 }
+
+#[test]
+fn load_path_matches_independent_solves_and_batch_levels_agree() {
+    let sim = prototype_with_gravity();
+    let path: Vec<Vector3<f64>> = (0..=10)
+        .map(|k| Vector3::new(-0.06, -3.08, 1.07) * (k as f64 / 10.0))
+        .collect();
+    let eqs = sim
+        .equilibrium_path(&path, &EquilibriumOptions::default())
+        .unwrap();
+    let mut poses = vec![Rotation3::identity(); path.len()];
+    sim.equilibrium_path_in_place(&path, &EquilibriumOptions::default(), &mut poses)
+        .unwrap();
+    for (k, (eq, pose)) in eqs.iter().zip(&poses).enumerate() {
+        let alone = sim
+            .equilibrium(&path[k], &EquilibriumOptions::default())
+            .unwrap();
+        assert!(so3::distance(&eq.pose, &alone.pose) < 1e-10, "load {k}");
+        assert_eq!(&eq.pose, pose);
+        assert!(
+            eq.iterations <= 4,
+            "continuation keeps each solve short: {}",
+            eq.iterations
+        );
+    }
+    let mut out = vec![eqs[0].stiffness; poses.len()];
+    sim.stiffness_in_place(&poses, &mut out).unwrap();
+    for (s, eq) in out.iter().zip(&eqs) {
+        assert_eq!(s, &eq.stiffness);
+    }
+}
+
+#[test]
+fn batch_errors_name_the_item_and_check_lengths() {
+    use so3_stiffness::CsjmError;
+    let sim = prototype_with_gravity();
+    let path = [Vector3::zeros(), Vector3::new(0.0, f64::NAN, 0.0)];
+    let err = sim
+        .equilibrium_path(&path, &EquilibriumOptions::default())
+        .unwrap_err();
+    assert!(
+        matches!(err, CsjmError::InBatch { index: 1, .. }),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string()
+            .starts_with("item 1 (0-based) of the batch: external moment"),
+        "{err}"
+    );
+    let mut short = vec![Rotation3::identity(); 1];
+    let err = sim
+        .equilibrium_path_in_place(&path, &EquilibriumOptions::default(), &mut short)
+        .unwrap_err();
+    assert_eq!(
+        err,
+        CsjmError::LengthMismatch {
+            what: "poses_out",
+            expected: 2,
+            got: 1
+        }
+    );
+}
