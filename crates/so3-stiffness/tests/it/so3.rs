@@ -31,6 +31,17 @@ proptest! {
     }
 
     #[test]
+    fn log_near_pi_is_accurate_for_any_axis(n in unit_vector(), eps in 1e-9..1e-5f64, tiny in 0.0..1e-9f64) {
+        let w = n * (PI - eps);
+        prop_assert!((log(&exp(&w)) - w).norm() < 1e-9, "ε = {eps:e}");
+        // Closer to π the sign of the axis is below round-off: either answer, but exp∘log = id.
+        let r = exp(&(n * (PI - tiny)));
+        let l = log(&r);
+        prop_assert!((exp(&l).matrix() - r.matrix()).norm() < 1e-12);
+        prop_assert!((l.norm() - (PI - tiny)).abs() < 1e-9);
+    }
+
+    #[test]
     fn vee_of_hat_is_identity(w in vector(10.0)) {
         prop_assert_eq!(vee(&hat(&w)), w);
         let v = Vector3::new(0.3, -1.2, 0.7);
