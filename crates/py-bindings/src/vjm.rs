@@ -295,6 +295,40 @@ impl PyRobot {
     }
 }
 
+/// Benchmark helper (private): runs the core's streaming `vjm::identify` `repeats` times on the
+/// given arrays, timed inside Rust with the GIL released, and returns the seconds of each run.
+/// `scripts/overhead.py` compares these with the wall time of the Python call.
+#[pyfunction]
+#[pyo3(signature = (robot, q, wrench, displacement, model, repeats = 1))]
+pub fn vjm_identify_timed<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q: PyReadonlyArrayDyn<'py, f64>,
+    wrench: PyReadonlyArrayDyn<'py, f64>,
+    displacement: PyReadonlyArrayDyn<'py, f64>,
+    model: &Bound<'py, PyAny>,
+    repeats: usize,
+) -> PyResult<Vec<f64>> {
+    let n = robot.n();
+    let model = parse_model(n, model)?;
+    let q = batch(&q, "q", &[n])?;
+    let w = batch(&wrench, "wrench", &[6])?;
+    let d = batch(&displacement, "displacement", &[3])?;
+    let chain = &robot.chain;
+    let opts = IdentifyOptions::default();
+    run(py, || -> Result<Vec<f64>, vjm::VjmError> {
+        let mut times = Vec::with_capacity(repeats);
+        for _ in 0..repeats {
+            let start = std::time::Instant::now();
+            let id = vjm::identify(chain, &model, &q.data, &w.data, &d.data, None, &opts)?;
+            times.push(start.elapsed().as_secs_f64());
+            std::hint::black_box(id);
+        }
+        Ok(times)
+    })?
+    .py()
+}
+
 /// All arrays must have as many rows as `q`.
 fn check_rows(n: usize, others: &[(&str, usize)]) -> PyResult<()> {
     for (name, rows) in others {
@@ -310,5 +344,6 @@ fn check_rows(n: usize, others: &[(&str, usize)]) -> PyResult<()> {
 /// Registers the class on `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRobot>()?;
+    m.add_function(wrap_pyfunction!(vjm_identify_timed, m)?)?;
     Ok(())
 }

@@ -30,6 +30,7 @@ __all__ = [
     "so3_right_jacobian_inverse",
     "so3_vee",
     "vjm_diagnose",
+    "vjm_identify_timed",
     "vjm_read_csv",
     "vjm_seed_study",
     "vjm_simulate",
@@ -83,6 +84,14 @@ def vjm_simulate(
     moment_max: Optional[float] = None,
     test_fraction: Optional[float] = None,
 ) -> Dict[str, Any]: ...
+def vjm_identify_timed(
+    robot: Robot,
+    q: _F64,
+    wrench: _F64,
+    displacement: _F64,
+    model: _Model,
+    repeats: int = 1,
+) -> List[float]: ...
 def vjm_seed_study(robot: Robot, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> str: ...
 def vjm_diagnose(
     robot: Robot,
