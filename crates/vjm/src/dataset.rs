@@ -1,0 +1,751 @@
+//! The VJM measurement file (issue 5): one loaded measurement per row, SI units.
+//!
+//! Columns (header row required, any order):
+//! - `q1..qn` — actuated joint angles from base to tip, rad;
+//! - `fx,fy,fz` (N) and `mx,my,mz` (N·m) — the external wrench at the tip point, base-frame
+//!   components;
+//! - `dx,dy,dz` (m) — the measured tip displacement, loaded minus unloaded, base frame;
+//! - optional `rx,ry,rz` (rad) — the tip rotation vector, base frame;
+//! - optional `pose` — an integer configuration id;
+//! - optional `set` — `train` or `test`.
+//!
+//! Reading validates everything before returning: a file either loads completely or gives one
+//! [`DatasetError`] naming the line and column at fault. Writing goes to a temporary file that is
+//! renamed into place, so a failed write never leaves a half-written file behind.
+//!
+//! ```
+//! use vjm::dataset::Dataset;
+//! let csv = "q1,q2,fx,fy,fz,mx,my,mz,dx,dy,dz,pose,set\n\
+//!            0.1,0.2,10,0,0,0,0,0,0.0001,0.0002,0,0,train\n\
+//!            0.3,0.4,0,10,0,0,0,0,0.0002,0.0001,0,1,test\n";
+//! let data = Dataset::from_reader(csv.as_bytes(), 2)?;
+//! assert_eq!(data.len(), 2);
+//! assert_eq!(data.q(1), &[0.3, 0.4]);
+//! # Ok::<(), vjm::dataset::DatasetError>(())
+//! ```
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+/// Largest plausible displacement component, m. A cobot tip moving more than 5 cm under a
+/// static test load is far outside any stiffness experiment; such values are almost always
+/// millimetres written into a metre column.
+pub const MAX_PLAUSIBLE_DISPLACEMENT: f64 = 0.05;
+/// Largest plausible joint angle magnitude, rad (two turns). Larger values are most likely degrees.
+pub const MAX_PLAUSIBLE_JOINT_ANGLE: f64 = 4.0 * std::f64::consts::PI;
+/// Largest plausible tip rotation component under load, rad (about 5.7°).
+pub const MAX_PLAUSIBLE_ROTATION: f64 = 0.1;
+
+/// Which part of a campaign a row belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SetLabel {
+    /// Used to fit models.
+    Train,
+    /// Held out: only used to measure prediction error and confirm findings.
+    Test,
+}
+
+impl SetLabel {
+    /// The label as written in the `set` column.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SetLabel::Train => "train",
+            SetLabel::Test => "test",
+        }
+    }
+}
+
+impl fmt::Display for SetLabel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Errors of reading, writing or building a measurement file. Line numbers count the header as
+/// line 1, as a text editor shows them.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DatasetError {
+    /// The file could not be opened, read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The CSV structure itself is broken (bad quoting, wrong number of fields, ...).
+    #[error("line {line}: malformed CSV: {message}")]
+    Csv {
+        /// File line (header = 1), 0 when unknown.
+        line: u64,
+        /// What the CSV parser reported.
+        message: String,
+    },
+    /// A required column is absent from the header.
+    #[error("missing column '{column}' (required columns: q1..q{n_joints}, fx,fy,fz,mx,my,mz, dx,dy,dz)")]
+    MissingColumn {
+        /// The column name.
+        column: String,
+        /// Joint count of the chain.
+        n_joints: usize,
+    },
+    /// A header name is not one of the file's columns.
+    #[error("unknown column '{column}' (allowed: q1..qN, fx,fy,fz,mx,my,mz, dx,dy,dz, rx,ry,rz, pose, set)")]
+    UnknownColumn {
+        /// The column name.
+        column: String,
+    },
+    /// A header name appears twice.
+    #[error("column '{column}' appears more than once")]
+    DuplicateColumn {
+        /// The column name.
+        column: String,
+    },
+    /// The file's `q` columns do not match the chain's actuated joint count.
+    #[error("the file has {found} joint columns (q1..q{found}) but the chain has {expected} actuated joints")]
+    JointCount {
+        /// Joint columns found (or joint values per row given).
+        found: usize,
+        /// Actuated joints of the chain.
+        expected: usize,
+    },
+    /// Only some of `rx,ry,rz` are present.
+    #[error("rotation columns must be given together: found {found:?}, need rx, ry and rz")]
+    PartialRotation {
+        /// The rotation columns that are present.
+        found: Vec<String>,
+    },
+    /// A cell is not a number (or not an integer for `pose`).
+    #[error("line {line}, column '{column}': cannot parse '{text}' as {expected}")]
+    Parse {
+        /// File line (header = 1).
+        line: u64,
+        /// The column name.
+        column: String,
+        /// The offending text.
+        text: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// A cell is NaN or infinite.
+    #[error("line {line}, column '{column}': value {value} is not finite")]
+    NonFinite {
+        /// File line (header = 1).
+        line: u64,
+        /// The column name.
+        column: String,
+        /// The value.
+        value: f64,
+    },
+    /// The `set` label is neither `train` nor `test`.
+    #[error("line {line}, column 'set': unknown label '{label}' (expected 'train' or 'test')")]
+    UnknownSet {
+        /// File line (header = 1).
+        line: u64,
+        /// The label found.
+        label: String,
+    },
+    /// A displacement, rotation or joint angle is physically implausible for its unit.
+    #[error("line {line}, column '{column}': {value} is larger than physically plausible ({limit} {unit}); {hint}")]
+    Implausible {
+        /// File line (header = 1).
+        line: u64,
+        /// The column name.
+        column: String,
+        /// The value.
+        value: f64,
+        /// The plausibility limit.
+        limit: f64,
+        /// The expected unit.
+        unit: &'static str,
+        /// The likely cause, e.g. "looks like mm, expected m".
+        hint: &'static str,
+    },
+    /// The file has a header but no data rows.
+    #[error("no data rows")]
+    Empty,
+    /// In-memory construction: a flat array does not have the expected length.
+    #[error("'{name}' has {found} values, expected {expected} ({rows} rows × {per_row})")]
+    Shape {
+        /// Which array.
+        name: &'static str,
+        /// Values given.
+        found: usize,
+        /// Values expected.
+        expected: usize,
+        /// Rows of the dataset.
+        rows: usize,
+        /// Values per row.
+        per_row: usize,
+    },
+    /// The train/test split leaves one side empty.
+    #[error("the train/test split leaves no {which} rows")]
+    EmptySplit {
+        /// `train` or `test`.
+        which: SetLabel,
+    },
+}
+
+/// A validated VJM measurement campaign. All vectors have base-frame components (see
+/// `docs/conventions.md`); arrays are row-major flat slices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    n_joints: usize,
+    q: Vec<f64>,
+    wrench: Vec<f64>,
+    displacement: Vec<f64>,
+    rotation: Option<Vec<f64>>,
+    pose: Option<Vec<i64>>,
+    set: Option<Vec<SetLabel>>,
+}
+
+const WRENCH_COLUMNS: [&str; 6] = ["fx", "fy", "fz", "mx", "my", "mz"];
+const DISPLACEMENT_COLUMNS: [&str; 3] = ["dx", "dy", "dz"];
+const ROTATION_COLUMNS: [&str; 3] = ["rx", "ry", "rz"];
+
+fn check_len(
+    name: &'static str,
+    v: &[f64],
+    rows: usize,
+    per_row: usize,
+) -> Result<(), DatasetError> {
+    if v.len() != rows * per_row {
+        return Err(DatasetError::Shape {
+            name,
+            found: v.len(),
+            expected: rows * per_row,
+            rows,
+            per_row,
+        });
+    }
+    Ok(())
+}
+
+/// Checks one value for finiteness and plausibility; `line` is the file line (or row index + 2
+/// for in-memory data, so that messages match the CSV the data would be written to).
+fn check_value(line: u64, column: &str, value: f64) -> Result<(), DatasetError> {
+    if !value.is_finite() {
+        return Err(DatasetError::NonFinite {
+            line,
+            column: column.to_string(),
+            value,
+        });
+    }
+    let implausible = |limit: f64, unit: &'static str, hint: &'static str| {
+        Err(DatasetError::Implausible {
+            line,
+            column: column.to_string(),
+            value,
+            limit,
+            unit,
+            hint,
+        })
+    };
+    if column.starts_with('d') && value.abs() > MAX_PLAUSIBLE_DISPLACEMENT {
+        return implausible(MAX_PLAUSIBLE_DISPLACEMENT, "m", "looks like mm, expected m");
+    }
+    if column.starts_with('r') && value.abs() > MAX_PLAUSIBLE_ROTATION {
+        return implausible(
+            MAX_PLAUSIBLE_ROTATION,
+            "rad",
+            "looks like degrees or mrad, expected rad",
+        );
+    }
+    if column.starts_with('q') && value.abs() > MAX_PLAUSIBLE_JOINT_ANGLE {
+        return implausible(
+            MAX_PLAUSIBLE_JOINT_ANGLE,
+            "rad",
+            "looks like degrees, expected rad",
+        );
+    }
+    Ok(())
+}
+
+impl Dataset {
+    /// Builds a dataset from row-major arrays: `q` N×n (rad), `wrench` N×6 (N, N·m),
+    /// `displacement` N×3 (m), optional `rotation` N×3 (rad), `pose` and `set` of length N.
+    /// Validates shapes, finiteness and plausibility exactly as [`Dataset::from_reader`] does
+    /// (row `i` is reported as line `i + 2`, its line in the written CSV).
+    pub fn new(
+        n_joints: usize,
+        q: Vec<f64>,
+        wrench: Vec<f64>,
+        displacement: Vec<f64>,
+        rotation: Option<Vec<f64>>,
+        pose: Option<Vec<i64>>,
+        set: Option<Vec<SetLabel>>,
+    ) -> Result<Self, DatasetError> {
+        let rows = displacement.len() / 3;
+        if rows == 0 {
+            return Err(DatasetError::Empty);
+        }
+        check_len("displacement", &displacement, rows, 3)?;
+        if n_joints == 0 || q.len() != rows * n_joints {
+            if q.len() % rows == 0 {
+                return Err(DatasetError::JointCount {
+                    found: q.len() / rows,
+                    expected: n_joints,
+                });
+            }
+            check_len("q", &q, rows, n_joints)?;
+        }
+        check_len("wrench", &wrench, rows, 6)?;
+        if let Some(r) = &rotation {
+            check_len("rotation", r, rows, 3)?;
+        }
+        if let Some(p) = &pose {
+            if p.len() != rows {
+                return Err(DatasetError::Shape {
+                    name: "pose",
+                    found: p.len(),
+                    expected: rows,
+                    rows,
+                    per_row: 1,
+                });
+            }
+        }
+        if let Some(s) = &set {
+            if s.len() != rows {
+                return Err(DatasetError::Shape {
+                    name: "set",
+                    found: s.len(),
+                    expected: rows,
+                    rows,
+                    per_row: 1,
+                });
+            }
+        }
+        for i in 0..rows {
+            let line = i as u64 + 2;
+            for j in 0..n_joints {
+                check_value(line, &format!("q{}", j + 1), q[i * n_joints + j])?;
+            }
+            for (k, c) in WRENCH_COLUMNS.iter().enumerate() {
+                check_value(line, c, wrench[i * 6 + k])?;
+            }
+            for (k, c) in DISPLACEMENT_COLUMNS.iter().enumerate() {
+                check_value(line, c, displacement[i * 3 + k])?;
+            }
+            if let Some(r) = &rotation {
+                for (k, c) in ROTATION_COLUMNS.iter().enumerate() {
+                    check_value(line, c, r[i * 3 + k])?;
+                }
+            }
+        }
+        Ok(Dataset {
+            n_joints,
+            q,
+            wrench,
+            displacement,
+            rotation,
+            pose,
+            set,
+        })
+    }
+
+    /// Reads and validates a measurement file for a chain with `n_joints` actuated joints.
+    pub fn read_csv(path: impl AsRef<Path>, n_joints: usize) -> Result<Self, DatasetError> {
+        let path = path.as_ref();
+        let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_reader(std::io::BufReader::new(file), n_joints)
+    }
+
+    /// Reads and validates a measurement file from any reader (see the module docs for columns).
+    pub fn from_reader(reader: impl Read, n_joints: usize) -> Result<Self, DatasetError> {
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::All)
+            .from_reader(reader);
+        let csv_err = |e: csv::Error| DatasetError::Csv {
+            line: e.position().map(|p| p.line()).unwrap_or(0),
+            message: e.to_string(),
+        };
+        let headers = rdr.headers().map_err(csv_err)?.clone();
+        // Map column name -> field index, rejecting unknown and duplicate names.
+        let mut index: BTreeMap<String, usize> = BTreeMap::new();
+        let mut q_found = 0usize;
+        for (k, h) in headers.iter().enumerate() {
+            let name = h.to_ascii_lowercase();
+            let known = WRENCH_COLUMNS.contains(&name.as_str())
+                || DISPLACEMENT_COLUMNS.contains(&name.as_str())
+                || ROTATION_COLUMNS.contains(&name.as_str())
+                || name == "pose"
+                || name == "set";
+            let is_q = name.len() > 1
+                && name.starts_with('q')
+                && name[1..].bytes().all(|b| b.is_ascii_digit())
+                && !name[1..].starts_with('0');
+            if !known && !is_q {
+                return Err(DatasetError::UnknownColumn {
+                    column: h.to_string(),
+                });
+            }
+            if is_q {
+                q_found += 1;
+            }
+            if index.insert(name, k).is_some() {
+                return Err(DatasetError::DuplicateColumn {
+                    column: h.to_string(),
+                });
+            }
+        }
+        // q columns must be exactly q1..qn.
+        if q_found != n_joints {
+            return Err(DatasetError::JointCount {
+                found: q_found,
+                expected: n_joints,
+            });
+        }
+        if let Some(missing) = (1..=n_joints)
+            .map(|j| format!("q{j}"))
+            .find(|c| !index.contains_key(c))
+        {
+            return Err(DatasetError::MissingColumn {
+                column: missing,
+                n_joints,
+            });
+        }
+        let need = |c: &str| -> Result<usize, DatasetError> {
+            index
+                .get(c)
+                .copied()
+                .ok_or_else(|| DatasetError::MissingColumn {
+                    column: c.to_string(),
+                    n_joints,
+                })
+        };
+        let q_idx: Vec<usize> = (1..=n_joints)
+            .map(|j| need(&format!("q{j}")))
+            .collect::<Result<_, _>>()?;
+        let w_idx: Vec<usize> = WRENCH_COLUMNS
+            .iter()
+            .map(|c| need(c))
+            .collect::<Result<_, _>>()?;
+        let d_idx: Vec<usize> = DISPLACEMENT_COLUMNS
+            .iter()
+            .map(|c| need(c))
+            .collect::<Result<_, _>>()?;
+        let r_present: Vec<String> = ROTATION_COLUMNS
+            .iter()
+            .filter(|c| index.contains_key(**c))
+            .map(|c| c.to_string())
+            .collect();
+        let r_idx: Option<Vec<usize>> = match r_present.len() {
+            0 => None,
+            3 => Some(ROTATION_COLUMNS.iter().map(|c| index[*c]).collect()),
+            _ => return Err(DatasetError::PartialRotation { found: r_present }),
+        };
+        let pose_idx = index.get("pose").copied();
+        let set_idx = index.get("set").copied();
+
+        let mut q = Vec::new();
+        let mut wrench = Vec::new();
+        let mut displacement = Vec::new();
+        let mut rotation = r_idx.as_ref().map(|_| Vec::new());
+        let mut pose = pose_idx.map(|_| Vec::new());
+        let mut set = set_idx.map(|_| Vec::new());
+        let mut record = csv::StringRecord::new();
+        loop {
+            match rdr.read_record(&mut record) {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(e) => return Err(csv_err(e)),
+            }
+            let line = record.position().map(|p| p.line()).unwrap_or(0);
+            let num = |k: usize, column: &str| -> Result<f64, DatasetError> {
+                let text = record.get(k).unwrap_or("");
+                let v: f64 = text.parse().map_err(|_| DatasetError::Parse {
+                    line,
+                    column: column.to_string(),
+                    text: text.to_string(),
+                    expected: "a number",
+                })?;
+                check_value(line, column, v)?;
+                Ok(v)
+            };
+            for (j, &k) in q_idx.iter().enumerate() {
+                q.push(num(k, &format!("q{}", j + 1))?);
+            }
+            for (c, &k) in WRENCH_COLUMNS.iter().zip(&w_idx) {
+                wrench.push(num(k, c)?);
+            }
+            for (c, &k) in DISPLACEMENT_COLUMNS.iter().zip(&d_idx) {
+                displacement.push(num(k, c)?);
+            }
+            if let (Some(ri), Some(rv)) = (&r_idx, rotation.as_mut()) {
+                for (c, &k) in ROTATION_COLUMNS.iter().zip(ri) {
+                    rv.push(num(k, c)?);
+                }
+            }
+            if let (Some(k), Some(pv)) = (pose_idx, pose.as_mut()) {
+                let text = record.get(k).unwrap_or("");
+                let id: i64 = text.parse().map_err(|_| DatasetError::Parse {
+                    line,
+                    column: "pose".to_string(),
+                    text: text.to_string(),
+                    expected: "an integer",
+                })?;
+                pv.push(id);
+            }
+            if let (Some(k), Some(sv)) = (set_idx, set.as_mut()) {
+                let text = record.get(k).unwrap_or("");
+                let label = match text.to_ascii_lowercase().as_str() {
+                    "train" => SetLabel::Train,
+                    "test" => SetLabel::Test,
+                    _ => {
+                        return Err(DatasetError::UnknownSet {
+                            line,
+                            label: text.to_string(),
+                        })
+                    }
+                };
+                sv.push(label);
+            }
+        }
+        if displacement.is_empty() {
+            return Err(DatasetError::Empty);
+        }
+        Ok(Dataset {
+            n_joints,
+            q,
+            wrench,
+            displacement,
+            rotation,
+            pose,
+            set,
+        })
+    }
+
+    /// Writes the dataset as CSV to `path`, atomically: the data go to a temporary file in the
+    /// same directory which is renamed over `path` only once it is complete.
+    pub fn write_csv(&self, path: impl AsRef<Path>) -> Result<(), DatasetError> {
+        let path = path.as_ref();
+        let io = |source: std::io::Error| DatasetError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file_name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "dataset.csv".to_string());
+        let tmp = path.with_file_name(format!(".{file_name}.{}.tmp", std::process::id()));
+        let result = (|| {
+            let file = std::fs::File::create(&tmp).map_err(io)?;
+            let mut w = std::io::BufWriter::new(file);
+            self.to_writer(&mut w)?;
+            w.flush().map_err(io)?;
+            w.get_ref().sync_all().map_err(io)?;
+            Ok::<(), DatasetError>(())
+        })();
+        match result {
+            Ok(()) => std::fs::rename(&tmp, path).map_err(io),
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                Err(e)
+            }
+        }
+    }
+
+    /// Writes the dataset as CSV to any writer. Floats are written with full round-trip
+    /// precision.
+    pub fn to_writer(&self, writer: impl Write) -> Result<(), DatasetError> {
+        let mut w = csv::Writer::from_writer(writer);
+        let csv_err = |e: csv::Error| DatasetError::Csv {
+            line: 0,
+            message: e.to_string(),
+        };
+        let mut header: Vec<String> = (1..=self.n_joints).map(|j| format!("q{j}")).collect();
+        header.extend(WRENCH_COLUMNS.iter().map(|s| s.to_string()));
+        header.extend(DISPLACEMENT_COLUMNS.iter().map(|s| s.to_string()));
+        if self.rotation.is_some() {
+            header.extend(ROTATION_COLUMNS.iter().map(|s| s.to_string()));
+        }
+        if self.pose.is_some() {
+            header.push("pose".into());
+        }
+        if self.set.is_some() {
+            header.push("set".into());
+        }
+        w.write_record(&header).map_err(csv_err)?;
+        let mut fields: Vec<String> = Vec::with_capacity(header.len());
+        for i in 0..self.len() {
+            fields.clear();
+            fields.extend(self.q(i).iter().map(|v| format!("{v:?}")));
+            fields.extend(self.wrench(i).iter().map(|v| format!("{v:?}")));
+            fields.extend(self.displacement(i).iter().map(|v| format!("{v:?}")));
+            if let Some(r) = self.rotation(i) {
+                fields.extend(r.iter().map(|v| format!("{v:?}")));
+            }
+            if let Some(p) = self.pose(i) {
+                fields.push(p.to_string());
+            }
+            if let Some(s) = self.set(i) {
+                fields.push(s.as_str().to_string());
+            }
+            w.write_record(&fields).map_err(csv_err)?;
+        }
+        w.flush().map_err(|source| DatasetError::Io {
+            path: PathBuf::from("<writer>"),
+            source,
+        })
+    }
+
+    /// Number of measurements (rows).
+    pub fn len(&self) -> usize {
+        self.displacement.len() / 3
+    }
+
+    /// Always false: a dataset has at least one row.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Actuated joints per configuration.
+    pub fn n_joints(&self) -> usize {
+        self.n_joints
+    }
+
+    /// Joint angles of row `i`, rad.
+    pub fn q(&self, i: usize) -> &[f64] {
+        &self.q[i * self.n_joints..(i + 1) * self.n_joints]
+    }
+
+    /// Recorded wrench of row `i`, `[fx, fy, fz, mx, my, mz]`, base frame, N and N·m.
+    pub fn wrench(&self, i: usize) -> [f64; 6] {
+        let w = &self.wrench[i * 6..i * 6 + 6];
+        [w[0], w[1], w[2], w[3], w[4], w[5]]
+    }
+
+    /// Measured tip displacement of row `i`, base frame, m.
+    pub fn displacement(&self, i: usize) -> [f64; 3] {
+        let d = &self.displacement[i * 3..i * 3 + 3];
+        [d[0], d[1], d[2]]
+    }
+
+    /// Measured tip rotation vector of row `i` (base frame, rad), when the file has one.
+    pub fn rotation(&self, i: usize) -> Option<[f64; 3]> {
+        self.rotation
+            .as_ref()
+            .map(|r| [r[i * 3], r[i * 3 + 1], r[i * 3 + 2]])
+    }
+
+    /// Pose id of row `i`, when the file has a `pose` column.
+    pub fn pose(&self, i: usize) -> Option<i64> {
+        self.pose.as_ref().map(|p| p[i])
+    }
+
+    /// Set label of row `i`, when the file has a `set` column.
+    pub fn set(&self, i: usize) -> Option<SetLabel> {
+        self.set.as_ref().map(|s| s[i])
+    }
+
+    /// All joint angles, row-major N×n.
+    pub fn q_flat(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// All wrenches, row-major N×6.
+    pub fn wrench_flat(&self) -> &[f64] {
+        &self.wrench
+    }
+
+    /// All displacements, row-major N×3.
+    pub fn displacement_flat(&self) -> &[f64] {
+        &self.displacement
+    }
+
+    /// Pose group of every row: the `pose` column when present, otherwise rows with bitwise
+    /// identical joint angles share a group. Groups are numbered 0.. in order of first appearance.
+    pub fn pose_groups(&self) -> Vec<usize> {
+        let mut ids: Vec<usize> = Vec::with_capacity(self.len());
+        match &self.pose {
+            Some(p) => {
+                let mut map: BTreeMap<i64, usize> = BTreeMap::new();
+                for &id in p {
+                    let next = map.len();
+                    ids.push(*map.entry(id).or_insert(next));
+                }
+            }
+            None => {
+                let mut map: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
+                for i in 0..self.len() {
+                    let key: Vec<u64> = self.q(i).iter().map(|v| v.to_bits()).collect();
+                    let next = map.len();
+                    ids.push(*map.entry(key).or_insert(next));
+                }
+            }
+        }
+        ids
+    }
+
+    /// The train/test label of every row. With a `set` column, that column. Without one, whole
+    /// poses (see [`Dataset::pose_groups`]) are held out: `round(test_fraction · poses)` of them
+    /// (at least one, and at least one left for training), chosen by a ChaCha8 shuffle seeded
+    /// with `seed`, so the split is reproducible.
+    pub fn split(&self, test_fraction: f64, seed: u64) -> Result<Vec<SetLabel>, DatasetError> {
+        let labels = match &self.set {
+            Some(s) => s.clone(),
+            None => {
+                let groups = self.pose_groups();
+                let n_groups = groups.iter().copied().max().map_or(0, |m| m + 1);
+                let mut order: Vec<usize> = (0..n_groups).collect();
+                order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+                let frac = if test_fraction.is_finite() {
+                    test_fraction.clamp(0.0, 1.0)
+                } else {
+                    0.25
+                };
+                let n_test = ((frac * n_groups as f64).round() as usize)
+                    .max(1)
+                    .min(n_groups.saturating_sub(1));
+                let mut is_test = vec![false; n_groups];
+                for &g in &order[..n_test] {
+                    is_test[g] = true;
+                }
+                groups
+                    .iter()
+                    .map(|&g| {
+                        if is_test[g] {
+                            SetLabel::Test
+                        } else {
+                            SetLabel::Train
+                        }
+                    })
+                    .collect()
+            }
+        };
+        for which in [SetLabel::Train, SetLabel::Test] {
+            if !labels.contains(&which) {
+                return Err(DatasetError::EmptySplit { which });
+            }
+        }
+        Ok(labels)
+    }
+
+    /// A copy with the given set labels (length must equal [`Dataset::len`]).
+    pub fn with_set(mut self, set: Vec<SetLabel>) -> Result<Self, DatasetError> {
+        if set.len() != self.len() {
+            return Err(DatasetError::Shape {
+                name: "set",
+                found: set.len(),
+                expected: self.len(),
+                rows: self.len(),
+                per_row: 1,
+            });
+        }
+        self.set = Some(set);
+        Ok(self)
+    }
+}

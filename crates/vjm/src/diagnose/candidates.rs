@@ -1,0 +1,251 @@
+//! The catalogue of candidate extensions and their design-matrix columns.
+//!
+//! Every candidate adds columns that are linear in new parameters; where the effect is bilinear
+//! in the baseline compliances (wrench bias, frame misalignment, geometric non-linearity) the
+//! columns are taken at the current fit (a Gauss–Newton step around it). See
+//! `docs/diagnose.md` for the derivation of each column.
+
+use nalgebra::{DMatrix, Matrix3};
+
+use crate::chain::SerialChain;
+use crate::model::SpringAxis;
+use crate::testbed::{Effect, TrueModel};
+
+/// One candidate extension of the model. Joints are 0-based here and 1-based in the report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Candidate {
+    /// A tilting spring at `joint` about `axis` (`X` or `Y`).
+    JointTilt {
+        /// 0-based joint.
+        joint: usize,
+        /// `X` or `Y`.
+        axis: SpringAxis,
+    },
+    /// Torque-dependent torsional compliance at `joint`.
+    JointTorsionNonlinear {
+        /// 0-based joint.
+        joint: usize,
+    },
+    /// Lost motion at `joint`.
+    JointBacklash {
+        /// 0-based joint.
+        joint: usize,
+    },
+    /// A constant bias in the recorded wrench (6 parameters).
+    WrenchBias,
+    /// A small rotation between the measurement frame and the base (3 parameters).
+    FrameMisalignment,
+    /// The geometric non-linearity (K_C) correction, one scale parameter.
+    GeometricNonlinearity,
+}
+
+impl Candidate {
+    /// The effect name of the output contract.
+    pub fn effect(&self) -> &'static str {
+        match self {
+            Candidate::JointTilt { .. } => "joint_tilt",
+            Candidate::JointTorsionNonlinear { .. } => "joint_torsion_nonlinear",
+            Candidate::JointBacklash { .. } => "joint_backlash",
+            Candidate::WrenchBias => "wrench_bias",
+            Candidate::FrameMisalignment => "frame_misalignment",
+            Candidate::GeometricNonlinearity => "geometric_nonlinearity",
+        }
+    }
+
+    /// 0-based joint, when the effect sits at a joint.
+    pub fn joint(&self) -> Option<usize> {
+        match self {
+            Candidate::JointTilt { joint, .. }
+            | Candidate::JointTorsionNonlinear { joint }
+            | Candidate::JointBacklash { joint } => Some(*joint),
+            _ => None,
+        }
+    }
+
+    /// Tilt axis, for `joint_tilt`.
+    pub fn axis(&self) -> Option<SpringAxis> {
+        match self {
+            Candidate::JointTilt { axis, .. } => Some(*axis),
+            _ => None,
+        }
+    }
+
+    /// Number of new parameters (design columns).
+    pub fn n_columns(&self) -> usize {
+        match self {
+            Candidate::WrenchBias => 6,
+            Candidate::FrameMisalignment => 3,
+            _ => 1,
+        }
+    }
+
+    /// Whether the columns depend on the current fit (re-linearised after each refit).
+    pub fn bilinear(&self) -> bool {
+        matches!(
+            self,
+            Candidate::WrenchBias | Candidate::FrameMisalignment | Candidate::GeometricNonlinearity
+        )
+    }
+
+    /// Human-readable label, 1-based joints, e.g. `joint_tilt(J3x)`.
+    pub fn label(&self) -> String {
+        match (self.joint(), self.axis()) {
+            (Some(j), Some(a)) => format!("{}(J{}{})", self.effect(), j + 1, a),
+            (Some(j), None) => format!("{}(J{})", self.effect(), j + 1),
+            _ => self.effect().to_string(),
+        }
+    }
+
+    /// Unit of the parameters the columns multiply.
+    pub fn unit(&self) -> &'static str {
+        match self {
+            Candidate::JointTilt { .. } => "rad/(N·m)",
+            Candidate::JointTorsionNonlinear { .. } => "rad/(N·m) at the RMS torque",
+            Candidate::JointBacklash { .. } => "rad",
+            Candidate::WrenchBias => "N, N·m",
+            Candidate::FrameMisalignment => "rad",
+            Candidate::GeometricNonlinearity => "1 (1 = the physical K_C)",
+        }
+    }
+}
+
+/// The full catalogue for a model whose springs are `in_model` (flags over the 3n springs,
+/// joint-major `[z, x, y]`): tilts not in the model, torsion non-linearity and backlash at every
+/// joint whose torsion spring is modelled, and the three global effects.
+pub fn catalogue(in_model: &[bool]) -> Vec<Candidate> {
+    let n = in_model.len() / 3;
+    let mut out = Vec::new();
+    for joint in 0..n {
+        for (k, axis) in [(1, SpringAxis::X), (2, SpringAxis::Y)] {
+            if !in_model[3 * joint + k] {
+                out.push(Candidate::JointTilt { joint, axis });
+            }
+        }
+    }
+    for joint in 0..n {
+        if in_model[3 * joint] {
+            out.push(Candidate::JointTorsionNonlinear { joint });
+            out.push(Candidate::JointBacklash { joint });
+        }
+    }
+    out.push(Candidate::WrenchBias);
+    out.push(Candidate::FrameMisalignment);
+    out.push(Candidate::GeometricNonlinearity);
+    out
+}
+
+/// Kinematic quantities of one measurement row, computed once.
+#[derive(Debug, Clone)]
+pub struct RowKinematics {
+    /// Joint angles, rad.
+    pub q: Vec<f64>,
+    /// 6×3n virtual-joint Jacobian at the tip point, base frame.
+    pub jacobian: DMatrix<f64>,
+    /// Spring torques Jᵀ W under the recorded wrench, N·m (3n).
+    pub tau: Vec<f64>,
+    /// Recorded wrench, base frame.
+    pub wrench: [f64; 6],
+    /// Measured displacement, base frame, m.
+    pub displacement: [f64; 3],
+    /// Unloaded tip point, base frame, m.
+    pub tip: [f64; 3],
+}
+
+/// The point the bilinear columns are linearised at: the full 3n compliance vector of the
+/// current fit and its spring-only predicted displacement per row.
+#[derive(Debug, Clone)]
+pub struct Linearisation {
+    /// Compliance of every spring (0 for springs not in the model), rad/(N·m).
+    pub compliance: Vec<f64>,
+    /// `J_t C Jᵀ W` per row, m.
+    pub spring_prediction: Vec<[f64; 3]>,
+}
+
+fn col3(j: &DMatrix<f64>, s: usize) -> [f64; 3] {
+    [j[(0, s)], j[(1, s)], j[(2, s)]]
+}
+
+fn scale3(v: [f64; 3], a: f64) -> [f64; 3] {
+    [v[0] * a, v[1] * a, v[2] * a]
+}
+
+/// `J_t C Jᵀ` (3×6) of a row for compliances `c` (3n).
+pub fn compliance_map(row: &RowKinematics, c: &[f64]) -> DMatrix<f64> {
+    let m = c.len();
+    let jt = row.jacobian.rows(0, 3);
+    let mut jc = DMatrix::zeros(3, m);
+    for s in 0..m {
+        for r in 0..3 {
+            jc[(r, s)] = jt[(r, s)] * c[s];
+        }
+    }
+    jc * row.jacobian.transpose()
+}
+
+/// The raw (unwhitened) 3-vector of spring `s` (index into the 3n springs) for a row:
+/// `J_t[:, s] · τ_s`.
+pub fn spring_column(row: &RowKinematics, s: usize) -> [f64; 3] {
+    scale3(col3(&row.jacobian, s), row.tau[s])
+}
+
+/// Raw columns of `cand` for one row: one 3-vector per parameter.
+///
+/// - `joint_tilt (j, a)`: `J_t[:, ja] · τ_ja`;
+/// - `joint_torsion_nonlinear (j)`: `J_t[:, jz] · τ_jz |τ_jz| / s_j` with `s_j` the RMS of
+///   τ_jz over the training rows (the parameter is then a compliance change at the RMS torque);
+/// - `joint_backlash (j)`: `J_t[:, jz] · ½ sign(τ_jz)` (the parameter is the lost motion b);
+/// - `wrench_bias`: `−J_t C Jᵀ e_k`, k = 1..6 (the parameter is the bias β, recorded = applied + β);
+/// - `frame_misalignment`: `−hat(d̂)` with d̂ the spring prediction (the parameter is φ,
+///   recorded = exp(hat φ) d ≈ d + φ × d);
+/// - `geometric_nonlinearity`: `d_exact(C) − J_t C Jᵀ W`, the exact deflected-equilibrium
+///   response minus the linear one at the current compliances (parameter 1 = physical).
+pub fn candidate_columns(
+    chain: &SerialChain,
+    cand: &Candidate,
+    row: &RowKinematics,
+    row_index: usize,
+    lin: &Linearisation,
+    tau_scale: &[f64],
+) -> Vec<[f64; 3]> {
+    match *cand {
+        Candidate::JointTilt { joint, axis } => {
+            let k = match axis {
+                SpringAxis::Z => 0,
+                SpringAxis::X => 1,
+                SpringAxis::Y => 2,
+            };
+            vec![spring_column(row, 3 * joint + k)]
+        }
+        Candidate::JointTorsionNonlinear { joint } => {
+            let t = row.tau[3 * joint];
+            let s = tau_scale[joint].max(1e-12);
+            vec![scale3(col3(&row.jacobian, 3 * joint), t * t.abs() / s)]
+        }
+        Candidate::JointBacklash { joint } => {
+            let t = row.tau[3 * joint];
+            let sg = if t == 0.0 { 0.0 } else { t.signum() };
+            vec![scale3(col3(&row.jacobian, 3 * joint), 0.5 * sg)]
+        }
+        Candidate::WrenchBias => {
+            let g = compliance_map(row, &lin.compliance);
+            (0..6)
+                .map(|k| [-g[(0, k)], -g[(1, k)], -g[(2, k)]])
+                .collect()
+        }
+        Candidate::FrameMisalignment => {
+            let d = lin.spring_prediction[row_index];
+            // −hat(d) columns: −hat(d) e_k = e_k × d.
+            let h = -Matrix3::new(0.0, -d[2], d[1], d[2], 0.0, -d[0], -d[1], d[0], 0.0);
+            (0..3).map(|k| [h[(0, k)], h[(1, k)], h[(2, k)]]).collect()
+        }
+        Candidate::GeometricNonlinearity => {
+            let truth = TrueModel {
+                compliance: lin.compliance.clone(),
+                effects: vec![Effect::GeometricNonlinearity],
+            };
+            let (d, _) = truth.displacement(chain, &row.q, &row.wrench);
+            let l = lin.spring_prediction[row_index];
+            vec![[d.x - l[0], d.y - l[1], d.z - l[2]]]
+        }
+    }
+}

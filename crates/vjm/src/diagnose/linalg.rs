@@ -1,0 +1,160 @@
+//! Small dense least-squares kernels for the diagnosis: an incrementally grown orthonormal basis
+//! of the model's (whitened) columns, used to score many candidate column blocks cheaply, and a
+//! rank-revealing SVD solve for the final coefficients.
+//!
+//! Columns are stored as `Vec<f64>` of length n (whitened observations).
+
+use nalgebra::{DMatrix, DVector};
+
+/// Relative tolerance under which a column's part orthogonal to the basis is treated as zero
+/// (the column lies in the span of the model: not testable on these data).
+pub const RANK_TOL: f64 = 1e-7;
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// An orthonormal basis of a set of columns (modified Gram–Schmidt with one re-orthogonalisation
+/// pass, which is enough for working precision).
+#[derive(Debug, Clone, Default)]
+pub struct Basis {
+    q: Vec<Vec<f64>>,
+}
+
+impl Basis {
+    /// An empty basis.
+    pub fn new() -> Self {
+        Basis { q: Vec::new() }
+    }
+
+    /// Dimension of the spanned space.
+    pub fn rank(&self) -> usize {
+        self.q.len()
+    }
+
+    /// Removes from `v` its components along the basis (twice, for stability).
+    pub fn project_out(&self, v: &mut [f64]) {
+        for _ in 0..2 {
+            for q in &self.q {
+                let c = dot(q, v);
+                for (vi, qi) in v.iter_mut().zip(q) {
+                    *vi -= c * qi;
+                }
+            }
+        }
+    }
+
+    /// Adds `col`; returns the norm of its part orthogonal to the basis relative to its own norm
+    /// (0 when it was already in the span and nothing was added).
+    pub fn push(&mut self, col: &[f64]) -> f64 {
+        let n0 = norm(col);
+        if n0 == 0.0 {
+            return 0.0;
+        }
+        let mut v = col.to_vec();
+        self.project_out(&mut v);
+        let n1 = norm(&v);
+        let rel = n1 / n0;
+        if rel <= RANK_TOL {
+            return 0.0;
+        }
+        v.iter_mut().for_each(|x| *x /= n1);
+        self.q.push(v);
+        rel
+    }
+
+    /// Squared norm of the projection of `y` onto the span.
+    pub fn explained(&self, y: &[f64]) -> f64 {
+        self.q.iter().map(|q| dot(q, y).powi(2)).sum()
+    }
+}
+
+/// The columns of a candidate made orthogonal to a model basis and orthonormalised among
+/// themselves; `rank` may be below the candidate's column count.
+#[derive(Debug, Clone)]
+pub struct Orthogonalised {
+    /// Orthonormal columns spanning the candidate's part outside the model.
+    pub basis: Basis,
+    /// Per input column: relative norm of its part outside the model (0 = in the model's span).
+    pub outside: Vec<f64>,
+    /// The first column's part outside the model, not normalised (for alias cosines).
+    pub first_residual: Vec<f64>,
+}
+
+/// Orthogonalises candidate columns `cols` against `model`.
+pub fn orthogonalise(model: &Basis, cols: &[Vec<f64>]) -> Orthogonalised {
+    let mut basis = Basis::new();
+    let mut outside = Vec::with_capacity(cols.len());
+    let mut first_residual = Vec::new();
+    for (k, c) in cols.iter().enumerate() {
+        let n0 = norm(c);
+        let mut v = c.clone();
+        model.project_out(&mut v);
+        if k == 0 {
+            first_residual = v.clone();
+        }
+        let rel = if n0 > 0.0 { norm(&v) / n0 } else { 0.0 };
+        outside.push(rel);
+        if rel > RANK_TOL {
+            // Measure the remaining rank against the original column norm.
+            let mut w = v.clone();
+            basis.project_out(&mut w);
+            if norm(&w) / n0 > RANK_TOL {
+                let nw = norm(&w);
+                w.iter_mut().for_each(|x| *x /= nw);
+                basis.q.push(w);
+            }
+        }
+    }
+    Orthogonalised {
+        basis,
+        outside,
+        first_residual,
+    }
+}
+
+/// Cosine of the angle between two vectors (0 when either is zero).
+pub fn cosine(a: &[f64], b: &[f64]) -> f64 {
+    let (na, nb) = (norm(a), norm(b));
+    if na == 0.0 || nb == 0.0 {
+        0.0
+    } else {
+        dot(a, b) / (na * nb)
+    }
+}
+
+/// Minimum-norm least-squares solution of `X β ≈ y` with `X` given by columns, through a
+/// thin SVD with singular values below `RANK_TOL · σ_max` discarded. Returns `(β, rank)`.
+pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> (Vec<f64>, usize) {
+    let p = cols.len();
+    if p == 0 {
+        return (Vec::new(), 0);
+    }
+    let n = y.len();
+    // Scale columns to unit norm so the rank tolerance is independent of units.
+    let scales: Vec<f64> = cols
+        .iter()
+        .map(|c| {
+            let s = norm(c);
+            if s > 0.0 {
+                s
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let x = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scales[j]);
+    let svd = x.svd(true, true);
+    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    let tol = RANK_TOL * smax.max(f64::MIN_POSITIVE);
+    let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
+    let beta = svd
+        .solve(&DVector::from_column_slice(y), tol)
+        .map(|b| b.iter().cloned().collect::<Vec<f64>>())
+        .unwrap_or_else(|_| vec![0.0; p]);
+    (beta.iter().zip(&scales).map(|(b, s)| b / s).collect(), rank)
+}

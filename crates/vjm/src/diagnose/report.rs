@@ -1,0 +1,185 @@
+//! The diagnosis result, serialisable to the JSON of issue 5's output contract
+//! (`baseline`, `findings`, `extended`, `unexplained`) plus the material for a report.
+
+use serde::Serialize;
+
+use super::stats::FTest;
+use super::structure::ResidualStructure;
+use crate::dataset::SetLabel;
+
+/// A fitted model and its errors.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelSummary {
+    /// Model name, e.g. `traditional` or `traditional + joint_tilt(J3x)`.
+    pub model: String,
+    /// Number of parameters.
+    pub n_params: usize,
+    /// Mean over held-out rows of ‖d_pred − d_meas‖/‖d_meas‖ (translation only).
+    pub test_mean_rel_error: f64,
+    /// The same over the training rows.
+    pub train_mean_rel_error: f64,
+    /// Fitted parameters, in model order, with labels and units.
+    pub parameters: Vec<Parameter>,
+}
+
+/// One fitted parameter.
+#[derive(Debug, Clone, Serialize)]
+pub struct Parameter {
+    /// Label, e.g. `J3z`, `wrench_bias.fx`, `joint_tilt(J3x)`.
+    pub label: String,
+    /// Estimate.
+    pub value: f64,
+    /// Unit.
+    pub unit: &'static str,
+}
+
+/// A candidate that cannot be told apart from a finding on these data.
+#[derive(Debug, Clone, Serialize)]
+pub struct Alias {
+    /// Effect name.
+    pub effect: &'static str,
+    /// 1-based joint or null.
+    pub joint: Option<usize>,
+    /// `x`, `y` or null.
+    pub axis: Option<String>,
+    /// |cosine| between the two candidates' columns after projecting out the model
+    /// (single-column candidates only).
+    pub cosine: Option<f64>,
+    /// (SSE with the alias − SSE with the finding) / σ̂², in units of noise variance.
+    pub delta_chi2: f64,
+}
+
+/// Why a finding was named.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evidence {
+    /// Forward-selection step (1 = first finding).
+    pub step: usize,
+    /// Nested-model F test of adding the candidate to the model of that step (training rows,
+    /// whitened by the noise model).
+    pub f_test: FTest,
+    /// Candidates tested at that step (the Benjamini–Hochberg family size).
+    pub n_candidates: usize,
+    /// The BH threshold the p-value had to beat: q · rank / m.
+    pub bh_threshold: f64,
+    /// Fraction of the training whitened SSE the candidate removed.
+    pub sse_reduction: f64,
+    /// Whitened SSE on the held-out rows before adding the candidate.
+    pub heldout_sse_before: f64,
+    /// Whitened SSE on the held-out rows after adding it (must be lower to be confirmed).
+    pub heldout_sse_after: f64,
+    /// Estimated parameters of the candidate (in the final extended fit).
+    pub estimate: Vec<f64>,
+    /// Their unit.
+    pub unit: &'static str,
+}
+
+/// A named effect.
+#[derive(Debug, Clone, Serialize)]
+pub struct Finding {
+    /// One of `joint_tilt`, `joint_torsion_nonlinear`, `joint_backlash`, `wrench_bias`,
+    /// `frame_misalignment`, `geometric_nonlinearity`.
+    pub effect: &'static str,
+    /// 1-based joint (base → tip) or null.
+    pub joint: Option<usize>,
+    /// `x` or `y` (tilts) or null.
+    pub axis: Option<String>,
+    /// Candidates indistinguishable from this one on these data.
+    pub aliases: Vec<Alias>,
+    /// The statistics behind the finding.
+    pub evidence: Evidence,
+}
+
+/// The first-step score of one catalogue candidate against the baseline.
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateScore {
+    /// Label, e.g. `joint_tilt(J3x)`.
+    pub label: String,
+    /// Effect name.
+    pub effect: &'static str,
+    /// 1-based joint or null.
+    pub joint: Option<usize>,
+    /// `x`, `y` or null.
+    pub axis: Option<String>,
+    /// False when the candidate's columns lie in the span of the baseline (not testable here).
+    pub testable: bool,
+    /// The F test (None when not testable).
+    pub f_test: Option<FTest>,
+}
+
+/// Mean relative error per pose, before and after the extension.
+#[derive(Debug, Clone, Serialize)]
+pub struct PoseError {
+    /// Pose id (the file's `pose` column, or the configuration's order of appearance).
+    pub pose: i64,
+    /// Whether the pose was used for fitting or held out.
+    pub set: SetLabel,
+    /// Mean relative error of the baseline over the pose's rows.
+    pub baseline: f64,
+    /// Mean relative error of the extended model over the pose's rows.
+    pub extended: f64,
+}
+
+/// Measured and predicted displacements of one row (m, base frame), for residual plots.
+#[derive(Debug, Clone, Serialize)]
+pub struct RowResult {
+    /// Pose id.
+    pub pose: i64,
+    /// Train or test.
+    pub set: SetLabel,
+    /// Measured displacement.
+    pub measured: [f64; 3],
+    /// Baseline prediction.
+    pub baseline: [f64; 3],
+    /// Extended-model prediction.
+    pub extended: [f64; 3],
+}
+
+/// Residual structure before and after the extension.
+#[derive(Debug, Clone, Serialize)]
+pub struct ResidualReport {
+    /// Baseline residuals on the training rows.
+    pub baseline: ResidualStructure,
+    /// Extended-model residuals on the training rows.
+    pub extended: ResidualStructure,
+}
+
+/// The full result of [`diagnose`](super::diagnose).
+#[derive(Debug, Clone, Serialize)]
+pub struct Diagnosis {
+    /// The baseline model.
+    pub baseline: ModelSummary,
+    /// Named effects, in the order they were accepted.
+    pub findings: Vec<Finding>,
+    /// The baseline extended by the findings, refitted.
+    pub extended: ModelSummary,
+    /// True when the extended model's residuals still have structure (per-pose ANOVA) that no
+    /// candidate explains.
+    pub unexplained: bool,
+    /// Relative reduction of the held-out error, 1 − extended/baseline.
+    pub gain: f64,
+    /// Residual statistics.
+    pub residuals: ResidualReport,
+    /// First-step scores of the whole catalogue.
+    pub scores: Vec<CandidateScore>,
+    /// Candidates significant on the training rows but not confirmed on the held-out rows.
+    pub rejected_on_holdout: Vec<String>,
+    /// Per-pose errors.
+    pub per_pose: Vec<PoseError>,
+    /// Per-row measured and predicted displacements.
+    pub rows: Vec<RowResult>,
+    /// Training and held-out row counts.
+    pub n_train: usize,
+    /// Held-out rows.
+    pub n_test: usize,
+    /// False discovery rate used.
+    pub fdr: f64,
+}
+
+impl Diagnosis {
+    /// The result as pretty JSON.
+    pub fn to_json(&self) -> String {
+        // Serialising plain structs of numbers and strings cannot fail; non-finite floats
+        // become null.
+        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    }
+}

@@ -1,0 +1,380 @@
+//! Measurement campaigns: seeded poses within the joint limits and away from singularities,
+//! several wrenches per pose, the true response, and instrument noise.
+
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::Serialize;
+
+use super::effects::{ForceSensorNoise, TrackerNoise};
+use super::kinematics::deflected_pose;
+use super::truth::{Effect, TrueModel};
+use super::TestbedError;
+use crate::chain::SerialChain;
+use crate::dataset::Dataset;
+use crate::model::SpringAxis;
+
+/// How to generate a campaign. Defaults: 40 poses × 4 wrenches, forces 10–80 N, moments up to
+/// 3 N·m, a quarter of the poses held out, nominal instrument noise.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CampaignSpec {
+    /// Number of configurations.
+    pub n_poses: usize,
+    /// Wrenches applied at each configuration.
+    pub wrenches_per_pose: usize,
+    /// Range of the force magnitude, N (uniform).
+    pub force_range: (f64, f64),
+    /// Largest moment magnitude, N·m (uniform in [0, max]).
+    pub moment_max: f64,
+    /// Fraction of the poses written with `set = test`.
+    pub test_fraction: f64,
+    /// Laser tracker noise.
+    pub tracker: TrackerNoise,
+    /// Force/torque sensor noise.
+    pub force_sensor: ForceSensorNoise,
+    /// Whether to add instrument noise at all.
+    pub noise: bool,
+    /// Poses stay this far inside each joint limit, rad.
+    pub limit_margin: f64,
+    /// Smallest accepted inverse condition number σ_min/σ_max of the actuated Jacobian
+    /// `[J_lin; L·J_ang]` with L = 0.5 m (rejects poses near singularities).
+    pub min_inverse_condition: f64,
+    /// Smallest accepted tip height above the base, m (the robot does not push into its table).
+    pub min_tip_height: f64,
+    /// Seed of everything random; the same seed gives the same file.
+    pub seed: u64,
+}
+
+impl Default for CampaignSpec {
+    fn default() -> Self {
+        CampaignSpec {
+            n_poses: 40,
+            wrenches_per_pose: 4,
+            force_range: (10.0, 80.0),
+            moment_max: 3.0,
+            test_fraction: 0.25,
+            tracker: TrackerNoise::default(),
+            force_sensor: ForceSensorNoise::default(),
+            noise: true,
+            limit_margin: 0.1,
+            min_inverse_condition: 0.05,
+            min_tip_height: 0.1,
+            seed: 0,
+        }
+    }
+}
+
+/// A simulated campaign: the measurement file plus the hidden truth row by row.
+#[derive(Debug, Clone)]
+pub struct Campaign {
+    /// What the instruments recorded (with `pose` and `set` columns).
+    pub dataset: Dataset,
+    /// The wrench actually applied, base frame (N, N·m), per row.
+    pub applied_wrench: Vec<[f64; 6]>,
+    /// The true displacement before measurement effects and noise, base frame (m), per row.
+    pub true_displacement: Vec<[f64; 3]>,
+    /// Unloaded tip point, base frame (m), per row.
+    pub tip: Vec<[f64; 3]>,
+}
+
+/// Streams of the campaign RNG: the geometry (poses, wrenches) does not depend on whether
+/// noise is drawn, so a noisy and a noise-free campaign with one seed share their poses.
+fn stream(seed: u64, k: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(k);
+    rng
+}
+
+pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), TestbedError> {
+    let n = chain.n_joints();
+    if truth.compliance.len() != 3 * n {
+        return Err(TestbedError::TruthSize {
+            compliances: truth.compliance.len(),
+            expected: 3 * n,
+        });
+    }
+    if let Some(c) = truth.compliance.iter().position(|c| !c.is_finite()) {
+        return Err(TestbedError::InvalidTruth {
+            message: format!("compliance {c} is not finite"),
+        });
+    }
+    for e in &truth.effects {
+        let joint = match e {
+            Effect::JointTilt { joint, axis, .. } => {
+                if *axis == SpringAxis::Z {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "joint_tilt at joint {} has axis z; tilts are about x or y",
+                            joint + 1
+                        ),
+                    });
+                }
+                Some(*joint)
+            }
+            Effect::TorsionNonlinear { joint, spring } => {
+                if !(spring.k1 > 0.0
+                    && spring.k2 > 0.0
+                    && spring.k3 > 0.0
+                    && spring.t1 > 0.0
+                    && spring.t2 > spring.t1)
+                {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "harmonic-drive spring at joint {} needs k1, k2, k3 > 0 and 0 < t1 < t2",
+                            joint + 1
+                        ),
+                    });
+                }
+                Some(*joint)
+            }
+            Effect::Backlash { joint, lost_motion } => {
+                if !(lost_motion.is_finite() && *lost_motion >= 0.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "backlash at joint {} must be finite and ≥ 0, got {lost_motion}",
+                            joint + 1
+                        ),
+                    });
+                }
+                Some(*joint)
+            }
+            Effect::PoseDrift { sigma } => {
+                if !(sigma.is_finite() && *sigma >= 0.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!("pose drift sigma must be finite and ≥ 0, got {sigma}"),
+                    });
+                }
+                None
+            }
+            _ => None,
+        };
+        if let Some(j) = joint {
+            if j >= n {
+                return Err(TestbedError::InvalidTruth {
+                    message: format!("effect at joint {} but the chain has {n} joints", j + 1),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Inverse condition number of the actuated Jacobian `[J_lin; L·J_ang]`, L = 0.5 m.
+pub fn inverse_condition(chain: &SerialChain, q: &[f64]) -> f64 {
+    let n = chain.n_joints();
+    let pose = deflected_pose(chain, q, &vec![0.0; 3 * n]);
+    let j = DMatrix::from_fn(6, n, |r, c| {
+        let v = pose.jacobian[(r, 3 * c)];
+        if r < 3 {
+            v
+        } else {
+            0.5 * v
+        }
+    });
+    let s = j.singular_values();
+    let smax = s.iter().cloned().fold(0.0, f64::max);
+    let smin = s.iter().cloned().fold(f64::INFINITY, f64::min);
+    if smax > 0.0 {
+        smin / smax
+    } else {
+        0.0
+    }
+}
+
+/// Draws a campaign from `truth` on `chain` following `spec`.
+///
+/// ```
+/// use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+/// let chain = vjm::SerialChain::bundled();
+/// let spec = CampaignSpec { n_poses: 4, wrenches_per_pose: 2, seed: 7, ..Default::default() };
+/// let campaign = simulate(&chain, &TrueModel::nominal(7), &spec)?;
+/// assert_eq!(campaign.dataset.len(), 8);
+/// # Ok::<(), vjm::testbed::TestbedError>(())
+/// ```
+pub fn simulate(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    spec: &CampaignSpec,
+) -> Result<Campaign, TestbedError> {
+    check_truth(chain, truth)?;
+    if spec.n_poses < 2 || spec.wrenches_per_pose == 0 {
+        return Err(TestbedError::InvalidSpec {
+            field: "n_poses/wrenches_per_pose",
+            message: format!(
+                "need at least 2 poses and 1 wrench per pose, got {} and {}",
+                spec.n_poses, spec.wrenches_per_pose
+            ),
+        });
+    }
+    let (f_lo, f_hi) = spec.force_range;
+    if !(f_lo >= 0.0 && f_hi >= f_lo && f_hi.is_finite()) || !(spec.moment_max >= 0.0) {
+        return Err(TestbedError::InvalidSpec {
+            field: "force_range/moment_max",
+            message: format!(
+                "force range ({f_lo}, {f_hi}) N and moment max {} N·m must be finite and ordered",
+                spec.moment_max
+            ),
+        });
+    }
+    let n = chain.n_joints();
+    let mut geo = stream(spec.seed, 0);
+    let mut q_all: Vec<f64> = Vec::with_capacity(spec.n_poses * n);
+    let mut attempts = 0usize;
+    while q_all.len() < spec.n_poses * n {
+        attempts += 1;
+        if attempts > 2000 * spec.n_poses {
+            return Err(TestbedError::NoPose { attempts });
+        }
+        let q: Vec<f64> = chain
+            .limits()
+            .iter()
+            .map(|&(lo, hi)| {
+                let (lo, hi) = (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI));
+                let (a, b) = (lo + spec.limit_margin, hi - spec.limit_margin);
+                if b > a {
+                    geo.random_range(a..b)
+                } else {
+                    0.5 * (lo + hi)
+                }
+            })
+            .collect();
+        let tip = deflected_pose(chain, &q, &vec![0.0; 3 * n]).tip;
+        if tip.z < spec.min_tip_height || inverse_condition(chain, &q) < spec.min_inverse_condition
+        {
+            continue;
+        }
+        q_all.extend_from_slice(&q);
+    }
+    let mut q_rows = Vec::new();
+    let mut wrenches = Vec::new();
+    let mut poses = Vec::new();
+    for p in 0..spec.n_poses {
+        for _ in 0..spec.wrenches_per_pose {
+            let fdir = unit(&mut geo);
+            let mdir = unit(&mut geo);
+            let fm = if f_hi > f_lo {
+                geo.random_range(f_lo..f_hi)
+            } else {
+                f_lo
+            };
+            let mm = spec.moment_max * geo.random::<f64>();
+            wrenches.push([
+                fm * fdir[0],
+                fm * fdir[1],
+                fm * fdir[2],
+                mm * mdir[0],
+                mm * mdir[1],
+                mm * mdir[2],
+            ]);
+            q_rows.extend_from_slice(&q_all[p * n..(p + 1) * n]);
+            poses.push(p as i64);
+        }
+    }
+    let campaign = simulate_at(chain, truth, &q_rows, &wrenches, &poses, spec)?;
+    // Hold out whole poses, reproducibly.
+    let labels = campaign
+        .dataset
+        .split(spec.test_fraction, spec.seed)
+        .map_err(TestbedError::Dataset)?;
+    Ok(Campaign {
+        dataset: campaign
+            .dataset
+            .with_set(labels)
+            .map_err(TestbedError::Dataset)?,
+        ..campaign
+    })
+}
+
+fn unit(rng: &mut ChaCha8Rng) -> [f64; 3] {
+    loop {
+        let v: [f64; 3] = [
+            StandardNormal.sample(rng),
+            StandardNormal.sample(rng),
+            StandardNormal.sample(rng),
+        ];
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if n > 1e-6 {
+            return [v[0] / n, v[1] / n, v[2] / n];
+        }
+    }
+}
+
+/// Simulates given rows: joint angles `q` (N×n, rad), applied wrenches (base frame), pose ids.
+/// Noise (when `spec.noise`) and pose drift are drawn from `spec.seed`. The dataset has a `pose`
+/// column and no `set` column.
+pub fn simulate_at(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    q: &[f64],
+    wrenches: &[[f64; 6]],
+    poses: &[i64],
+    spec: &CampaignSpec,
+) -> Result<Campaign, TestbedError> {
+    check_truth(chain, truth)?;
+    let n = chain.n_joints();
+    let rows = wrenches.len();
+    if q.len() != rows * n || poses.len() != rows {
+        return Err(TestbedError::InvalidSpec {
+            field: "q/wrenches/poses",
+            message: format!(
+                "{} joint values, {} wrenches and {} pose ids do not describe the same rows ({} joints)",
+                q.len(),
+                rows,
+                poses.len(),
+                n
+            ),
+        });
+    }
+    let mut noise_rng = stream(spec.seed, 1);
+    let mut drift_rng = stream(spec.seed, 2);
+    let drift_sigma = truth.pose_drift();
+    let mut drift: std::collections::BTreeMap<i64, [f64; 3]> = Default::default();
+    let fsig = spec.force_sensor.sigma();
+    let mut disp = Vec::with_capacity(3 * rows);
+    let mut wrec = Vec::with_capacity(6 * rows);
+    let mut applied = Vec::with_capacity(rows);
+    let mut true_d = Vec::with_capacity(rows);
+    let mut tips = Vec::with_capacity(rows);
+    for i in 0..rows {
+        let qi = &q[i * n..(i + 1) * n];
+        let (d, tip) = truth.displacement(chain, qi, &wrenches[i]);
+        let (mut dm, mut wm) = truth.measured(d, wrenches[i]);
+        if drift_sigma > 0.0 {
+            let off = *drift.entry(poses[i]).or_insert_with(|| {
+                let mut z = || -> f64 {
+                    let v: f64 = StandardNormal.sample(&mut drift_rng);
+                    drift_sigma * v
+                };
+                [z(), z(), z()]
+            });
+            for k in 0..3 {
+                dm[k] += off[k];
+            }
+        }
+        if spec.noise {
+            let sd = spec.tracker.displacement_sigma([tip.x, tip.y, tip.z]);
+            for v in dm.iter_mut() {
+                let z: f64 = StandardNormal.sample(&mut noise_rng);
+                *v += sd * z;
+            }
+            for (v, s) in wm.iter_mut().zip(fsig) {
+                let z: f64 = StandardNormal.sample(&mut noise_rng);
+                *v += s * z;
+            }
+        }
+        disp.extend_from_slice(&dm);
+        wrec.extend_from_slice(&wm);
+        applied.push(wrenches[i]);
+        true_d.push([d.x, d.y, d.z]);
+        tips.push([tip.x, tip.y, tip.z]);
+    }
+    let dataset = Dataset::new(n, q.to_vec(), wrec, disp, None, Some(poses.to_vec()), None)
+        .map_err(TestbedError::Dataset)?;
+    Ok(Campaign {
+        dataset,
+        applied_wrench: applied,
+        true_displacement: true_d,
+        tip: tips,
+    })
+}

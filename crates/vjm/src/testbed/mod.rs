@@ -1,0 +1,68 @@
+//! The virtual testbed: measurement campaigns simulated from a true robot that carries any of
+//! the effects the diagnosis looks for, with laser-tracker and force-sensor noise.
+//!
+//! - [`TrueModel`]: linear virtual springs (3 per joint) plus [`Effect`]s: tilting compliance,
+//!   harmonic-drive torsion, backlash, wrench bias, frame misalignment, geometric
+//!   non-linearity (K_C), and a pose drift that no candidate explains.
+//! - [`simulate`]: seeded poses within the joint limits and away from singularities, several
+//!   wrenches per pose, the true response, instrument noise; returns a [`Campaign`] whose
+//!   [`Dataset`](crate::dataset::Dataset) can be written as the measurement file.
+//! - [`seed_study`]: the seed paper's Table I study on the bundled arm.
+//!
+//! Magnitudes and the noise model are stated in `docs/diagnose.md`.
+
+mod campaign;
+pub mod effects;
+pub mod kinematics;
+mod seed_study;
+mod truth;
+
+pub use campaign::{inverse_condition, simulate, simulate_at, Campaign, CampaignSpec};
+pub use effects::{ForceSensorNoise, HarmonicDriveSpring, TrackerNoise};
+pub use seed_study::{seed_study, SeedStudy, SEED_TABLE_I_DEG, SEED_WRENCHES};
+pub use truth::{Effect, TrueModel, NOMINAL_TORSION};
+
+use crate::dataset::DatasetError;
+
+/// Errors of the testbed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TestbedError {
+    /// The true model's compliance vector does not match the chain.
+    #[error("the true model has {compliances} spring compliances, the chain needs {expected} (3 per joint)")]
+    TruthSize {
+        /// Compliances given.
+        compliances: usize,
+        /// 3 × joints.
+        expected: usize,
+    },
+    /// The true model is inconsistent.
+    #[error("invalid true model: {message}")]
+    InvalidTruth {
+        /// What is wrong.
+        message: String,
+    },
+    /// The campaign specification is inconsistent.
+    #[error("invalid campaign spec ({field}): {message}")]
+    InvalidSpec {
+        /// The field(s) at fault.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// No pose satisfying the limits, the height and the conditioning constraint was found.
+    #[error("no acceptable pose found after {attempts} draws (relax min_inverse_condition, min_tip_height or limit_margin)")]
+    NoPose {
+        /// Draws made.
+        attempts: usize,
+    },
+    /// Building the dataset failed (e.g. a displacement larger than plausible).
+    #[error("simulated data rejected: {0}")]
+    Dataset(DatasetError),
+    /// Fitting in the seed study failed.
+    #[error("seed study fit failed: {message}")]
+    Fit {
+        /// What failed.
+        message: String,
+    },
+}
