@@ -136,12 +136,14 @@ pub enum IdentificationError {
     },
     /// The displacements do not excite all three rotation directions well enough to fit K.
     #[error(
-        "the fit is ill-conditioned: condition number {condition:.3e} of the (column-scaled) \
-         regressor exceeds the limit {max_condition:.3e}; singular values of Ω (rad): \
-         {omega_singular_values:?}. Load the joint about all three axes."
+        "the fit is ill-conditioned: condition number {condition:.3e} of {matrix} exceeds the \
+         limit {max_condition:.3e}; singular values of Ω (rad): {omega_singular_values:?}. \
+         Load the joint about all three axes."
     )]
     IllConditioned {
-        /// σ_max/σ_min of the column-scaled regression matrix.
+        /// Which matrix: Ω (the displacements) or the column-scaled regressor.
+        matrix: &'static str,
+        /// σ_max/σ_min of that matrix.
         condition: f64,
         /// The limit from the fit options.
         max_condition: f64,

@@ -27,11 +27,17 @@ use super::dataset::CsjmDataset;
 use super::error::IdentificationError;
 use crate::so3;
 
-/// Default limit on the condition number of the column-scaled regression matrix.
+/// Default limit on the condition number σ_max/σ_min of Ω = [Δζ₁ … Δζ_N].
 ///
-/// Well-excited data (loads about all three axes) give 1–20; data that only load one or two
-/// axes give σ_min at the pose-noise level, i.e. conditions of several hundred and more.
-pub const DEFAULT_MAX_CONDITION: f64 = 1e3;
+/// Ω has one unit (rad), so its condition number is meaningful as is: loads about all three
+/// axes give 1–20 (the soft axis moves more); loading only one or two axes leaves σ_min at the
+/// pose-noise level (~1e-4 rad against ~0.05–0.3 rad), i.e. several hundred and more.
+pub const DEFAULT_MAX_CONDITION: f64 = 100.0;
+
+/// Limit on the condition number of the column-scaled regression matrix (offset, linear and
+/// quadratic columns each scaled to unit norm). Only guards against an exactly degenerate
+/// design, e.g. quadratic columns that duplicate each other; excitation is judged on Ω.
+pub const MAX_REGRESSOR_CONDITION: f64 = 1e10;
 
 /// Order of the local model τ(Δζ).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,8 +103,9 @@ pub struct FitOptions {
     pub connection: ConnectionTerm,
     /// Fit an offset c (see the module docs). With it, τ₀ used in K_L is τ₀ + c.
     pub fit_offset: bool,
-    /// Limit on the condition number of the column-scaled regression matrix; above it the
-    /// fit fails with [`IdentificationError::IllConditioned`] instead of inverting blindly.
+    /// Limit on the condition number of Ω = [Δζ₁ … Δζ_N] (see [`DEFAULT_MAX_CONDITION`]); above
+    /// it the fit fails with [`IdentificationError::IllConditioned`] instead of inverting
+    /// blindly.
     pub max_condition: f64,
     /// Compute the det(K)-versus-N series (one extra fit per prefix of the data).
     pub convergence_series: bool,
@@ -348,10 +355,19 @@ fn fit(
     }
     let omega_singular_values = singular_values_of_omega(dzeta)?;
     let omega_condition = omega_singular_values[0] / omega_singular_values[2];
+    if !(omega_condition <= options.max_condition) {
+        return Err(IdentificationError::IllConditioned {
+            matrix: "Ω (displacements)",
+            condition: omega_condition,
+            max_condition: options.max_condition,
+            omega_singular_values,
+        });
+    }
     if scale.iter().any(|s| !(*s > 0.0)) {
         return Err(IdentificationError::IllConditioned {
+            matrix: "column-scaled regressor",
             condition: f64::INFINITY,
-            max_condition: options.max_condition,
+            max_condition: MAX_REGRESSOR_CONDITION,
             omega_singular_values,
         });
     }
@@ -363,10 +379,11 @@ fn fit(
     let svd = x.thin_svd().map_err(|_| IdentificationError::SvdFailed)?;
     let s: Vec<f64> = (0..p).map(|k| svd.S().column_vector()[k]).collect();
     let condition = s[0] / s[p - 1];
-    if !(condition <= options.max_condition) {
+    if !(condition <= MAX_REGRESSOR_CONDITION) {
         return Err(IdentificationError::IllConditioned {
+            matrix: "column-scaled regressor",
             condition,
-            max_condition: options.max_condition,
+            max_condition: MAX_REGRESSOR_CONDITION,
             omega_singular_values,
         });
     }

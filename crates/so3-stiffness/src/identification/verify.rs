@@ -4,10 +4,19 @@
 //! is Δζ_est = K⁻¹Δτ (eq. 61), the predicted pose R_est = R₀ exp(hat(Δζ_est)) (eq. 62, a
 //! body-frame perturbation), and the estimation error E_θ = ‖log(R_actᵀ R_est)‖ (eqs. 63–65),
 //! the geodesic angle between the measured and predicted poses, in rad.
+//!
+//! **Which matrix to invert.** Eq. 61 inverts K. But a measured increment Δτ is the difference
+//! of A-frame components at two poses, and to first order `Δτ = K_D Δζ`, K_D = K − K_L
+//! (that is how K_D is defined, eq. 48a). Inverting K instead of K_D mis-predicts by
+//! K⁻¹K_L K_D⁻¹Δτ, i.e. by the pre-load relative to the stiffness (≈ 5–10 % for the seed's
+//! τ₀). The seed's own Table 4 was computed with K_D (see `docs/seed-000-tables.md`).
+//! [`StiffnessEstimate::predict_pose`] therefore uses K_D; the free functions take whatever
+//! matrix is passed.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::error::IdentificationError;
+use super::fit::StiffnessEstimate;
 use crate::so3;
 
 /// K is considered singular above this condition number.
@@ -84,4 +93,27 @@ pub fn verify(
         r_est,
         e_theta: estimation_error(r_act, &r_est),
     })
+}
+
+impl StiffnessEstimate {
+    /// Predicted pose under a measured load increment `dtau` (N·m, frame A) from the reference
+    /// pose `r0`: R₀ exp(hat(K_D⁻¹Δτ)) — K_D, because measured A-frame increments follow
+    /// K_D to first order (see the module docs of [`crate::identification::verify`]).
+    pub fn predict_pose(
+        &self,
+        r0: &Rotation3<f64>,
+        dtau: &Vector3<f64>,
+    ) -> Result<Rotation3<f64>, IdentificationError> {
+        predict_pose(r0, &self.k_d, dtau)
+    }
+
+    /// Eqs. 61–65 for one verification case, predicting with K_D (see [`Self::predict_pose`]).
+    pub fn verify(
+        &self,
+        r0: &Rotation3<f64>,
+        dtau: &Vector3<f64>,
+        r_act: &Rotation3<f64>,
+    ) -> Result<VerificationCase, IdentificationError> {
+        verify(r0, &self.k_d, dtau, r_act)
+    }
 }

@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod finite_differences;
+mod identification;
 mod kinetostatics;
 mod simulator;
 mod so3;
