@@ -309,3 +309,21 @@ impl<'a> Engine<'a> {
             .collect()
     }
 }
+
+impl Engine<'_> {
+    /// `‖(I − P) W s‖²` over the training rows, P the projector on `fit`'s whitened columns.
+    pub fn orthogonal_energy(&self, fit: &Fit, signal: &[[f64; 3]]) -> f64 {
+        let cols = self.design(&fit.terms, &self.train, &fit.lin);
+        let mut basis = Basis::new();
+        for c in &cols {
+            basis.push(c);
+        }
+        let mut s: Vec<f64> = self
+            .train
+            .iter()
+            .flat_map(|&i| self.whiten(i, signal[i]))
+            .collect();
+        basis.project_out(&mut s);
+        s.iter().map(|v| v * v).sum()
+    }
+}

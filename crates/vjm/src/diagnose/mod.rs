@@ -208,13 +208,21 @@ fn check_options(opts: &DiagnoseOptions) -> Result<(), DiagnoseError> {
     Ok(())
 }
 
-/// [`diagnose`] with a progress callback, called after each stage and each selection step.
-pub fn diagnose_with_progress(
-    chain: &SerialChain,
+/// Everything computed before candidate selection.
+struct Prepared<'a> {
+    eng: Engine<'a>,
+    baseline_model: VirtualJointModel,
+    labels: Vec<SetLabel>,
+    groups: Vec<usize>,
+    in_model: Vec<bool>,
+    base_fit: Fit,
+}
+
+fn prepare<'a>(
+    chain: &'a SerialChain,
     data: &Dataset,
     opts: &DiagnoseOptions,
-    progress: &mut dyn FnMut(Progress),
-) -> Result<Diagnosis, DiagnoseError> {
+) -> Result<Prepared<'a>, DiagnoseError> {
     check_options(opts)?;
     let n = chain.n_joints();
     if data.n_joints() != n {
@@ -286,7 +294,6 @@ pub fn diagnose_with_progress(
         })
         .collect();
     let groups = data.pose_groups();
-    let pose_id = |i: usize| data.pose(i).unwrap_or(groups[i] as i64);
     let mut eng = Engine {
         chain,
         kin,
@@ -297,12 +304,6 @@ pub fn diagnose_with_progress(
         sigma_axis: Vec::new(),
         m,
     };
-    progress(Progress {
-        stage: "kinematics",
-        done: 1,
-        total: 1,
-    });
-
     // Baseline: a first fit with tracker noise only gives the compliance that propagates the
     // force-sensor noise; then the weighted fit.
     let base_terms: Vec<Term> = baseline_model
@@ -326,6 +327,60 @@ pub fn diagnose_with_progress(
         &c_pre,
     );
     let base_fit = eng.fit(&base_terms, &eng.linearisation(c_pre.clone()));
+    Ok(Prepared {
+        eng,
+        baseline_model,
+        labels,
+        groups,
+        in_model,
+        base_fit,
+    })
+}
+
+/// Detectability of a hidden effect on these data: `‖(I − P) W s‖²` over the training rows,
+/// where `s` is the effect's displacement signal per row (m, base frame; e.g. the noise-free
+/// difference between campaigns with and without the effect), `W` the per-row whitening of the
+/// noise model and `P` the projector on the baseline's whitened columns. It is the
+/// non-centrality of the nested F test of a candidate that models the effect exactly, in units
+/// of noise variance. `docs/diagnose.md` states the threshold the acceptance tests use.
+pub fn detectability(
+    chain: &SerialChain,
+    data: &Dataset,
+    signal: &[[f64; 3]],
+    opts: &DiagnoseOptions,
+) -> Result<f64, DiagnoseError> {
+    if signal.len() != data.len() {
+        return Err(DiagnoseError::InvalidOption {
+            name: "signal",
+            message: format!("{} rows, the data have {}", signal.len(), data.len()),
+        });
+    }
+    let p = prepare(chain, data, opts)?;
+    Ok(p.eng.orthogonal_energy(&p.base_fit, signal))
+}
+
+/// [`diagnose`] with a progress callback, called after each stage and each selection step.
+pub fn diagnose_with_progress(
+    chain: &SerialChain,
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Diagnosis, DiagnoseError> {
+    let Prepared {
+        eng,
+        baseline_model,
+        labels,
+        groups,
+        in_model,
+        base_fit,
+    } = prepare(chain, data, opts)?;
+    let pose_id = |i: usize| data.pose(i).unwrap_or(groups[i] as i64);
+    progress(Progress {
+        stage: "kinematics",
+        done: 1,
+        total: 1,
+    });
+
     progress(Progress {
         stage: "baseline",
         done: 1,
