@@ -1,0 +1,243 @@
+//! The virtual campaign (issue 4 item 6) and the acceptance numbers. Every figure asserted
+//! here is printed (run with `--nocapture` to see them).
+
+use nalgebra::Matrix3;
+use so3_stiffness::csjm::PointLoad;
+use so3_stiffness::identification::campaign::{
+    prototype_simulator, simulate_campaign, Campaign, CampaignConfig, GravityRecording,
+    LoadPattern, MomentNoise, TrackerNoise,
+};
+use so3_stiffness::identification::{
+    identify, ConnectionTerm, FitOptions, FitOrder, IdentificationError,
+};
+
+const SEEDS: [u64; 4] = [1, 2, 3, 4];
+
+fn rel(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
+    (a - b).norm() / b.norm()
+}
+
+fn campaign(config: &CampaignConfig) -> Campaign {
+    simulate_campaign(&prototype_simulator().unwrap(), config).unwrap()
+}
+
+fn error_of(c: &Campaign, order: FitOrder) -> f64 {
+    let e = identify(&c.dataset, &FitOptions::with_order(order)).unwrap();
+    rel(&e.k, &c.true_stiffness.covariant)
+}
+
+#[test]
+fn noise_free_small_increments_recover_the_true_covariant_stiffness() {
+    let mut config = CampaignConfig::with_seed(9);
+    config.tracker = TrackerNoise::none();
+    config.moment_noise = MomentNoise::none();
+    config.max_increment = 0.01;
+    config.increments = 30;
+    let c = campaign(&config);
+    let k_true = c.true_stiffness.covariant;
+    let e = identify(&c.dataset, &FitOptions::with_order(FitOrder::Second)).unwrap();
+    println!(
+        "noise-free: rel error K {:.2e}, K_D {:.2e}",
+        rel(&e.k, &k_true),
+        rel(&e.k_d, &c.true_stiffness.euclidean)
+    );
+    assert!(rel(&e.k, &k_true) < 1e-6);
+    assert!(rel(&e.k_d, &c.true_stiffness.euclidean) < 1e-6);
+    assert!((e.tau0 - c.true_tau0).norm() < 1e-9);
+    // The seed's connection term misses the symmetric truth by ½‖hat τ₀‖.
+    let mut seed = FitOptions::with_order(FitOrder::Second);
+    seed.connection = ConnectionTerm::SeedEq48b;
+    let e_seed = identify(&c.dataset, &seed).unwrap();
+    println!(
+        "noise-free: seed eq. 48b rel error {:.3}, asymmetry {:.3}",
+        rel(&e_seed.k, &k_true),
+        e_seed.asymmetry()
+    );
+    assert!(rel(&e_seed.k, &k_true) > 0.03);
+}
+
+#[test]
+fn first_order_fit_within_3_percent_for_1_nm_increments() {
+    for seed in SEEDS {
+        let c = campaign(&CampaignConfig::with_seed(seed));
+        let err = error_of(&c, FitOrder::First);
+        println!(
+            "seed {seed}: 85 increments ≤ 1 N·m, first-order rel. Frobenius error {:.4}",
+            err
+        );
+        assert!(err < 0.03, "seed {seed}: {err}");
+    }
+}
+
+/// Increments up to 3 N·m, symmetric loading (the default): the second-order fit stays within
+/// 3 %. (So does the first-order fit on this prototype: with loads in both senses the even
+/// curvature cancels; see the one-sided test below and docs/csjm-identification.md.)
+#[test]
+fn second_order_fit_within_3_percent_for_3_nm_increments() {
+    for seed in SEEDS {
+        let mut config = CampaignConfig::with_seed(seed);
+        config.max_increment = 3.0;
+        let c = campaign(&config);
+        let first = error_of(&c, FitOrder::First);
+        let second = error_of(&c, FitOrder::Second);
+        println!("seed {seed}: symmetric increments ≤ 3 N·m: first-order {first:.4}, second-order {second:.4}");
+        assert!(second < 0.03, "seed {seed}: second {second}");
+    }
+}
+
+/// One-sided loading (counterweights), noise-free so that only the model bias remains: the
+/// first-order bias grows with the increment size and the second-order fit removes it.
+#[test]
+fn second_order_fit_removes_the_curvature_bias_of_one_sided_loading() {
+    for seed in SEEDS {
+        let bias = |m: f64, order: FitOrder| {
+            let mut config = CampaignConfig::with_seed(seed);
+            config.pattern = LoadPattern::OneSided;
+            config.max_increment = m;
+            config.tracker = TrackerNoise::none();
+            config.moment_noise = MomentNoise::none();
+            error_of(&campaign(&config), order)
+        };
+        let (first_1, first_3) = (bias(1.0, FitOrder::First), bias(3.0, FitOrder::First));
+        let (second_1, second_3) = (bias(1.0, FitOrder::Second), bias(3.0, FitOrder::Second));
+        println!(
+            "seed {seed}: one-sided, noise-free bias: first-order {first_1:.4} (≤1 N·m) {first_3:.4} (≤3 N·m); \
+             second-order {second_1:.4} {second_3:.4}"
+        );
+        assert!(
+            first_3 > 2.5 * first_1,
+            "first-order bias grows with the increments"
+        );
+        assert!(first_3 > 0.01);
+        assert!(second_3 < 0.25 * first_3 && second_3 < 0.005);
+        assert!(second_1 < 0.25 * first_1);
+    }
+}
+
+/// Fig. 5: det(K) against N settles as N grows.
+#[test]
+fn det_k_converges_with_the_number_of_measurements() {
+    for seed in SEEDS {
+        let c = campaign(&CampaignConfig::with_seed(seed));
+        let e = identify(&c.dataset, &FitOptions::default()).unwrap();
+        let dets: Vec<f64> = e.det_convergence.iter().map(|p| p.det).collect();
+        assert_eq!(e.det_convergence.last().map(|p| p.n), Some(85));
+        let quarter = dets.len() / 4;
+        let spread = |s: &[f64]| {
+            s.iter().cloned().fold(f64::MIN, f64::max) - s.iter().cloned().fold(f64::MAX, f64::min)
+        };
+        let (first, last) = (
+            spread(&dets[..quarter]),
+            spread(&dets[dets.len() - quarter..]),
+        );
+        let det_true = c.true_stiffness.covariant.determinant();
+        println!(
+            "seed {seed}: det K spread first quarter {first:.1}, last quarter {last:.1}; final {:.1} vs true {det_true:.1}",
+            dets[dets.len() - 1]
+        );
+        assert!(last < 0.25 * first, "seed {seed}");
+        assert!((dets[dets.len() - 1] - det_true).abs() < 0.1 * det_true);
+    }
+}
+
+#[test]
+fn recorded_gravity_is_harmless_and_omitted_gravity_biases_k() {
+    let weight = PointLoad::prototype_gravity();
+    let mut recorded = CampaignConfig::with_seed(5);
+    recorded.gravity = GravityRecording::Recorded(weight);
+    recorded.tracker = TrackerNoise::none();
+    recorded.moment_noise = MomentNoise::none();
+    recorded.max_increment = 0.05;
+    let mut omitted = recorded;
+    omitted.gravity = GravityRecording::Omitted(weight);
+    let (c_rec, c_omit) = (campaign(&recorded), campaign(&omitted));
+    let (e_rec, e_omit) = (
+        error_of(&c_rec, FitOrder::Second),
+        error_of(&c_omit, FitOrder::Second),
+    );
+    println!("gravity recorded: rel error {e_rec:.2e}; omitted: {e_omit:.4}");
+    assert!(e_rec < 1e-4);
+    assert!(e_omit > 100.0 * e_rec && e_omit > 3e-3);
+}
+
+#[test]
+fn cable_hysteresis_biases_k() {
+    let mut config = CampaignConfig::with_seed(6);
+    config.tracker = TrackerNoise::none();
+    config.moment_noise = MomentNoise::none();
+    let clean = error_of(&campaign(&config), FitOrder::First);
+    config.hysteresis_moment = 0.05;
+    let with = error_of(&campaign(&config), FitOrder::First);
+    println!("hysteresis 0.05 N·m: rel error {with:.4} (none: {clean:.4})");
+    assert!(with > clean + 0.01);
+}
+
+#[test]
+fn campaigns_are_reproducible_and_symmetric_pattern_is_available() {
+    let a = campaign(&CampaignConfig::with_seed(3));
+    let b = campaign(&CampaignConfig::with_seed(3));
+    assert_eq!(a.dataset, b.dataset);
+    let c = campaign(&CampaignConfig::with_seed(4));
+    assert_ne!(a.dataset, c.dataset);
+    for (pattern, lowest) in [
+        (LoadPattern::Symmetric, -1.0),
+        (LoadPattern::OneSided, -0.25),
+    ] {
+        let mut config = CampaignConfig::with_seed(3);
+        config.pattern = pattern;
+        let c = campaign(&config);
+        let d: Vec<_> = c.applied.iter().map(|t| t - config.preload).collect();
+        assert!(d.iter().all(|v| v.norm() <= 1.0 + 1e-12));
+        let min = d
+            .iter()
+            .flat_map(|v| v.iter().copied())
+            .fold(f64::MAX, f64::min);
+        assert!(
+            min >= lowest - 1e-12 && min < lowest + 0.2,
+            "{pattern:?}: {min}"
+        );
+    }
+    // The written file reads back to the same identification.
+    let mut bytes = Vec::new();
+    a.dataset.write_csv(&mut bytes).unwrap();
+    let back = so3_stiffness::identification::CsjmDataset::from_csv_reader(
+        bytes.as_slice(),
+        &Default::default(),
+    )
+    .unwrap();
+    let k1 = identify(&a.dataset, &FitOptions::default()).unwrap().k;
+    let k2 = identify(&back, &FitOptions::default()).unwrap().k;
+    assert!((k1 - k2).norm() < 1e-9 * k1.norm());
+}
+
+#[test]
+fn invalid_settings_are_named() {
+    let sim = prototype_simulator().unwrap();
+    let mut config = CampaignConfig::default();
+    config.max_increment = -1.0;
+    assert!(matches!(
+        simulate_campaign(&sim, &config),
+        Err(IdentificationError::InvalidSetting {
+            field: "max_increment",
+            ..
+        })
+    ));
+    let mut config = CampaignConfig::default();
+    config.increments = 2;
+    assert!(matches!(
+        simulate_campaign(&sim, &config),
+        Err(IdentificationError::InvalidSetting {
+            field: "increments",
+            ..
+        })
+    ));
+    let mut config = CampaignConfig::default();
+    config.hysteresis_moment = f64::NAN;
+    assert!(matches!(
+        simulate_campaign(&sim, &config),
+        Err(IdentificationError::InvalidSetting {
+            field: "hysteresis_moment",
+            ..
+        })
+    ));
+}
