@@ -119,7 +119,7 @@ pub fn csjm_identify<'py>(
     for i in 0..n {
         let m = Matrix3::from_row_slice(&rr.data[9 * i..9 * i + 9]);
         let err = so3::orthogonality_error(&m);
-        if !project && !(err <= tol) {
+        if !project && (err.is_nan() || err > tol) {
             return Err(value_error(format!(
                 "R[{i}] is not a rotation matrix: orthogonality error ‖RᵀR − I‖_F = {err:.3e} exceeds the tolerance {tol:.3e} (pass project=True to project measured matrices onto SO(3))"
             )));
@@ -139,6 +139,13 @@ pub fn csjm_identify<'py>(
     estimate_to_dict(py, &est)
 }
 
+/// (R (N, 3, 3), tau (N, 3), index of the reference row).
+type MeasurementArrays<'py> = (
+    Bound<'py, numpy::PyArrayDyn<f64>>,
+    Bound<'py, numpy::PyArrayDyn<f64>>,
+    usize,
+);
+
 /// Reads a CSJM measurement file: returns (R (N, 3, 3), tau (N, 3), ref index).
 #[pyfunction]
 #[pyo3(signature = (path, project = false))]
@@ -146,11 +153,7 @@ pub fn csjm_read_csv<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     project: bool,
-) -> PyResult<(
-    Bound<'py, numpy::PyArrayDyn<f64>>,
-    Bound<'py, numpy::PyArrayDyn<f64>>,
-    usize,
-)> {
+) -> PyResult<MeasurementArrays<'py>> {
     let opts = if project {
         ReadOptions::projecting()
     } else {

@@ -177,7 +177,7 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
             } else {
                 // Stiffening by `ratio` per segment from the joint's own linear compliance.
                 let c1 = truth.compliance[3 * joint];
-                if !(c1 > 0.0) {
+                if c1.is_nan() || c1 <= 0.0 {
                     return Err(value_error(format!(
                         "effects[{i}]: joint {} has no torsional compliance to stiffen; give k1, k2, k3",
                         joint + 1
