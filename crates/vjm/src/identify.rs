@@ -56,6 +56,7 @@ impl IdentifyOptions {
             null_tol: self.null_tol,
             noise_scale_known: self.noise_scale_known,
             nonnegative: self.nonnegative,
+            ..SolveOptions::default()
         }
     }
     fn measured(&self) -> Measured {

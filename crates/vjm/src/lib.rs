@@ -36,7 +36,9 @@
 #![deny(missing_docs)]
 
 mod chain;
+pub mod dataset;
 pub mod design;
+pub mod diagnose;
 mod error;
 mod identify;
 mod kinematics;
@@ -45,6 +47,7 @@ mod model;
 mod predict;
 mod regressor;
 pub mod stats;
+pub mod testbed;
 
 pub use chain::{
     ActuatedJoint, SerialChain, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP, BUNDLED_URDF,

@@ -7,5 +7,6 @@ mod solve;
 
 pub use accumulator::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};
 pub use solve::{
-    dense_factor, solve_dense, solve_factor, LinearCombination, RankRevealingSolution, SolveOptions,
+    dense_factor, solve_dense, solve_factor, LinearCombination, RankRevealingSolution,
+    SolveOptions, ZERO_COLUMN_RTOL,
 };

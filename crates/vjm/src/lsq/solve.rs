@@ -20,6 +20,9 @@ use super::accumulator::TriangularFactor;
 use super::nnls::nnls;
 use crate::error::VjmError;
 
+/// Default of [`SolveOptions::zero_column_rtol`].
+pub const ZERO_COLUMN_RTOL: f64 = 1e-12;
+
 /// Options of the rank-revealing solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveOptions {
@@ -33,6 +36,13 @@ pub struct SolveOptions {
     pub noise_scale_known: bool,
     /// Constrain every parameter to be ≥ 0 (Lawson–Hanson NNLS on the scaled triangle).
     pub nonnegative: bool,
+    /// Columns whose norm is below this fraction of the largest column norm are exactly
+    /// zero (the parameter does not enter the data). Column scaling would otherwise blow a
+    /// column of pure rounding (a torsion about an axis through the tip point: ~1e-17) up
+    /// to unit norm and call it identifiable. This is the one units-dependent decision: for
+    /// parameters in commensurate units (all compliances) keep the default; with columns
+    /// of wildly different units set 0.
+    pub zero_column_rtol: f64,
 }
 
 impl Default for SolveOptions {
@@ -42,6 +52,7 @@ impl Default for SolveOptions {
             null_tol: 1e-7,
             noise_scale_known: false,
             nonnegative: false,
+            zero_column_rtol: ZERO_COLUMN_RTOL,
         }
     }
 }
@@ -159,16 +170,27 @@ pub fn solve_factor(
             .map(|i| r[i * p + k] * r[i * p + k])
             .sum::<f64>()
             .sqrt();
-        if *s == 0.0 || !s.is_finite() {
-            // A zero column: the parameter does not enter the data (handled by the SVD).
+    }
+    // A column that is zero up to rounding (e.g. a torsion about an axis through the tip
+    // point, whose column is |J|·1e-17) must not be blown up to unit norm by the scaling:
+    // columns below ZERO_COLUMN_RTOL × the largest are the parameter not entering the data.
+    let smax_col = scale.iter().copied().fold(0.0, f64::max);
+    let zero_col: Vec<bool> = scale
+        .iter()
+        .map(|&s| s <= opts.zero_column_rtol * smax_col || !s.is_finite())
+        .collect();
+    for (s, &z) in scale.iter_mut().zip(&zero_col) {
+        if z {
             *s = 1.0;
         }
     }
-    let rs = faer::Mat::<f64>::from_fn(
-        m,
-        m,
-        |i, j| if i <= j { r[i * p + j] / scale[j] } else { 0.0 },
-    );
+    let rs = faer::Mat::<f64>::from_fn(m, m, |i, j| {
+        if i <= j && !zero_col[j] {
+            r[i * p + j] / scale[j]
+        } else {
+            0.0
+        }
+    });
     let z: Vec<f64> = (0..m).map(|i| r[i * p + m]).collect();
     let svd = rs.svd().map_err(|e| VjmError::Numerical {
         message: format!("SVD of the scaled {m}×{m} factor did not converge: {e:?}"),
@@ -401,6 +423,12 @@ fn check_options(opts: &SolveOptions) -> Result<(), VjmError> {
         return Err(VjmError::InvalidOption {
             name: "rank_rtol",
             message: format!("must be in (0, 1), got {}", opts.rank_rtol),
+        });
+    }
+    if !(opts.zero_column_rtol >= 0.0 && opts.zero_column_rtol < 1.0) {
+        return Err(VjmError::InvalidOption {
+            name: "zero_column_rtol",
+            message: format!("must be in [0, 1), got {}", opts.zero_column_rtol),
         });
     }
     if !(opts.null_tol > 0.0 && opts.null_tol < 1.0) {

@@ -1,0 +1,14 @@
+//! The one integration-test binary of `vjm`.
+
+mod strategies;
+
+mod bad_input;
+mod identification;
+mod kinematics;
+mod lsq;
+mod pinocchio;
+mod prediction;
+mod urdf;
+
+mod dataset;
+mod testbed;
