@@ -372,9 +372,9 @@ fn parse_row(
         *slot = parse_field(record, index, name, row, line)?;
     }
     let flag_text = record.get(columns.reference).unwrap_or("");
-    let is_reference = match flag_text.parse::<f64>() {
-        Ok(v) if v == 1.0 => true,
-        Ok(v) if v == 0.0 => false,
+    let flag = flag_text.parse::<f64>().ok();
+    let is_reference = match flag {
+        Some(v) if v == 1.0 || v == 0.0 => v == 1.0,
         _ => {
             return Err(IdentificationError::BadReferenceFlag {
                 row,
