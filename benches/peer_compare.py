@@ -208,7 +208,7 @@ def solve_rank_revealing(A: np.ndarray, b: np.ndarray) -> Fit:
 
 
 def peer_identify(ch: Chain, q, wrench, disp, model: str, kinematics) -> Fit:
-    t0 = time.perf_counter()
+    c0, t0 = time.process_time(), time.perf_counter()
     R, p, tip = kinematics(ch, q)
     t1 = time.perf_counter()
     A = regressor(ch, R, p, tip, wrench, model)
@@ -216,7 +216,8 @@ def peer_identify(ch: Chain, q, wrench, disp, model: str, kinematics) -> Fit:
     t2 = time.perf_counter()
     fit = solve_rank_revealing(A, disp.reshape(-1))
     t3 = time.perf_counter()
-    fit.seconds = {"kinematics": t1 - t0, "regressor": t2 - t1, "solve": t3 - t2, "total": t3 - t0}
+    fit.seconds = {"kinematics": t1 - t0, "regressor": t2 - t1, "solve": t3 - t2, "total": t3 - t0,
+                   "cpu": time.process_time() - c0}
     return fit
 
 
@@ -271,20 +272,22 @@ def rust_identify_bin(q, wrench, disp, model: str, repeats: int) -> Fit:
     res = json.loads(out)
     c = np.array([np.nan if v is None else v for v in res["compliance"]])
     fit = Fit(compliance=c, identifiable=~np.isnan(c), rank=int(res["rank"]))
-    fit.seconds = {"total": float(res["seconds_best"])}
+    cpu = res.get("cpu_seconds_mean")
+    fit.seconds = {"total": float(res["seconds_best"]), "cpu": float("nan") if cpu is None else float(cpu)}
     return fit
 
 
 def rust_identify_python(rs, q, wrench, disp, model: str, repeats: int) -> Fit:
-    robot = rs.vjm.Robot.bundled()
-    best, result = np.inf, None
+    robot = rs.Robot.bundled()
+    best, best_cpu, result = np.inf, np.inf, None
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         result = robot.identify(q, wrench, disp, model=model)
         best = min(best, time.perf_counter() - t0)
+        best_cpu = min(best_cpu, time.process_time() - c0)
     c = np.array([np.nan if v is None else v for v in result.compliance], dtype=float)
     fit = Fit(compliance=c, identifiable=~np.isnan(c), rank=int(result.rank))
-    fit.seconds = {"total": best}
+    fit.seconds = {"total": best, "cpu": best_cpu}
     return fit
 
 
@@ -347,13 +350,16 @@ def main() -> None:
     rs = None
     if args.rust in ("auto", "python"):
         try:
-            import robot_stiffness as rs  # noqa: PLC0415
+            import robot_stiffness.vjm as rs  # noqa: PLC0415
         except ImportError:
             if args.rust == "python":
                 raise
     via = "robot_stiffness (Python package)" if rs is not None else "vjm-identify-raw (Rust binary)"
 
-    tip = args.tip or os.environ.get("VJM_TIP", "panda_link8")
+    # The tip of the bundled robot is vjm's BUNDLED_FLANGE; both sides must use the same one.
+    tip = args.tip or "panda_link8"
+    if rs is not None and rs.Robot.bundled().tip_link != tip:
+        raise SystemExit(f"the Rust side's bundled tip is {rs.Robot.bundled().tip_link}, not {tip}")
     ch = load_chain(args.urdf, tip)
     sizes = [int(float(s)) for s in args.sizes.split(",")]
 
@@ -387,19 +393,24 @@ def main() -> None:
                 if loop_problem:  # both peers are the same mathematics: this is a script bug
                     raise SystemExit(f"peer variants disagree: {loop_problem}")
             peer_best = min(vec.seconds["total"], loop.seconds["total"] if loop else np.inf)
+            peer_best_cpu = min(vec.seconds["cpu"], loop.seconds["cpu"] if loop else np.inf)
             row = dict(
                 n=n, model=model, params=len(truth), rank=vec.rank,
-                rust=rust.seconds["total"], peer_vec=vec.seconds["total"],
-                peer_vec_parts=vec.seconds,
+                rust=rust.seconds["total"], rust_cpu=rust.seconds["cpu"],
+                peer_vec=vec.seconds["total"], peer_vec_parts=vec.seconds,
                 peer_loop=loop.seconds["total"] if loop else None,
-                ratio=peer_best / rust.seconds["total"], agree=err, problem=problem,
+                peer_loop_cpu=loop.seconds["cpu"] if loop else None,
+                ratio=peer_best / rust.seconds["total"],
+                ratio_cpu=peer_best_cpu / rust.seconds["cpu"] if rust.seconds["cpu"] > 0 else np.nan,
+                load=os.getloadavg()[0], agree=err, problem=problem,
                 unidentifiable=[int(i) for i in np.flatnonzero(~vec.identifiable)],
             )
             rows.append(row)
             print(
                 f"N={n:>8} {model:11} rank {row['rank']:2}/{row['params']:2}  rust {fmt_s(row['rust']):>10}"
                 f"  peer vec {fmt_s(row['peer_vec']):>10}  peer loop {fmt_s(row['peer_loop']):>10}"
-                f"  ratio {row['ratio']:7.1f}x  agree {err:.1e}"
+                f"  ratio {row['ratio']:7.1f}x (cpu {row['ratio_cpu']:.1f}x, rust cpu {fmt_s(row['rust_cpu'])})"
+                f"  load {row['load']:.1f}  agree {err:.1e}"
                 + (f"  DISAGREE: rust {problem}" if problem else ""),
                 flush=True,
             )
@@ -422,24 +433,32 @@ def write_table(path: Path, rows, via: str, tip: str, args) -> None:
         f"(numpy {np.__version__}, pinocchio {pin.__version__}; Rust via {via}; robot "
         f"`{args.urdf.name}`, tip `{tip}`; best of {args.repeats} runs below N = 1e6, one run at 1e6).",
         "",
-        "| N | model | rank | robot-stiffness | numpy + pinocchio (vectorised FK) | "
-        "numpy + pinocchio (FK loop) | speed-up vs faster peer | agreement |",
-        "|---:|---|---:|---:|---:|---:|---:|---:|",
+        "| N | model | rank | robot-stiffness wall (CPU) | numpy + pinocchio, vectorised FK, wall (CPU) | "
+        "numpy + pinocchio, FK loop, wall (CPU) | speed-up vs faster peer, wall (CPU) | 1-min load | agreement |",
+        "|---:|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     for r in rows:
-        loop = fmt_s(r["peer_loop"]) if r["model"] == "extended" else "—"
-        if r["model"] == "extended" and r["peer_loop"] is None:
-            loop = "not run (see --peer-loop-max)"
+        if r["model"] != "extended":
+            loop = "—"
+        elif r["peer_loop"] is None:
+            loop = "not run (`--peer-loop-max`)"
+        else:
+            loop = f"{fmt_s(r['peer_loop'])} ({fmt_s(r['peer_loop_cpu'])})"
+        agree = f"**disagree**: robot-stiffness {r['problem']}" if r["problem"] else f"{r['agree']:.1e}"
         lines.append(
-            f"| {r['n']:.0e} | {r['model']} | {r['rank']}/{r['params']} | {fmt_s(r['rust'])} | "
-            f"{fmt_s(r['peer_vec'])} | {loop} | {r['ratio']:.1f}× | "
-            + (f"**disagree**: robot-stiffness {r['problem']} |" if r["problem"] else f"{r['agree']:.1e} |")
+            f"| {r['n']:.0e} | {r['model']} | {r['rank']}/{r['params']} | "
+            f"{fmt_s(r['rust'])} ({fmt_s(r['rust_cpu'])}) | "
+            f"{fmt_s(r['peer_vec'])} ({fmt_s(r['peer_vec_parts']['cpu'])}) | {loop} | "
+            f"{r['ratio']:.1f}× ({r['ratio_cpu']:.1f}×) | {r['load']:.1f} | {agree} |"
         )
     lines += [
         "",
-        "Agreement: max |c_rust − c_peer| over the identifiable compliances, relative to the "
-        f"largest true compliance (must be ≤ {AGREE_RTOL:g}; both tools also report the same "
-        "identifiable set). Times are wall-clock for kinematics + regressor + rank-revealing solve.",
+        "Wall: elapsed time of kinematics + regressor + rank-revealing solve. CPU: process CPU time "
+        "(all threads) of the same run, which does not grow when other processes compete for the "
+        "2 cores (the 1-min load average at the end of the row is shown).",
+        "Agreement: max |c_rust − c_peer| over the compliances both report identifiable, relative to "
+        f"the largest true compliance (must be ≤ {AGREE_RTOL:g}); both tools must also report the same "
+        "rank and the same identifiable set.",
     ]
     path.write_text("\n".join(lines) + "\n")
 

@@ -111,6 +111,17 @@ fn rss_and_peak() -> Option<(u64, u64)> {
     Some((field("VmRSS:")?, field("VmHWM:")?))
 }
 
+/// CPU time consumed so far by all threads of this process, s (Linux `schedstat`, ns resolution).
+/// Unlike wall time it does not grow when other processes compete for the cores.
+fn process_cpu_seconds() -> Option<f64> {
+    let mut total_ns: u64 = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total_ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total_ns as f64 * 1e-9)
+}
+
 /// Resets the peak-RSS counter to the current RSS (Linux ≥ 4.0).
 fn reset_peak() -> bool {
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
@@ -165,6 +176,9 @@ fn run() -> Result<(), String> {
     let mut seconds = Vec::with_capacity(args.repeats);
     let mut result = None;
     let mut peak_extra = None;
+    // schedstat is only brought up to date at scheduler events, so CPU time is taken over all
+    // runs together (mean per run), not per run.
+    let cpu_start = process_cpu_seconds();
     for _ in 0..args.repeats {
         let t0 = Instant::now();
         let id =
@@ -180,6 +194,15 @@ fn run() -> Result<(), String> {
     }
     let id = result.ok_or("no run")?;
     let best = seconds.iter().copied().fold(f64::INFINITY, f64::min);
+    let mean_cpu = match (cpu_start, process_cpu_seconds()) {
+        (Some(a), Some(b)) => (b - a) / seconds.len() as f64,
+        _ => f64::NAN,
+    };
+    let mean_cpu_json = if mean_cpu.is_finite() {
+        format!("{mean_cpu:e}")
+    } else {
+        "null".to_string()
+    };
     let compliance: Vec<String> = id
         .compliance
         .iter()
@@ -188,7 +211,7 @@ fn run() -> Result<(), String> {
     if args.json {
         println!(
             "{{\"n\": {n}, \"model\": \"{}\", \"rank\": {}, \"compliance\": [{}], \"seconds\": [{}], \
-             \"seconds_best\": {best:e}, \"input_bytes\": {input_bytes}, \"peak_extra_bytes\": {}}}",
+             \"seconds_best\": {best:e}, \"cpu_seconds_mean\": {mean_cpu_json}, \"input_bytes\": {input_bytes}, \"peak_extra_bytes\": {}}}",
             args.model,
             id.rank,
             compliance.join(", "),
@@ -204,6 +227,12 @@ fn run() -> Result<(), String> {
             seconds.len(),
             best * 1e3
         );
+        if mean_cpu.is_finite() {
+            println!(
+                "CPU time per run (all threads, mean): {:.2} ms",
+                mean_cpu * 1e3
+            );
+        }
         println!("input: {:.1} MiB", input_bytes as f64 / 1048576.0);
         match peak_extra {
             Some(b) => println!(
