@@ -34,6 +34,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod csjm;
+pub mod diagnose;
 pub mod error;
 pub mod identification;
 pub mod so3;

@@ -2,8 +2,10 @@
 //! conservative point loads (platform weight), the potential energy Φ(R), the external moment
 //! that holds the platform at a pose, the analytic stiffness there, and an equilibrium solver.
 //!
-//! Cable s pulls with `t_s = k_s (c_s − L0_s)`, which must stay > 0 (a cable cannot push);
-//! a slack cable is an error naming it. Φ(R) = Σ ½ k_s (c_s − L0_s)² + Σ_loads −f_B·(R p_A).
+//! Cable s pulls with `t_s = k_s e_s + k₂_s e_s²`, `e_s = c_s − L0_s` (linear by default,
+//! `k₂ = 0`; stiffening with [`CsjmSimulator::with_cable_stiffening`]), which must stay > 0 (a
+//! cable cannot push); a slack cable is an error naming it.
+//! Φ(R) = Σ (½ k_s e_s² + ⅓ k₂_s e_s³) + Σ_loads −f_B·(R p_A).
 //! The external moment holding the platform at R is the body gradient of Φ:
 //! `τ_i(R) = d/dε Φ(R·exp(ε hat σ_i))` (N·m, frame A), checked by finite differences in the tests.
 
@@ -103,6 +105,11 @@ pub struct Equilibrium {
 pub struct CsjmSimulator {
     geometry: CsjmGeometry,
     cables: [Cable; CABLES],
+    /// Quadratic coefficient k₂_s of each cable law, N/m² (0: linear).
+    stiffening: [f64; CABLES],
+    /// Constant tension offset of each cable, N (0 by default; friction for a fixed sliding
+    /// direction).
+    tension_offsets: [f64; CABLES],
     loads: Vec<PointLoad>,
 }
 
@@ -137,6 +144,8 @@ impl CsjmSimulator {
         Ok(Self {
             geometry,
             cables,
+            stiffening: [0.0; CABLES],
+            tension_offsets: [0.0; CABLES],
             loads: Vec::new(),
         })
     }
@@ -191,6 +200,113 @@ impl CsjmSimulator {
         self
     }
 
+    /// Makes the cables stiffen with extension: `t_s = k_s e_s + k₂_s e_s²` (`k2` in N/m²,
+    /// finite and ≥ 0; `e_s = c_s − L0_s`, m), the behaviour of polymer (UHMWPE) cables and of
+    /// their driving units under growing tension. The tangent stiffness is
+    /// `∂t_s/∂c_s = k_s + 2k₂_s e_s`. Rest lengths are re-solved so that every cable keeps the
+    /// tension it has at `pose` (so a pre-tension set with [`Self::with_pretension`] is kept);
+    /// the linear coefficient `k_s` is unchanged.
+    ///
+    /// Errors: a `k2` that is not finite and ≥ 0 (names the cable), a slack cable at `pose`.
+    ///
+    /// ```
+    /// use nalgebra::Rotation3;
+    /// use so3_stiffness::csjm::{CsjmGeometry, CsjmSimulator};
+    /// let home = Rotation3::identity();
+    /// let sim = CsjmSimulator::with_pretension(CsjmGeometry::prototype(), [5000.0; 6], [80.0; 6], &home)?
+    ///     .with_cable_stiffening([2.0e5; 6], &home)?;
+    /// assert!((sim.tensions(&home)?[0] - 80.0).abs() < 1e-9);
+    /// # Ok::<(), so3_stiffness::CsjmError>(())
+    /// ```
+    pub fn with_cable_stiffening(
+        mut self,
+        k2: [f64; CABLES],
+        pose: &Rotation3<f64>,
+    ) -> Result<Self, CsjmError> {
+        for (i, v) in k2.iter().enumerate() {
+            if !(v.is_finite() && *v >= 0.0) {
+                return Err(CsjmError::InvalidCableParameter {
+                    cable: i + 1,
+                    what: "stiffening k2 [N/m²]",
+                    value: *v,
+                    requirement: "finite and ≥ 0",
+                });
+            }
+        }
+        let state = self.state(pose)?;
+        for i in 0..CABLES {
+            // The elastic part of the tension (offsets, if any, stay as they are).
+            let t = state.tensions[i] - self.tension_offsets[i];
+            let k = self.cables[i].stiffness;
+            if !(t > 0.0) {
+                return Err(CsjmError::SlackCable {
+                    cable: i + 1,
+                    tension: t,
+                });
+            }
+            // Positive root of k e + k₂ e² = t, in the form without cancellation.
+            let extension = 2.0 * t / (k + (k * k + 4.0 * k2[i] * t).sqrt());
+            self.cables[i].rest_length = state.kinematics.lengths()[i] - extension;
+            if !(self.cables[i].rest_length > 0.0) {
+                return Err(CsjmError::InvalidCableParameter {
+                    cable: i + 1,
+                    what: "rest length [m] after stiffening",
+                    value: self.cables[i].rest_length,
+                    requirement: "finite and > 0",
+                });
+            }
+        }
+        self.stiffening = k2;
+        Ok(self)
+    }
+
+    /// Adds a constant offset to each cable tension, N (finite): `t_s = k_s e_s + k₂_s e_s² +
+    /// offset_s`. With `offset_s = f_s·sign(ċ_s)` this is Coulomb friction `f_s` in the cable
+    /// routing while cable s slides in a known direction (lengthening: the platform must pull
+    /// harder). For fixed offsets the model stays conservative (Φ gains `Σ offset_s e_s`), so
+    /// the equilibrium solver and the analytic stiffness apply unchanged; the stiffness does
+    /// not depend on the offsets except through the tensions. Replaces earlier offsets.
+    ///
+    /// Errors: a non-finite offset (names the cable).
+    pub fn with_tension_offsets(mut self, offsets: [f64; CABLES]) -> Result<Self, CsjmError> {
+        for (i, v) in offsets.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(CsjmError::NonFinite {
+                    what: "cable tension offset",
+                    cable: Some(i + 1),
+                });
+            }
+        }
+        self.tension_offsets = offsets;
+        Ok(self)
+    }
+
+    /// Constant tension offsets of the cables, N (all 0 by default).
+    pub fn tension_offsets(&self) -> &[f64; CABLES] {
+        &self.tension_offsets
+    }
+
+    /// Quadratic coefficients k₂_s of the cable laws, N/m² (all 0 for linear cables).
+    pub fn cable_stiffening(&self) -> &[f64; CABLES] {
+        &self.stiffening
+    }
+
+    /// Tangent stiffness `∂t_s/∂c_s = k_s + 2k₂_s e_s` of each cable at `pose`, N/m.
+    pub fn tangent_cable_stiffness(
+        &self,
+        pose: &Rotation3<f64>,
+    ) -> Result<[f64; CABLES], CsjmError> {
+        let state = self.state(pose)?;
+        Ok(self.tangent_stiffness_of(&state))
+    }
+
+    fn tangent_stiffness_of(&self, state: &PoseState) -> [f64; CABLES] {
+        std::array::from_fn(|i| {
+            let extension = state.kinematics.lengths()[i] - self.cables[i].rest_length;
+            self.cables[i].stiffness + 2.0 * self.stiffening[i] * extension
+        })
+    }
+
     /// The geometry.
     pub fn geometry(&self) -> &CsjmGeometry {
         &self.geometry
@@ -210,7 +326,9 @@ impl CsjmSimulator {
         let kinematics = CableKinematics::new(&self.geometry, pose)?;
         let mut tensions = [0.0; CABLES];
         for (i, cable) in self.cables.iter().enumerate() {
-            let tension = cable.stiffness * (kinematics.lengths()[i] - cable.rest_length);
+            let extension = kinematics.lengths()[i] - cable.rest_length;
+            let tension = extension * (cable.stiffness + self.stiffening[i] * extension)
+                + self.tension_offsets[i];
             if tension <= 0.0 {
                 return Err(CsjmError::SlackCable {
                     cable: i + 1,
@@ -234,7 +352,11 @@ impl CsjmSimulator {
     pub fn potential(&self, pose: &Rotation3<f64>) -> Result<f64, CsjmError> {
         let state = self.state(pose)?;
         let springs: f64 = (0..CABLES)
-            .map(|i| 0.5 * state.tensions[i] * state.tensions[i] / self.cables[i].stiffness)
+            .map(|i| {
+                let e = state.kinematics.lengths()[i] - self.cables[i].rest_length;
+                e * e * (0.5 * self.cables[i].stiffness + self.stiffening[i] * e / 3.0)
+                    + self.tension_offsets[i] * e
+            })
             .sum();
         let loads: f64 = self.loads.iter().map(|l| l.potential(pose)).sum();
         Ok(springs + loads)
@@ -256,7 +378,7 @@ impl CsjmSimulator {
     }
 
     fn stiffness_of(&self, state: &PoseState, pose: &Rotation3<f64>) -> Stiffness {
-        let k: [f64; CABLES] = std::array::from_fn(|i| self.cables[i].stiffness);
+        let k = self.tangent_stiffness_of(state);
         stiffness_from_kinematics(&state.kinematics, pose, &state.tensions, &k, &self.loads)
     }
 

@@ -1,0 +1,398 @@
+//! A virtual CSJM testbed for diagnosis: the seed's experiment (a pre-loaded pose and load
+//! increments applied one after another, in measurement order) on a simulator that carries
+//! the effects the diagnosis looks for.
+//!
+//! # Effects (all off by default; physically parameterised)
+//! - **Platform gravity left out of the recorded moments** ([`GravityRecording::Omitted`]):
+//!   the platform weight (prototype: G = 4.82 N at ᴬr_G = (0, 0, 0.081) m, gravity along −z_B)
+//!   acts, but the recorded moment is the sensor's alone (seed eq. 56 skipped).
+//! - **Friction hysteresis in the cables** (`cable_friction` f_s, N): while cable s slides,
+//!   its tension at the platform is offset by `f_s·sign(ċ_s)` (lengthening: the platform
+//!   pulls harder against the routing). Each load step is solved with the sliding directions
+//!   of the step itself (fixed-point iteration from the frictionless step, at most
+//!   [`MAX_FRICTION_ITERATIONS`]); every cable is assumed to slip (no sticking). Loading and
+//!   unloading then reach different poses under the same load: a hysteresis loop of width
+//!   ≈ 2 × the friction moment `Jᵀ(f∘σ)`. Realistic f_s: 0.5–3 N for cables over guide holes
+//!   at 50–100 N pre-tension.
+//! - **Non-linear (stiffening) cables** (`cable_stiffening` k₂, N/m²): `t = k e + k₂ e²`, see
+//!   [`CsjmSimulator::with_cable_stiffening`]. With the prototype's k ≈ 5.25 kN/m and
+//!   e ≈ 15 mm at 80 N, k₂ = 1.75e5 N/m² doubles the tangent stiffness at the pre-tension.
+//!
+//! # Noise
+//! As [`crate::identification::campaign`]: tracker ([`TrackerNoise`], σ_θ = 1.35e-4 rad per
+//! axis) and F/T sensor ([`MomentNoise`], σ ≈ (0.032, 0.038, 0.032) N·m).
+
+use nalgebra::{Rotation3, Vector3};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+use crate::csjm::{CsjmSimulator, EquilibriumOptions, PointLoad, Stiffness, CABLES};
+use crate::identification::campaign::{
+    prototype_simulator, GravityRecording, LoadPattern, MomentNoise, TrackerNoise,
+};
+use crate::identification::load::gravity_moment;
+use crate::identification::{CsjmDataset, CsjmMeasurement, IdentificationError};
+use crate::so3;
+
+/// Largest number of fixed-point iterations on the cables' sliding directions per load step.
+pub const MAX_FRICTION_ITERATIONS: usize = 8;
+
+/// The effects hidden in a simulated campaign.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct CsjmEffects {
+    /// Platform weight: absent, acting and recorded (eq. 56 at the measured pose), or acting
+    /// and omitted from the recorded moment.
+    pub gravity: GravityRecording,
+    /// Coulomb friction f_s of each cable in its routing, N (≥ 0).
+    pub cable_friction: [f64; CABLES],
+    /// Quadratic coefficient k₂ of each cable law t = k e + k₂ e², N/m² (≥ 0).
+    pub cable_stiffening: [f64; CABLES],
+}
+
+impl Default for CsjmEffects {
+    fn default() -> Self {
+        CsjmEffects {
+            gravity: GravityRecording::Absent,
+            cable_friction: [0.0; CABLES],
+            cable_stiffening: [0.0; CABLES],
+        }
+    }
+}
+
+impl CsjmEffects {
+    /// No effect.
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// The prototype's weight acting but left out of the recorded moments.
+    pub fn omitted_gravity(weight: PointLoad) -> Self {
+        CsjmEffects {
+            gravity: GravityRecording::Omitted(weight),
+            ..Self::default()
+        }
+    }
+
+    /// The same friction `f` (N) in every cable.
+    pub fn friction(f: f64) -> Self {
+        CsjmEffects {
+            cable_friction: [f; CABLES],
+            ..Self::default()
+        }
+    }
+
+    /// The same stiffening `k2` (N/m²) in every cable.
+    pub fn stiffening(k2: f64) -> Self {
+        CsjmEffects {
+            cable_stiffening: [k2; CABLES],
+            ..Self::default()
+        }
+    }
+}
+
+/// Settings of a diagnosis campaign.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct CsjmCampaignSpec {
+    /// External pre-load τ₀ at the reference pose, N·m, frame A (seed Table 3).
+    pub preload: Vector3<f64>,
+    /// Number of load increments, applied one after another (the seed used 85).
+    pub increments: usize,
+    /// Largest ‖Δτ‖ from the pre-load, N·m.
+    pub max_increment: f64,
+    /// How increments are spread ([`LoadPattern::Symmetric`] by default: every axis is loaded
+    /// and unloaded).
+    pub pattern: LoadPattern,
+    /// Pose noise.
+    pub tracker: TrackerNoise,
+    /// Moment noise.
+    pub moment_noise: MomentNoise,
+    /// Hidden effects.
+    pub effects: CsjmEffects,
+    /// RNG seed: the same seed gives the same campaign.
+    pub seed: u64,
+}
+
+impl Default for CsjmCampaignSpec {
+    fn default() -> Self {
+        CsjmCampaignSpec {
+            preload: Vector3::new(-0.06, -3.08, 1.07),
+            increments: 85,
+            max_increment: 1.0,
+            pattern: LoadPattern::Symmetric,
+            tracker: TrackerNoise::default(),
+            moment_noise: MomentNoise::default(),
+            effects: CsjmEffects::none(),
+            seed: 0,
+        }
+    }
+}
+
+impl CsjmCampaignSpec {
+    /// The default campaign with the given effects and seed.
+    pub fn new(effects: CsjmEffects, seed: u64) -> Self {
+        CsjmCampaignSpec {
+            effects,
+            seed,
+            ..Self::default()
+        }
+    }
+
+    fn validate(&self) -> Result<(), IdentificationError> {
+        let bad = |field: &'static str, message: String| {
+            Err(IdentificationError::InvalidSetting { field, message })
+        };
+        if !self.preload.iter().all(|x| x.is_finite()) {
+            return bad("preload", "must be finite".into());
+        }
+        if self.increments < crate::identification::dataset::MIN_INCREMENTS {
+            return bad(
+                "increments",
+                format!("at least 3 needed, got {}", self.increments),
+            );
+        }
+        if !(self.max_increment.is_finite() && self.max_increment > 0.0) {
+            return bad(
+                "max_increment",
+                format!("must be finite and > 0 N·m, got {}", self.max_increment),
+            );
+        }
+        for (i, f) in self.effects.cable_friction.iter().enumerate() {
+            if !(f.is_finite() && *f >= 0.0) {
+                return bad(
+                    "cable_friction",
+                    format!("cable {}: must be finite and ≥ 0 N, got {f}", i + 1),
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A simulated campaign and its ground truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsjmCampaign {
+    /// The measurement file's content: reference row plus one row per increment, in order.
+    pub dataset: CsjmDataset,
+    /// True reference pose R₀.
+    pub true_r0: Rotation3<f64>,
+    /// The cables' stiffness at R₀ (without the weight; `covariant` is the symmetric K).
+    pub true_stiffness: Stiffness,
+    /// Applied external moments, N·m, frame A, one per increment (noise-free).
+    pub applied: Vec<Vector3<f64>>,
+    /// True poses, one per increment.
+    pub true_poses: Vec<Rotation3<f64>>,
+    /// Sliding direction of each cable during each step (+1 lengthening, −1 shortening);
+    /// all 0 without friction.
+    pub sliding: Vec<[i8; CABLES]>,
+}
+
+/// The physics of a campaign: cables (possibly stiffening), friction and the weight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EffectSimulator {
+    cables: CsjmSimulator,
+    friction: [f64; CABLES],
+    weight: Option<PointLoad>,
+}
+
+/// Where a load path stands: the pose and the cables' last sliding directions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathState {
+    /// Current pose ᴮ_A R.
+    pub pose: Rotation3<f64>,
+    /// Last sliding direction of each cable (+1, −1, or 0 before any motion).
+    pub sliding: [i8; CABLES],
+}
+
+impl PathState {
+    /// At rest at `pose`, no sliding history.
+    pub fn at(pose: Rotation3<f64>) -> Self {
+        PathState {
+            pose,
+            sliding: [0; CABLES],
+        }
+    }
+}
+
+impl EffectSimulator {
+    /// Cables (`cables` may already be stiffening), per-cable friction (N, ≥ 0) and an
+    /// optional weight acting on the platform.
+    pub fn new(
+        cables: CsjmSimulator,
+        friction: [f64; CABLES],
+        weight: Option<PointLoad>,
+    ) -> Result<Self, IdentificationError> {
+        for (i, f) in friction.iter().enumerate() {
+            if !(f.is_finite() && *f >= 0.0) {
+                return Err(IdentificationError::InvalidSetting {
+                    field: "cable_friction",
+                    message: format!("cable {}: must be finite and ≥ 0 N, got {f}", i + 1),
+                });
+            }
+        }
+        Ok(EffectSimulator {
+            cables,
+            friction,
+            weight,
+        })
+    }
+
+    /// The cables alone (no friction offsets, no weight).
+    pub fn cables(&self) -> &CsjmSimulator {
+        &self.cables
+    }
+
+    /// The simulator with friction offsets `f_s σ_s` and the weight.
+    fn with_sliding(&self, sliding: &[i8; CABLES]) -> Result<CsjmSimulator, crate::CsjmError> {
+        let offsets = std::array::from_fn(|i| self.friction[i] * f64::from(sliding[i]));
+        let sim = self.cables.clone().with_tension_offsets(offsets)?;
+        Ok(match self.weight {
+            Some(w) => sim.with_load(w),
+            None => sim,
+        })
+    }
+
+    /// Applies the external moment `load` (N·m, frame A) from `state` and returns the new
+    /// state. Sliding directions are found by fixed-point iteration: solve, read the sign of
+    /// each cable's length change from the previous pose, re-solve with those friction
+    /// offsets, until the signs repeat (at most [`MAX_FRICTION_ITERATIONS`] solves).
+    pub fn apply(
+        &self,
+        state: &PathState,
+        load: &Vector3<f64>,
+    ) -> Result<PathState, crate::CsjmError> {
+        let options = EquilibriumOptions::starting_at(state.pose);
+        let frictionless = self.friction.iter().all(|f| *f == 0.0);
+        let start_lengths = crate::csjm::cable_lengths(self.cables.geometry(), &state.pose)?;
+        let mut sliding = [0i8; CABLES];
+        let mut pose = state.pose;
+        for _ in 0..MAX_FRICTION_ITERATIONS {
+            pose = self
+                .with_sliding(&sliding)?
+                .equilibrium(load, &options)?
+                .pose;
+            if frictionless {
+                break;
+            }
+            let lengths = crate::csjm::cable_lengths(self.cables.geometry(), &pose)?;
+            let next: [i8; CABLES] = std::array::from_fn(|i| {
+                let dc = lengths[i] - start_lengths[i];
+                if dc > 0.0 {
+                    1
+                } else if dc < 0.0 {
+                    -1
+                } else {
+                    0
+                }
+            });
+            if next == sliding {
+                break;
+            }
+            sliding = next;
+        }
+        Ok(PathState { pose, sliding })
+    }
+}
+
+/// Simulates a campaign on the seed prototype's cables
+/// ([`prototype_simulator`]: 80 N per cable at home, unloaded K_xx = 30 N·m/rad) with the
+/// hidden `spec.effects`.
+///
+/// ```
+/// use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
+/// let mut spec = CsjmCampaignSpec::new(CsjmEffects::friction(1.0), 3);
+/// spec.increments = 10;
+/// let campaign = simulate_campaign(&spec).unwrap();
+/// assert_eq!(campaign.dataset.measurements().len(), 10);
+/// ```
+pub fn simulate_campaign(spec: &CsjmCampaignSpec) -> Result<CsjmCampaign, IdentificationError> {
+    simulate_campaign_on(&prototype_simulator()?, spec)
+}
+
+/// [`simulate_campaign`] on other cables (a simulator of the cables alone, linear; the
+/// stiffening of `spec.effects` is added keeping the tensions at the home pose).
+pub fn simulate_campaign_on(
+    cables: &CsjmSimulator,
+    spec: &CsjmCampaignSpec,
+) -> Result<CsjmCampaign, IdentificationError> {
+    spec.validate()?;
+    let sim_error = |index: usize| {
+        move |e: crate::CsjmError| IdentificationError::Simulation {
+            index,
+            message: e.to_string(),
+        }
+    };
+    let home = Rotation3::identity();
+    let cables = if spec.effects.cable_stiffening.iter().any(|k| *k != 0.0) {
+        cables
+            .clone()
+            .with_cable_stiffening(spec.effects.cable_stiffening, &home)
+            .map_err(sim_error(0))?
+    } else {
+        cables.clone()
+    };
+    let weight = match spec.effects.gravity {
+        GravityRecording::Absent => None,
+        GravityRecording::Recorded(w) | GravityRecording::Omitted(w) => Some(w),
+    };
+    let physics = EffectSimulator::new(cables.clone(), spec.effects.cable_friction, weight)?;
+
+    let mut rng = StdRng::seed_from_u64(spec.seed);
+    // The reference: the pre-load applied from rest at home.
+    let mut state = physics
+        .apply(&PathState::at(home), &spec.preload)
+        .map_err(sim_error(0))?;
+    let true_r0 = state.pose;
+    let true_stiffness = cables.stiffness(&true_r0).map_err(sim_error(0))?;
+
+    let (lo, hi) = match spec.pattern {
+        LoadPattern::OneSided => (-0.25, 1.0),
+        _ => (-1.0, 1.0),
+    };
+    let per_axis = spec.max_increment / 3f64.sqrt();
+    let applied: Vec<Vector3<f64>> = (0..spec.increments)
+        .map(|_| spec.preload + Vector3::from_fn(|_, _| rng.random_range(lo..=hi) * per_axis))
+        .collect();
+    let mut true_poses = Vec::with_capacity(applied.len());
+    let mut sliding = Vec::with_capacity(applied.len());
+    for (index, load) in applied.iter().enumerate() {
+        state = physics.apply(&state, load).map_err(sim_error(index + 1))?;
+        true_poses.push(state.pose);
+        sliding.push(state.sliding);
+    }
+
+    let gaussian = |sigma: f64| {
+        Normal::new(0.0, sigma).map_err(|e| IdentificationError::InvalidSetting {
+            field: "noise",
+            message: e.to_string(),
+        })
+    };
+    let angle_noise = gaussian(spec.tracker.angular_sigma())?;
+    let ms = spec.moment_noise.sigma();
+    let moment_noise = [gaussian(ms.x)?, gaussian(ms.y)?, gaussian(ms.z)?];
+    let mut measure = |pose: &Rotation3<f64>, external: &Vector3<f64>| {
+        let n = Vector3::from_fn(|_, _| angle_noise.sample(&mut rng));
+        let measured_pose = pose * so3::exp(&n);
+        let mut moment = external + Vector3::from_fn(|i, _| moment_noise[i].sample(&mut rng));
+        if let GravityRecording::Recorded(w) = spec.effects.gravity {
+            moment += gravity_moment(&measured_pose, &w.force_in_b(), &w.point_in_a());
+        }
+        CsjmMeasurement::new(measured_pose, moment)
+    };
+    let reference = measure(&true_r0, &spec.preload);
+    let rows: Vec<CsjmMeasurement> = true_poses
+        .iter()
+        .zip(&applied)
+        .map(|(p, t)| measure(p, t))
+        .collect();
+    Ok(CsjmCampaign {
+        dataset: CsjmDataset::new(reference, rows)?,
+        true_r0,
+        true_stiffness,
+        applied,
+        true_poses,
+        sliding,
+    })
+}
