@@ -11,6 +11,9 @@ use crate::chain::SerialChain;
 use crate::model::SpringAxis;
 use crate::testbed::{Effect, TrueModel};
 
+/// Knots of the torsion non-linearity hinges, in units of the joint's RMS training torque.
+pub const TORSION_KNOTS: [f64; 2] = [0.33, 1.0];
+
 /// One candidate extension of the model. Joints are 0-based here and 1-based in the report.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Candidate {
@@ -75,6 +78,7 @@ impl Candidate {
         match self {
             Candidate::WrenchBias => 6,
             Candidate::FrameMisalignment => 3,
+            Candidate::JointTorsionNonlinear { .. } => TORSION_KNOTS.len(),
             _ => 1,
         }
     }
@@ -100,7 +104,9 @@ impl Candidate {
     pub fn unit(&self) -> &'static str {
         match self {
             Candidate::JointTilt { .. } => "rad/(N·m)",
-            Candidate::JointTorsionNonlinear { .. } => "rad/(N·m) at the RMS torque",
+            Candidate::JointTorsionNonlinear { .. } => {
+                "rad/(N·m) (compliance change beyond each knot)"
+            }
             Candidate::JointBacklash { .. } => "rad",
             Candidate::WrenchBias => "N, N·m",
             Candidate::FrameMisalignment => "rad",
@@ -149,6 +155,9 @@ pub struct RowKinematics {
     pub displacement: [f64; 3],
     /// Unloaded tip point, base frame, m.
     pub tip: [f64; 3],
+    /// Standard deviation of each joint's torsion torque τ_jz caused by the force-sensor noise,
+    /// `√(J_zᵀ Σ_W J_z)`, N·m (n values; zeros when the wrench is taken as exact).
+    pub tau_sigma: Vec<f64>,
 }
 
 /// The point the bilinear columns are linearised at: the full 3n compliance vector of the
@@ -191,9 +200,11 @@ pub fn spring_column(row: &RowKinematics, s: usize) -> [f64; 3] {
 /// Raw columns of `cand` for one row: one 3-vector per parameter.
 ///
 /// - `joint_tilt (j, a)`: `J_t[:, ja] · τ_ja`;
-/// - `joint_torsion_nonlinear (j)`: `J_t[:, jz] · τ_jz |τ_jz| / s_j` with `s_j` the RMS of
-///   τ_jz over the training rows (the parameter is then a compliance change at the RMS torque);
-/// - `joint_backlash (j)`: `J_t[:, jz] · ½ sign(τ_jz)` (the parameter is the lost motion b);
+/// - `joint_torsion_nonlinear (j)`: `J_t[:, jz] · sign(τ)·max(|τ| − t_k, 0)` for the knots
+///   `t_k = TORSION_KNOTS[k] · s_j`, `s_j` the RMS of τ_jz over the training rows (each parameter
+///   is the change of tangent compliance beyond its knot, rad/(N·m));
+/// - `joint_backlash (j)`: `J_t[:, jz] · ½ erf(τ_jz/(√2 σ_τ))`, the expected `½ sign(τ)` of the
+///   applied torque given the recorded one (the parameter is the lost motion b);
 /// - `wrench_bias`: `−J_t C Jᵀ e_k`, k = 1..6 (the parameter is the bias β, recorded = applied + β);
 /// - `frame_misalignment`: `−hat(d̂)` with d̂ the spring prediction (the parameter is φ,
 ///   recorded = exp(hat φ) d ≈ d + φ × d);
@@ -217,13 +228,33 @@ pub fn candidate_columns(
             vec![spring_column(row, 3 * joint + k)]
         }
         Candidate::JointTorsionNonlinear { joint } => {
+            // Odd hinge functions sign(τ)·max(|τ| − t_k, 0) at t_k = TORSION_KNOTS · s_j: with
+            // the linear spring they span piecewise-linear torque → deflection curves such as
+            // the harmonic drive's K1/K2/K3 segments, and they are continuous at τ = 0, which
+            // separates them from lost motion.
             let t = row.tau[3 * joint];
             let s = tau_scale[joint].max(1e-12);
-            vec![scale3(col3(&row.jacobian, 3 * joint), t * t.abs() / s)]
+            let a = col3(&row.jacobian, 3 * joint);
+            TORSION_KNOTS
+                .iter()
+                .map(|k| {
+                    let h = (t.abs() - k * s).max(0.0).copysign(t);
+                    scale3(a, h)
+                })
+                .collect()
         }
         Candidate::JointBacklash { joint } => {
+            // The sign of the applied torque is uncertain when |τ| is within the noise of the
+            // recorded wrench: use its expectation E[sign τ | τ_rec] = erf(τ_rec/(√2 σ_τ)).
             let t = row.tau[3 * joint];
-            let sg = if t == 0.0 { 0.0 } else { t.signum() };
+            let st = row.tau_sigma.get(joint).copied().unwrap_or(0.0);
+            let sg = if st > 0.0 {
+                erf(t / (std::f64::consts::SQRT_2 * st))
+            } else if t == 0.0 {
+                0.0
+            } else {
+                t.signum()
+            };
             vec![scale3(col3(&row.jacobian, 3 * joint), 0.5 * sg)]
         }
         Candidate::WrenchBias => {
@@ -248,4 +279,23 @@ pub fn candidate_columns(
             vec![[d.x - l[0], d.y - l[1], d.z - l[2]]]
         }
     }
+}
+
+/// The error function, through the regularised incomplete gamma function: erf(x) = P(½, x²).
+pub fn erf(x: f64) -> f64 {
+    let p = 1.0 - super::stats::gamma_q(0.5, x * x);
+    p.copysign(x)
+}
+
+/// Per-joint torsion torque noise `√(J_zᵀ Σ_W J_z)` for a 6×3n Jacobian and per-axis wrench
+/// standard deviations.
+pub fn torque_sigma(jacobian: &DMatrix<f64>, wrench_sigma: &[f64; 6]) -> Vec<f64> {
+    (0..jacobian.ncols() / 3)
+        .map(|j| {
+            (0..6)
+                .map(|k| (jacobian[(k, 3 * j)] * wrench_sigma[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect()
 }

@@ -274,7 +274,15 @@ impl<'a> Engine<'a> {
 
     /// Nested-model scores of every candidate in `pool` against `fit` on the training rows.
     pub fn score(&self, fit: &Fit, pool: &[Candidate]) -> Vec<Score> {
-        let cols = self.design(&fit.terms, &self.train, &fit.lin);
+        self.score_given(fit, &[], pool)
+    }
+
+    /// Scores of `pool` against `fit` with the candidates `given` added to the model (their
+    /// columns at `fit`'s linearisation point).
+    pub fn score_given(&self, fit: &Fit, given: &[Candidate], pool: &[Candidate]) -> Vec<Score> {
+        let mut terms = fit.terms.clone();
+        terms.extend(given.iter().map(|c| Term::Cand(*c)));
+        let cols = self.design(&terms, &self.train, &fit.lin);
         let mut basis = Basis::new();
         for c in &cols {
             basis.push(c);

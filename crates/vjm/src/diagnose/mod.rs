@@ -10,9 +10,9 @@
 //!    Benjamini–Hochberg at level `fdr` across the catalogue decides which are significant; the
 //!    most significant one must also lower the whitened error on the held-out rows to be
 //!    accepted (otherwise the next one is tried); then all are re-scored against the extended
-//!    model (forward selection). Candidates that fit the data as well as a finding (difference
-//!    of SSE below `alias_chi2` noise variances, or columns with |cos| ≥ `alias_cosine` after
-//!    projecting out the model) are reported as its aliases.
+//!    model (forward selection). Significant candidates that make a finding unnecessary (its F
+//!    test given the other has p > `alias_alpha`), or whose columns have |cos| ≥
+//!    `alias_cosine` with the finding's after projecting out the model, are its aliases.
 //! 4. The extended model is refitted and its held-out error reported.
 //! 5. `unexplained` is set when the extended model's per-pose ANOVA stays significant.
 //!
@@ -91,9 +91,9 @@ pub struct DiagnoseOptions {
     pub max_findings: usize,
     /// |cos| at or above which two candidates are aliases (default 0.99).
     pub alias_cosine: f64,
-    /// SSE difference (in noise variances) below which two candidates are aliases
-    /// (default 3.84, the 5 % point of χ²₁).
-    pub alias_chi2: f64,
+    /// A significant candidate b is an alias of a finding a when, with b in the model, the
+    /// F test of a has p above this level (default 0.05): the data cannot tell a from b.
+    pub alias_alpha: f64,
     /// Level of the per-pose ANOVA that sets `unexplained` (default 0.01).
     pub unexplained_alpha: f64,
 }
@@ -108,7 +108,7 @@ impl Default for DiagnoseOptions {
             noise: NoiseAssumption::default(),
             max_findings: 6,
             alias_cosine: 0.99,
-            alias_chi2: 3.84,
+            alias_alpha: 0.05,
             unexplained_alpha: 0.01,
         }
     }
@@ -273,6 +273,7 @@ fn prepare<'a>(
             let w = data.wrench(i);
             let wv = nalgebra::DVector::from_column_slice(&w);
             let tau: Vec<f64> = (pose.jacobian.transpose() * wv).iter().cloned().collect();
+            let tau_sigma = candidates::torque_sigma(&pose.jacobian, &opts.noise.wrench_sigma);
             RowKinematics {
                 q,
                 jacobian: pose.jacobian,
@@ -280,6 +281,7 @@ fn prepare<'a>(
                 wrench: w,
                 displacement: data.displacement(i),
                 tip: [pose.tip.x, pose.tip.y, pose.tip.z],
+                tau_sigma,
             }
         })
         .collect();
@@ -439,6 +441,17 @@ pub fn diagnose_with_progress(
         let a = testable[k];
         let df_a = a.f_test.df_den.max(1.0);
         let sigma2 = a.sse_full / df_a;
+        // Aliases: significant candidates b such that, once b is in the model, the data no
+        // longer need a (its F test given b has p > alias_alpha), or whose columns are
+        // near-collinear with a's after projecting out the model.
+        let bh_cut = {
+            let mut sorted = p.clone();
+            sorted.sort_by(|x, y| x.total_cmp(y));
+            (0..sorted.len())
+                .filter(|&r| sorted[r] <= opts.fdr * (r + 1) as f64 / sorted.len() as f64)
+                .map(|r| sorted[r])
+                .fold(0.0, f64::max)
+        };
         let mut aliases = Vec::new();
         for b in &testable {
             if b.cand == a.cand {
@@ -447,8 +460,16 @@ pub fn diagnose_with_progress(
             let delta = (b.sse_full - a.sse_full) / sigma2;
             let cosine = (a.cand.n_columns() == 1 && b.cand.n_columns() == 1)
                 .then(|| linalg::cosine(&a.first_residual, &b.first_residual).abs());
-            if delta < opts.alias_chi2 || cosine.is_some_and(|c| c >= opts.alias_cosine) {
-                aliases.push((b.cand, cosine, delta));
+            let collinear = cosine.is_some_and(|c| c >= opts.alias_cosine);
+            let p_given = if b.f_test.p_value <= bh_cut {
+                eng.score_given(&current, &[b.cand], &[a.cand])[0]
+                    .f_test
+                    .p_value
+            } else {
+                0.0
+            };
+            if collinear || p_given > opts.alias_alpha {
+                aliases.push((b.cand, cosine, delta, p_given));
             }
         }
         let rank_a = p.iter().filter(|&&v| v <= p[k]).count();
@@ -464,17 +485,18 @@ pub fn diagnose_with_progress(
             unit: a.cand.unit(),
         };
         let _ = n_rejected;
-        pool.retain(|c| *c != a.cand && !aliases.iter().any(|(b, _, _)| b == c));
+        pool.retain(|c| *c != a.cand && !aliases.iter().any(|(b, _, _, _)| b == c));
         findings.push((
             a.cand,
             aliases
                 .into_iter()
-                .map(|(b, cosine, delta)| Alias {
+                .map(|(b, cosine, delta, p_given)| Alias {
                     effect: b.effect(),
                     joint: b.joint().map(|j| j + 1),
                     axis: b.axis().map(|x| x.to_string()),
                     cosine,
                     delta_chi2: delta,
+                    p_finding_given_alias: p_given,
                 })
                 .collect(),
             evidence,

@@ -47,6 +47,9 @@ pub struct Alias {
     pub cosine: Option<f64>,
     /// (SSE with the alias − SSE with the finding) / σ̂², in units of noise variance.
     pub delta_chi2: f64,
+    /// p-value of the finding's F test once the alias is in the model (0 when not computed
+    /// because the alias is not significant itself; aliases by collinearity may have any value).
+    pub p_finding_given_alias: f64,
 }
 
 /// Why a finding was named.

@@ -170,6 +170,7 @@ pub fn seed_study(
                 wrench: w,
                 displacement: data.displacement(i),
                 tip: [pose.tip.x, pose.tip.y, pose.tip.z],
+                tau_sigma: Vec::new(),
             }
         })
         .collect();
