@@ -39,6 +39,9 @@ pub const DEFAULT_MAX_CONDITION: f64 = 100.0;
 /// design, e.g. quadratic columns that duplicate each other; excitation is judged on Ω.
 pub const MAX_REGRESSOR_CONDITION: f64 = 1e10;
 
+/// Largest number of points of the det(K)-versus-N series (see [`DetPoint`]).
+pub const MAX_CONVERGENCE_POINTS: usize = 128;
+
 /// Order of the local model τ(Δζ).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[non_exhaustive]
@@ -107,7 +110,8 @@ pub struct FitOptions {
     /// it the fit fails with [`IdentificationError::IllConditioned`] instead of inverting
     /// blindly.
     pub max_condition: f64,
-    /// Compute the det(K)-versus-N series (one extra fit per prefix of the data).
+    /// Compute the det(K)-versus-N series (one extra fit per prefix of the data; at most
+    /// [`MAX_CONVERGENCE_POINTS`] evenly spaced prefixes).
     pub convergence_series: bool,
 }
 
@@ -267,7 +271,8 @@ pub fn identify_increments(
     let mut estimate = fit(tau0, dzeta, dtau, options)?;
     if options.convergence_series {
         let first = options.min_increments();
-        estimate.det_convergence = (first..=dzeta.len())
+        estimate.det_convergence = convergence_sizes(first, dzeta.len())
+            .into_iter()
             .filter_map(|n| fit(tau0, &dzeta[..n], &dtau[..n], options).ok())
             .map(|e| DetPoint {
                 n: e.n,
@@ -276,6 +281,25 @@ pub fn identify_increments(
             .collect();
     }
     Ok(estimate)
+}
+
+/// Prefix sizes of the det(K) series: every n from `first` to `last` when there are at most
+/// [`MAX_CONVERGENCE_POINTS`], else that many evenly spaced (both ends included), so the
+/// series costs O(N·points), not O(N²), on large files.
+fn convergence_sizes(first: usize, last: usize) -> Vec<usize> {
+    if last < first {
+        return Vec::new();
+    }
+    let count = last - first + 1;
+    if count <= MAX_CONVERGENCE_POINTS {
+        return (first..=last).collect();
+    }
+    let step = (count - 1) as f64 / (MAX_CONVERGENCE_POINTS - 1) as f64;
+    let mut sizes: Vec<usize> = (0..MAX_CONVERGENCE_POINTS)
+        .map(|i| first + (i as f64 * step).round() as usize)
+        .collect();
+    sizes.dedup();
+    sizes
 }
 
 /// Regressor row for one sample.

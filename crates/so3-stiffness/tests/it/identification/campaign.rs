@@ -140,6 +140,34 @@ fn det_k_converges_with_the_number_of_measurements() {
     }
 }
 
+/// Verification (eqs. 61–65) on simulated poses: measured A-frame increments follow K_D, so
+/// predicting with K_D (what `StiffnessEstimate::predict_pose` does) beats eq. 61's K⁻¹.
+#[test]
+fn predictions_from_k_d_match_the_true_poses_better_than_k() {
+    let mut config = CampaignConfig::with_seed(8);
+    config.tracker = TrackerNoise::none();
+    config.moment_noise = MomentNoise::none();
+    config.max_increment = 0.3;
+    config.increments = 30;
+    let c = campaign(&config);
+    let e = identify(&c.dataset, &FitOptions::with_order(FitOrder::Second)).unwrap();
+    let r0 = c.dataset.reference().orientation;
+    let (mut worst_kd, mut best_k) = (0.0f64, f64::MAX);
+    for (m, r_true) in c.dataset.measurements().iter().zip(&c.true_poses) {
+        let dtau = m.moment - c.dataset.reference().moment;
+        let with_kd = e.verify(&r0, &dtau, r_true).unwrap().e_theta;
+        let with_k = so3_stiffness::identification::verify(&r0, &e.k, &dtau, r_true)
+            .unwrap()
+            .e_theta;
+        let angle = so3_stiffness::so3::distance(&r0, r_true);
+        worst_kd = worst_kd.max(with_kd / angle);
+        best_k = best_k.min(with_k / angle);
+    }
+    println!("verification: E_θ/‖Δζ‖ worst with K_D {worst_kd:.2e}, best with K {best_k:.2e}");
+    assert!(worst_kd < 0.01);
+    assert!(worst_kd < best_k);
+}
+
 #[test]
 fn recorded_gravity_is_harmless_and_omitted_gravity_biases_k() {
     let weight = PointLoad::prototype_gravity();

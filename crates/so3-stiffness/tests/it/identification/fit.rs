@@ -341,3 +341,19 @@ fn identify_uses_the_dataset_reference() {
     assert!(rel(&e.k, &k_true()) < 1e-12);
     assert!((e.tau0 - tau0).norm() < 1e-12);
 }
+
+#[test]
+fn det_convergence_series_is_capped_on_large_data() {
+    let tau0 = Vector3::zeros();
+    let mut g = rng(12);
+    let dz: Vec<_> = (0..1000).map(|_| random_vector(&mut g, 0.05)).collect();
+    let dt: Vec<_> = dz.iter().map(|z| k_true() * z).collect();
+    let e = identify_increments(&tau0, &dz, &dt, &FitOptions::default()).unwrap();
+    let ns: Vec<usize> = e.det_convergence.iter().map(|p| p.n).collect();
+    assert_eq!(
+        ns.len(),
+        so3_stiffness::identification::fit::MAX_CONVERGENCE_POINTS
+    );
+    assert_eq!((ns[0], ns[ns.len() - 1]), (3, 1000));
+    assert!(ns.windows(2).all(|w| w[1] > w[0]));
+}
