@@ -11,4 +11,5 @@ mod prediction;
 mod urdf;
 
 mod dataset;
+mod diagnose;
 mod testbed;
