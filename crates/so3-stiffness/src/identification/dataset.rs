@@ -172,6 +172,14 @@ impl CsjmDataset {
         source: R,
         options: &ReadOptions,
     ) -> Result<Self, IdentificationError> {
+        if let RotationPolicy::Reject { tol } = options.rotation {
+            if !(tol.is_finite() && tol >= 0.0) {
+                return Err(IdentificationError::InvalidSetting {
+                    field: "RotationPolicy::Reject tol",
+                    message: format!("must be finite and ≥ 0, got {tol}"),
+                });
+            }
+        }
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
             .trim(csv::Trim::All)
@@ -296,7 +304,8 @@ impl ColumnMap {
     fn from_headers(headers: &csv::StringRecord) -> Result<Self, IdentificationError> {
         let names: Vec<String> = headers
             .iter()
-            .map(|h| h.trim().to_ascii_lowercase())
+            // A UTF-8 byte-order mark (spreadsheet exports) must not hide the first name.
+            .map(|h| h.trim_start_matches('\u{feff}').trim().to_ascii_lowercase())
             .collect();
         for (i, name) in names.iter().enumerate() {
             if !name.is_empty() && names[..i].contains(name) {

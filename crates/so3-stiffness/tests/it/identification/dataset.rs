@@ -279,3 +279,15 @@ fn missing_file_is_an_io_error_naming_the_path() {
     assert!(matches!(err, IdentificationError::Io { .. }));
     assert!(err.to_string().contains("/nonexistent/csjm.csv"));
 }
+
+#[test]
+fn byte_order_mark_and_bad_tolerance() {
+    let text = format!("\u{feff}{}", file(&valid_rows(3)));
+    assert_eq!(read(&text).unwrap().measurements().len(), 3);
+    let mut options = ReadOptions::default();
+    options.rotation = so3_stiffness::identification::RotationPolicy::Reject { tol: f64::NAN };
+    assert!(matches!(
+        CsjmDataset::from_csv_reader(file(&valid_rows(3)).as_bytes(), &options),
+        Err(IdentificationError::InvalidSetting { .. })
+    ));
+}
