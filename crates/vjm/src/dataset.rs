@@ -290,7 +290,7 @@ impl Dataset {
         }
         check_len("displacement", &displacement, rows, 3)?;
         if n_joints == 0 || q.len() != rows * n_joints {
-            if q.len() % rows == 0 {
+            if q.len().is_multiple_of(rows) {
                 return Err(DatasetError::JointCount {
                     found: q.len() / rows,
                     expected: n_joints,

@@ -208,7 +208,9 @@ pub fn simulate(
         });
     }
     let (f_lo, f_hi) = spec.force_range;
-    if !(f_lo >= 0.0 && f_hi >= f_lo && f_hi.is_finite()) || !(spec.moment_max >= 0.0) {
+    let ordered = f_lo >= 0.0 && f_hi >= f_lo && f_hi.is_finite();
+    let moment_ok = spec.moment_max.is_finite() && spec.moment_max >= 0.0;
+    if !ordered || !moment_ok {
         return Err(TestbedError::InvalidSpec {
             field: "force_range/moment_max",
             message: format!(
