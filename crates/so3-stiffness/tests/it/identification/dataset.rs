@@ -291,3 +291,44 @@ fn byte_order_mark_and_bad_tolerance() {
         Err(IdentificationError::InvalidSetting { .. })
     ));
 }
+
+/// Mangled files (random fields replaced, removed, duplicated; random bytes) never panic and
+/// never yield a dataset that violates the invariants.
+#[test]
+fn mangled_files_error_cleanly() {
+    use rand::Rng;
+    let mut g = rng(99);
+    let pieces = [
+        "", "nan", "1e309", "-", "1,2", "\"", "0x10", "é", "1", "0", "-0.0", " 2 ", "\u{feff}",
+    ];
+    for _ in 0..500 {
+        let mut rows = valid_rows(4);
+        for _ in 0..g.random_range(1..4) {
+            let r = g.random_range(0..rows.len());
+            let mut fields: Vec<String> = rows[r].split(',').map(String::from).collect();
+            let f = g.random_range(0..fields.len());
+            match g.random_range(0..4) {
+                0 => fields[f] = pieces[g.random_range(0..pieces.len())].to_string(),
+                1 => {
+                    fields.remove(f);
+                }
+                2 => fields.insert(f, "0".into()),
+                _ => fields[f] = format!("{}", g.random_range(-2.0..2.0)),
+            }
+            rows[r] = fields.join(",");
+        }
+        let mut text = file(&rows);
+        if g.random_range(0..10) == 0 {
+            let cut = g.random_range(0..text.len());
+            text = String::from_utf8_lossy(&text.as_bytes()[..cut]).into_owned();
+        }
+        if let Ok(data) = read(&text) {
+            assert!(data.measurements().len() >= 3);
+            assert!(data
+                .measurements()
+                .iter()
+                .all(|m| m.moment.iter().all(|x| x.is_finite())));
+            assert!(data.max_orthogonality_error() <= 5e-3);
+        }
+    }
+}
