@@ -43,6 +43,10 @@ def test_jacobian_shapes_and_layouts(panda, rng):
     assert j.shape == (9, 6, 21) and j.flags.c_contiguous
     np.testing.assert_array_equal(panda.jacobian(np.asfortranarray(q)), j)
     np.testing.assert_array_equal(panda.jacobian(q[3]), j[3])
+    strided = np.zeros((9, 14))
+    strided[:, ::2] = q
+    np.testing.assert_array_equal(panda.jacobian(strided[:, ::2]), j)
+    np.testing.assert_array_equal(panda.jacobian(np.asfortranarray(q)[::-1])[::-1], j)
     assert panda.jacobian(q, model=["J2x", "J5z"]).shape == (9, 6, 2)
     np.testing.assert_array_equal(panda.jacobian(q, model=["J2x", "J5z"])[:, :, 0], j[:, :, 4])
 
