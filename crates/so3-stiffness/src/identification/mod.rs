@@ -8,7 +8,7 @@
 //! 3. [`dataset`]: the measurement file (one row per equilibrium, strictly validated);
 //! 4. [`fit`]: K_D ≈ ΨΩ⁺ (eq. 49) with a rank-revealing SVD, first or second order, then
 //!    K = K_D + K_L with the corrected connection term K_L = −½hat(τ₀);
-//! 5. [`verify`]: R_est = R₀exp(hat(K⁻¹Δτ)) and E_θ (eqs. 61–65);
+//! 5. [`mod@verify`]: R_est = R₀exp(hat(K⁻¹Δτ)) and E_θ (eqs. 61–65);
 //! 6. [`campaign`]: the seed experiment on the conservative simulator, with stated noise models.
 //!
 //! Frames and units follow `docs/conventions.md`: τ is the external moment on the platform

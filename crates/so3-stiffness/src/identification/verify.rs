@@ -98,7 +98,7 @@ pub fn verify(
 impl StiffnessEstimate {
     /// Predicted pose under a measured load increment `dtau` (N·m, frame A) from the reference
     /// pose `r0`: R₀ exp(hat(K_D⁻¹Δτ)) — K_D, because measured A-frame increments follow
-    /// K_D to first order (see the module docs of [`crate::identification::verify`]).
+    /// K_D to first order (see the module docs of [`mod@crate::identification::verify`]).
     pub fn predict_pose(
         &self,
         r0: &Rotation3<f64>,
