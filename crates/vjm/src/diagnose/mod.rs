@@ -419,7 +419,6 @@ pub fn diagnose_with_progress(
             p[a].total_cmp(&p[b])
                 .then(testable[b].f_test.f.total_cmp(&testable[a].f_test.f))
         });
-        let n_rejected = order.len();
         let mut accepted = None;
         for &k in &order {
             let s = testable[k];
@@ -484,7 +483,6 @@ pub fn diagnose_with_progress(
             estimate: Vec::new(),
             unit: a.cand.unit(),
         };
-        let _ = n_rejected;
         pool.retain(|c| *c != a.cand && !aliases.iter().any(|(b, _, _, _)| b == c));
         findings.push((
             a.cand,
