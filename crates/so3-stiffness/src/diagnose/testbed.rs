@@ -257,7 +257,9 @@ impl EffectSimulator {
     /// Applies the external moment `load` (N·m, frame A) from `state` and returns the new
     /// state. Sliding directions are found by fixed-point iteration: solve, read the sign of
     /// each cable's length change from the previous pose, re-solve with those friction
-    /// offsets, until the signs repeat (at most [`MAX_FRICTION_ITERATIONS`] solves).
+    /// offsets, until the signs repeat (at most [`MAX_FRICTION_ITERATIONS`] solves; cables
+    /// still flipping then are treated as sticking, with no offset). The returned `sliding`
+    /// is the one the returned pose was solved with.
     pub fn apply(
         &self,
         state: &PathState,
@@ -268,16 +270,9 @@ impl EffectSimulator {
         let start_lengths = crate::csjm::cable_lengths(self.cables.geometry(), &state.pose)?;
         let mut sliding = [0i8; CABLES];
         let mut pose = state.pose;
-        for _ in 0..MAX_FRICTION_ITERATIONS {
-            pose = self
-                .with_sliding(&sliding)?
-                .equilibrium(load, &options)?
-                .pose;
-            if frictionless {
-                break;
-            }
-            let lengths = crate::csjm::cable_lengths(self.cables.geometry(), &pose)?;
-            let next: [i8; CABLES] = std::array::from_fn(|i| {
+        let direction = |pose: &Rotation3<f64>| -> Result<[i8; CABLES], crate::CsjmError> {
+            let lengths = crate::csjm::cable_lengths(self.cables.geometry(), pose)?;
+            Ok(std::array::from_fn(|i| {
                 let dc = lengths[i] - start_lengths[i];
                 if dc > 0.0 {
                     1
@@ -286,8 +281,32 @@ impl EffectSimulator {
                 } else {
                     0
                 }
-            });
+            }))
+        };
+        for iteration in 0..MAX_FRICTION_ITERATIONS {
+            pose = self
+                .with_sliding(&sliding)?
+                .equilibrium(load, &options)?
+                .pose;
+            if frictionless {
+                break;
+            }
+            let next = direction(&pose)?;
             if next == sliding {
+                break;
+            }
+            if iteration + 1 == MAX_FRICTION_ITERATIONS {
+                // A cable whose direction keeps flipping sticks: it carries no friction
+                // offset for this step (its friction force lies between −f_s and f_s).
+                for i in 0..CABLES {
+                    if next[i] != sliding[i] {
+                        sliding[i] = 0;
+                    }
+                }
+                pose = self
+                    .with_sliding(&sliding)?
+                    .equilibrium(load, &options)?
+                    .pose;
                 break;
             }
             sliding = next;

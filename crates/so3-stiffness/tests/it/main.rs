@@ -1,6 +1,7 @@
 //! Integration tests of so3-stiffness.
 
 mod bad_input;
+mod csjm_diagnose;
 mod finite_differences;
 mod identification;
 mod kinetostatics;
