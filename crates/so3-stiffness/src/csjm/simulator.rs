@@ -234,6 +234,7 @@ impl CsjmSimulator {
             }
         }
         let state = self.state(pose)?;
+        #[allow(clippy::needless_range_loop)] // four arrays indexed by cable
         for i in 0..CABLES {
             // The elastic part of the tension (offsets, if any, stay as they are).
             let t = state.tensions[i] - self.tension_offsets[i];

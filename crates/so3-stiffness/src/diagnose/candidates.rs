@@ -213,8 +213,8 @@ pub(crate) fn labels(term: Term) -> Vec<(String, &'static str)> {
     let mut out = Vec::new();
     match term {
         Term::Baseline => {
-            for i in 0..3 {
-                out.push((format!("offset.{}", AXES[i]), "N·m"));
+            for (i, axis) in AXES.iter().enumerate() {
+                out.push((format!("offset.{axis}"), "N·m"));
                 for j in 0..3 {
                     out.push((format!("K_D[{i}][{j}]"), "N·m/rad"));
                 }
@@ -224,20 +224,17 @@ pub(crate) fn labels(term: Term) -> Vec<(String, &'static str)> {
             out.push(("platform_gravity.alpha".into(), "1"));
         }
         Term::Effect(Effect::CableHysteresis) => {
-            for i in 0..3 {
-                for j in 0..3 {
-                    out.push((
-                        format!("cable_hysteresis.tau_{}_per_sign_{}", AXES[i], AXES[j]),
-                        "N·m",
-                    ));
+            for a in AXES {
+                for b in AXES {
+                    out.push((format!("cable_hysteresis.tau_{a}_per_sign_{b}"), "N·m"));
                 }
             }
         }
         Term::Effect(Effect::CableNonlinearity) => {
             const M: [&str; 6] = ["xx", "yy", "zz", "xy", "xz", "yz"];
-            for i in 0..3 {
+            for a in AXES {
                 for m in M {
-                    out.push((format!("cable_nonlinearity.H_{}[{m}]", AXES[i]), "N·m/rad²"));
+                    out.push((format!("cable_nonlinearity.H_{a}[{m}]"), "N·m/rad²"));
                 }
             }
         }
