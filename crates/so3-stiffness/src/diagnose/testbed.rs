@@ -28,8 +28,10 @@ use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use crate::csjm::{CsjmSimulator, EquilibriumOptions, PointLoad, Stiffness, CABLES};
-use crate::identification::campaign::{
-    prototype_simulator, GravityRecording, LoadPattern, MomentNoise, TrackerNoise,
+use crate::identification::campaign::prototype_simulator;
+// Re-exported so that a campaign spec can be built from this module alone (e.g. by bindings).
+pub use crate::identification::campaign::{
+    GravityRecording, LoadPattern, MomentNoise, TrackerNoise,
 };
 use crate::identification::load::gravity_moment;
 use crate::identification::{CsjmDataset, CsjmMeasurement, IdentificationError};
