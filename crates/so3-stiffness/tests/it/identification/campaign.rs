@@ -269,3 +269,126 @@ fn invalid_settings_are_named() {
         })
     ));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Seed-like campaign: the prototype posed at the seed's R₀ under Table 3's pre-load, tilt
+// stiffness calibrated to Table 3, one-sided increments in the sense of Table 4 (issue 4,
+// "second-order fit … where the first-order fit does not"). See docs/csjm-identification.md.
+
+mod seed_like {
+    use super::*;
+    use nalgebra::Vector3;
+    use so3_stiffness::csjm::{stiffness_at, CsjmGeometry};
+    use so3_stiffness::identification::campaign::{
+        seed_like_simulator, seed_reference_pose, SEED_LIKE_TILT_STIFFNESS, SEED_TABLE3_PRELOAD,
+        SEED_TABLE4_DIRECTION,
+    };
+    use so3_stiffness::so3;
+
+    /// The acceptance threshold of issue 4 (relative Frobenius error).
+    const ACCEPTANCE: f64 = 0.03;
+
+    fn seed_like(max_increment: f64, seed: u64, noisy: bool) -> Campaign {
+        let mut config = CampaignConfig::seed_like(max_increment, seed);
+        if !noisy {
+            config.tracker = TrackerNoise::none();
+            config.moment_noise = MomentNoise::none();
+        }
+        simulate_campaign(&seed_like_simulator().unwrap(), &config).unwrap()
+    }
+
+    #[test]
+    fn simulator_is_posed_and_calibrated_as_table_3() {
+        let sim = seed_like_simulator().unwrap();
+        let r0 = seed_reference_pose();
+        let preload = Vector3::from(SEED_TABLE3_PRELOAD);
+        // The seed's R₀ is an equilibrium under the seed's pre-load.
+        assert!((sim.holding_moment(&r0).unwrap() - preload).norm() < 1e-9);
+        let c = seed_like(1.0, 1, false);
+        assert!(so3::distance(&c.true_r0, &r0) < 1e-9);
+        let k = c.true_stiffness.covariant;
+        println!("seed-like K at R₀ (N·m/rad):\n{k:.3}");
+        assert!((0.5 * (k[(0, 0)] + k[(1, 1)]) - SEED_LIKE_TILT_STIFFNESS).abs() < 1e-6);
+        assert!((k - k.transpose()).norm() < 1e-9 * k.norm());
+        // Torsion stays above the geometric floor (7.93 N·m/rad at zero tension): Table 3's
+        // 7 N·m/rad is out of reach of the printed dimensions.
+        assert!(k[(2, 2)] > 7.9 && k[(2, 2)] < 20.0, "K_zz = {}", k[(2, 2)]);
+        // Table 4's increments all point into the (+x, −y, +z) octant.
+        assert!((Vector3::from(SEED_TABLE4_DIRECTION).norm() - 1.0).abs() < 1e-3);
+        let d: Vec<_> = c.applied.iter().map(|t| t - preload).collect();
+        assert!(d
+            .iter()
+            .all(|v| v.x >= 0.0 && v.y <= 0.0 && v.z >= 0.0 && v.norm() <= 1.0 + 1e-12));
+    }
+
+    /// The torsion floor quoted in the docs: at home with equal tensions t, calibrating k so
+    /// that K_xx = 29.675 N·m/rad leaves K_zz = 7.93 + 0.139 t.
+    #[test]
+    fn torsional_stiffness_floor_of_the_printed_geometry() {
+        let g = CsjmGeometry::prototype();
+        let home = nalgebra::Rotation3::identity();
+        for t in [0.5, 20.0, 80.0] {
+            let at = |k: f64| {
+                stiffness_at(&g, &home, &[t; 6], &[k; 6], &[])
+                    .unwrap()
+                    .covariant
+            };
+            let (k1, k2) = (at(1.0), at(2.0));
+            let k = 1.0 + (SEED_LIKE_TILT_STIFFNESS - k1[(0, 0)]) / (k2[(0, 0)] - k1[(0, 0)]);
+            let kzz = at(k)[(2, 2)];
+            println!("home, t = {t} N: k = {k:.0} N/m, K_zz = {kzz:.3} N·m/rad");
+            assert!(
+                (kzz - (7.93 + 0.139 * t)).abs() < 0.02 + 0.002 * t,
+                "t = {t}: {kzz}"
+            );
+        }
+    }
+
+    /// Noise-free (model bias only): the first-order bias grows about linearly with the
+    /// increment size and stays below the 3 % acceptance at 3 N·m; the second-order fit
+    /// removes ≥ 90 % of it.
+    #[test]
+    fn curvature_bias_of_counterweight_loading() {
+        for seed in SEEDS {
+            let bias = |m: f64, order| error_of(&seed_like(m, seed, false), order);
+            let (first_1, first_3) = (bias(1.0, FitOrder::First), bias(3.0, FitOrder::First));
+            let (second_1, second_3) = (bias(1.0, FitOrder::Second), bias(3.0, FitOrder::Second));
+            println!(
+                "seed {seed}: seed-like, noise-free: first-order {first_1:.4} (≤1 N·m) {first_3:.4} (≤3 N·m); \
+                 second-order {second_1:.4} {second_3:.4}"
+            );
+            assert!(first_3 > 2.5 * first_1 && first_3 > 0.015);
+            assert!(first_3 < ACCEPTANCE, "seed {seed}: {first_3}");
+            assert!(second_3 < 0.1 * first_3 && second_1 < 0.1 * first_1);
+        }
+    }
+
+    /// With the Table 1–2 noise at 3 N·m, the acceptance's claim does not show: the
+    /// second-order fit's variance (one-sided loads make u and u² nearly collinear) outweighs
+    /// the bias it removes. Both numbers are printed; the comparison is pinned on the mean over
+    /// the seeds, and the reported standard errors say the same.
+    #[test]
+    fn noisy_counterweight_campaign_first_versus_second_order_at_3_nm() {
+        let (mut first_sum, mut second_sum) = (0.0, 0.0);
+        for seed in SEEDS {
+            let c = seed_like(3.0, seed, true);
+            let k_true = c.true_stiffness.covariant;
+            let first = identify(&c.dataset, &FitOptions::with_order(FitOrder::First)).unwrap();
+            let second = identify(&c.dataset, &FitOptions::with_order(FitOrder::Second)).unwrap();
+            let (e1, e2) = (rel(&first.k, &k_true), rel(&second.k, &k_true));
+            let (s1, s2) = (first.k_stderr.norm(), second.k_stderr.norm());
+            println!(
+                "seed {seed}: seed-like, noisy, ≤ 3 N·m: first-order {e1:.4} (‖stderr‖ {s1:.3}), \
+                 second-order {e2:.4} (‖stderr‖ {s2:.3}); acceptance {ACCEPTANCE}"
+            );
+            assert!(s2 > 3.0 * s1, "seed {seed}");
+            first_sum += e1;
+            second_sum += e2;
+        }
+        let n = SEEDS.len() as f64;
+        let (first_mean, second_mean) = (first_sum / n, second_sum / n);
+        println!("mean over seeds: first-order {first_mean:.4}, second-order {second_mean:.4}");
+        assert!(second_mean > first_mean);
+        assert!(second_mean > ACCEPTANCE);
+    }
+}
