@@ -476,6 +476,36 @@ fn json_follows_the_output_contract() {
     let ext = v["extended"]["test_mean_rel_error"].as_f64().unwrap();
     assert!(base > 0.0 && ext > 0.0 && ext < base, "{base} → {ext}");
     assert_eq!(v["rows"].as_array().unwrap().len(), 85);
+
+    // Recompute the baseline's held-out error from the reported parameters and rows:
+    // mean over `test` rows of ‖K_D⁻¹(Δτ − c) − Δζ‖/‖Δζ‖.
+    let params = v["baseline"]["parameters"].as_array().unwrap();
+    let value = |label: &str| {
+        params.iter().find(|p| p["label"] == label).unwrap()["value"]
+            .as_f64()
+            .unwrap()
+    };
+    let k_d = nalgebra::Matrix3::from_fn(|i, j| value(&format!("K_D[{i}][{j}]")));
+    let c = Vector3::new(value("offset.x"), value("offset.y"), value("offset.z"));
+    let vec3 = |x: &serde_json::Value| {
+        Vector3::from_iterator(x.as_array().unwrap().iter().map(|e| e.as_f64().unwrap()))
+    };
+    let errors: Vec<f64> = v["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["set"] == "test")
+        .map(|r| {
+            let (dz, dt) = (vec3(&r["dzeta"]), vec3(&r["dtau"]));
+            (k_d.try_inverse().unwrap() * (dt - c) - dz).norm() / dz.norm()
+        })
+        .collect();
+    assert_eq!(errors.len(), v["n_test"].as_u64().unwrap() as usize);
+    let recomputed = errors.iter().sum::<f64>() / errors.len() as f64;
+    assert!(
+        (recomputed - base).abs() < 1e-9 * base,
+        "{recomputed} vs {base}"
+    );
 }
 
 #[test]
