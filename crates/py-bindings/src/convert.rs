@@ -68,24 +68,38 @@ pub fn fortran_to_row_major(src: &[f64], shape: &[usize]) -> Vec<f64> {
         return out;
     }
     let trailing = &shape[1..];
-    for c in 0..item {
-        // Multi-index of trailing position `c` (row-major), then its Fortran offset.
-        let mut rest = c;
-        let mut f_off = 0usize;
-        let mut f_stride = 1usize;
-        let mut digits = vec![0usize; trailing.len()];
-        for (k, &d) in trailing.iter().enumerate().rev() {
-            digits[k] = rest % d;
-            rest /= d;
+    // Fortran offset (in units of `rows`) of every trailing position, in row-major order.
+    let f_off: Vec<usize> = (0..item)
+        .map(|c| {
+            let mut rest = c;
+            let mut digits = vec![0usize; trailing.len()];
+            for (k, &d) in trailing.iter().enumerate().rev() {
+                digits[k] = rest % d;
+                rest /= d;
+            }
+            let mut off = 0usize;
+            let mut stride = 1usize;
+            for (k, &d) in trailing.iter().enumerate() {
+                off += digits[k] * stride;
+                stride *= d;
+            }
+            off
+        })
+        .collect();
+    // Blocks of rows small enough that the output block stays in cache while the `item`
+    // source streams are read sequentially.
+    const BLOCK: usize = 256;
+    let mut start = 0;
+    while start < rows {
+        let end = (start + BLOCK).min(rows);
+        let out_block = &mut out[start * item..end * item];
+        for (c, &off) in f_off.iter().enumerate() {
+            let column = &src[rows * off + start..rows * off + end];
+            for (i, v) in column.iter().enumerate() {
+                out_block[i * item + c] = *v;
+            }
         }
-        for (k, &d) in trailing.iter().enumerate() {
-            f_off += digits[k] * f_stride;
-            f_stride *= d;
-        }
-        let column = &src[rows * f_off..rows * (f_off + 1)];
-        for (i, v) in column.iter().enumerate() {
-            out[i * item + c] = *v;
-        }
+        start = end;
     }
     out
 }

@@ -79,24 +79,19 @@ fn estimate_to_dict<'py>(py: Python<'py>, est: &StiffnessEstimate) -> PyResult<B
     Ok(d)
 }
 
-/// K from arrays: `r` (N, 3, 3) orientations ᴮ_A R, `tau` (N, 3) moments in A (N·m), `reference`
-/// the row of R₀/τ₀. Matrices farther than `tol` from SO(3) are rejected (naming the row)
-/// unless `project`; accepted ones are replaced by their nearest rotation, as the file reader does.
-#[pyfunction]
-#[pyo3(signature = (r, tau, reference, order = 1, project = false, tol = None, convergence = true))]
-#[allow(clippy::too_many_arguments)]
-pub fn csjm_identify<'py>(
-    py: Python<'py>,
-    r: PyReadonlyArrayDyn<'py, f64>,
-    tau: PyReadonlyArrayDyn<'py, f64>,
+/// A CSJM dataset from arrays: `r` (N, 3, 3) orientations ᴮ_A R, `tau` (N, 3) moments in A
+/// (N·m), `reference` the row of R₀/τ₀. Matrices farther than `tol` from SO(3) are rejected
+/// (naming the row) unless `project`; accepted ones are replaced by their nearest rotation,
+/// as the file reader does.
+pub fn dataset_from_arrays(
+    r: &PyReadonlyArrayDyn<'_, f64>,
+    tau: &PyReadonlyArrayDyn<'_, f64>,
     reference: i64,
-    order: u8,
     project: bool,
     tol: Option<f64>,
-    convergence: bool,
-) -> PyResult<Bound<'py, PyDict>> {
-    let rr = batch(&r, "R", &[3, 3])?;
-    let tt = batch(&tau, "tau", &[3])?;
+) -> PyResult<CsjmDataset> {
+    let rr = batch(r, "R", &[3, 3])?;
+    let tt = batch(tau, "tau", &[3])?;
     if rr.rows != tt.rows {
         return Err(shape_error(format!(
             "tau has {} rows (dimension 0) but R has {}: one row per measurement",
@@ -133,7 +128,26 @@ pub fn csjm_identify<'py>(
         measurements.push(meas);
     }
     let r0 = measurements.remove(reference);
-    let data = CsjmDataset::new(r0, measurements).py()?;
+    CsjmDataset::new(r0, measurements).py()
+}
+
+/// K from arrays: `r` (N, 3, 3) orientations ᴮ_A R, `tau` (N, 3) moments in A (N·m), `reference`
+/// the row of R₀/τ₀. Matrices farther than `tol` from SO(3) are rejected (naming the row)
+/// unless `project`; accepted ones are replaced by their nearest rotation, as the file reader does.
+#[pyfunction]
+#[pyo3(signature = (r, tau, reference, order = 1, project = false, tol = None, convergence = true))]
+#[allow(clippy::too_many_arguments)]
+pub fn csjm_identify<'py>(
+    py: Python<'py>,
+    r: PyReadonlyArrayDyn<'py, f64>,
+    tau: PyReadonlyArrayDyn<'py, f64>,
+    reference: i64,
+    order: u8,
+    project: bool,
+    tol: Option<f64>,
+    convergence: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let data = dataset_from_arrays(&r, &tau, reference, project, tol)?;
     let opts = fit_options(order, convergence)?;
     let est = run(py, || identify(&data, &opts))?.py()?;
     estimate_to_dict(py, &est)

@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 
 pub mod convert;
 pub mod csjm;
+pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
 pub mod so3;
@@ -21,6 +22,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     so3::register(m)?;
     csjm::register(m)?;
+    csjm_diagnose::register(m)?;
     diagnose::register(m)?;
     vjm::register(m)?;
     vjm_data::register(m)?;

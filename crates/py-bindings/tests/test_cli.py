@@ -162,3 +162,23 @@ def test_installed_console_script():
         pytest.skip("the console script is not on PATH (package not installed with pip)")
     proc = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0 and proc.stdout.startswith("robot-stiffness ")
+
+
+def test_csjm_simulate_diagnose_and_report(tmp_path):
+    proc = run_cli(["simulate", "csjm", "c.csv", "--effect", "cable_hysteresis:friction=2", "--seed", "3",
+                    "--truth", "t.json"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    truth = json.loads((tmp_path / "t.json").read_text())
+    assert np.array(truth["K"]).shape == (3, 3)
+    proc = run_cli(["diagnose", "csjm", "c.csv", "--json", "d.json", "--report", "rep"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads((tmp_path / "d.json").read_text())
+    assert set(doc) >= {"baseline", "findings", "extended", "unexplained"}
+    assert "cable_hysteresis" in [f["effect"] for f in doc["findings"]]
+    assert "Named cause: cable_hysteresis" in proc.stdout
+    assert (tmp_path / "rep" / "report.md").read_text().startswith("# CSJM stiffness diagnosis")
+    proc = run_cli(["identify", "csjm", "c.csv", "--json", "k.json"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    k = np.array(json.loads((tmp_path / "k.json").read_text())["K"])
+    # Hysteresis biases K; it still has to be the right stiffness to within a third.
+    assert np.linalg.norm(k - np.array(truth["K"])) < 0.35 * np.linalg.norm(truth["K"])

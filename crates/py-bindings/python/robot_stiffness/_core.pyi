@@ -14,9 +14,12 @@ _Path = Union[str, os.PathLike[str]]
 __all__ = [
     "Robot",
     "__version__",
+    "csjm_diagnose",
+    "csjm_diagnose_csv",
     "csjm_identify",
     "csjm_identify_csv",
     "csjm_read_csv",
+    "csjm_simulate",
     "so3_adjoint",
     "so3_distance",
     "so3_exp",
@@ -60,6 +63,28 @@ def csjm_identify(
     tol: Optional[float] = None,
     convergence: bool = True,
 ) -> Dict[str, Any]: ...
+def csjm_simulate(
+    effects_list: List[Dict[str, Any]],
+    seed: int = 0,
+    increments: Optional[int] = None,
+    max_increment: Optional[float] = None,
+) -> Dict[str, Any]: ...
+def csjm_diagnose(
+    r: _F64,
+    tau: _F64,
+    reference: int,
+    fdr: Optional[float] = None,
+    test_fraction: Optional[float] = None,
+    holdout_seed: Optional[int] = None,
+    project: bool = False,
+) -> str: ...
+def csjm_diagnose_csv(
+    path: _Path,
+    fdr: Optional[float] = None,
+    test_fraction: Optional[float] = None,
+    holdout_seed: Optional[int] = None,
+    project: bool = False,
+) -> str: ...
 def csjm_read_csv(path: _Path, project: bool = False) -> Tuple[_F64, _F64, int]: ...
 def csjm_identify_csv(path: _Path, order: int = 1, project: bool = False) -> Dict[str, Any]: ...
 def vjm_read_csv(path: _Path, n_joints: int) -> Dict[str, Any]: ...

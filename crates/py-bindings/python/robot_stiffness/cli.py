@@ -4,6 +4,7 @@ Subcommands (``robot-stiffness COMMAND --help`` for each):
 
 * ``simulate vjm OUT.csv`` — a virtual measurement campaign on a robot with hidden effects;
 * ``identify vjm DATA.csv`` / ``identify csjm DATA.csv`` — identify compliances / stiffness;
+* ``simulate csjm OUT.csv`` / ``diagnose csjm DATA.csv`` — the same for a cable-driven joint;
 * ``diagnose vjm DATA.csv`` — what the baseline model gets wrong, the cause, the gain;
 * ``demo`` — simulate → diagnose → report on the bundled arm, in under a minute.
 
@@ -41,7 +42,9 @@ Examples:
   robot-stiffness simulate vjm campaign.csv --effect joint_tilt:joint=3,axis=x,compliance=5e-5
   robot-stiffness identify vjm campaign.csv --model extended --json id.json
   robot-stiffness diagnose vjm campaign.csv --json diagnosis.json --report report/
+  robot-stiffness simulate csjm csjm.csv --effect cable_hysteresis:friction=2
   robot-stiffness identify csjm csjm.csv --json k.json
+  robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
   robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
 """
 
@@ -213,6 +216,20 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
     return 0
 
 
+def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
+    from .csjm import simulate as simulate_csjm
+
+    effects = [parse_effect(e) for e in args.effect or []]
+    c = simulate_csjm(effects, seed=args.seed, increments=args.increments, max_increment=args.max_increment)
+    out.file(args.out, c.csv)
+    if args.truth:
+        out.file(args.truth, _json_text({"K": c.true_K, "K_D": c.true_K_D, "R0": c.true_R0, "effects": effects}))
+    out.commit()
+    names = ", ".join(e["effect"] for e in effects) or "none"
+    print(f"wrote {args.out}: CSJM campaign, seed {args.seed}, hidden effects: {names}")
+    return 0
+
+
 # ----------------------------------------------------------------------------- identify
 
 
@@ -313,6 +330,23 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
     return 0
 
 
+def cmd_diagnose_csjm(args: argparse.Namespace, out: Outputs) -> int:
+    from .csjm import diagnose as diagnose_csjm
+    from .report import render_report, story
+
+    result = diagnose_csjm(args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project).to_dict()
+    if args.json:
+        out.file(args.json, _json_text(result))
+    if args.report:
+        render_report(result, out.directory(args.report), title="CSJM stiffness diagnosis", source=str(args.data))
+    out.commit()
+    for line in story(result):
+        print(line)
+    if args.report:
+        print(f"report: {Path(args.report) / 'report.md'}")
+    return 0
+
+
 # ----------------------------------------------------------------------------- demo
 
 DEMO_EFFECTS: List[Dict[str, Any]] = [
@@ -401,6 +435,26 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
     sv.add_argument("--no-noise", action="store_true", help="no instrument noise")
     sv.add_argument("--truth", metavar="TRUTH.json", help="also write the hidden true model as JSON")
     sv.set_defaults(func=cmd_simulate)
+    sc = sim_sub.add_parser(
+        "csjm",
+        help="a cable-driven spherical joint",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Simulate the seed's CSJM campaign on the prototype: a pre-loaded reference pose and load "
+        "increments, laser-tracker pose noise and F/T moment noise. Writes a CSJM measurement file.",
+        epilog="""\
+effects (--effect NAME:key=value,...):
+  platform_gravity                       platform weight acting but left out of the recorded moments
+  cable_hysteresis:friction=2            Coulomb friction in every cable, N
+  cable_nonlinearity:k2=2e6              cable law t = k e + k2 e², N/m²
+""",
+    )
+    sc.add_argument("out", metavar="OUT.csv", help="measurement file to write")
+    sc.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect (repeatable)")
+    sc.add_argument("--increments", type=int, default=None, help="load increments (default 85, as the seed)")
+    sc.add_argument("--max-increment", type=float, default=None, help="largest load increment, N·m (default 1)")
+    sc.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    sc.add_argument("--truth", metavar="TRUTH.json", help="also write the true stiffness as JSON")
+    sc.set_defaults(func=cmd_simulate_csjm)
 
     # identify
     ide = sub.add_parser("identify", help="identify compliances (VJM) or a stiffness matrix (CSJM)",
@@ -456,6 +510,20 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
     dv.add_argument("--report", metavar="DIR", help="write a Markdown report with PNG plots into DIR")
     dv.add_argument("--quiet", action="store_true", help="no progress display")
     dv.set_defaults(func=cmd_diagnose_vjm)
+    dc = dia_sub.add_parser(
+        "csjm",
+        help="a cable-driven spherical joint's measurements",
+        description="Fit the first-order model Δτ = c + K_D Δζ on training rows, show the structure of its "
+        "residuals, name effects (platform_gravity, cable_hysteresis, cable_nonlinearity, connection_term), extend "
+        "the model and measure the gain on held-out rows.",
+    )
+    dc.add_argument("data", metavar="DATA.csv", help="CSJM measurement file")
+    dc.add_argument("--fdr", type=float, default=None, help="false discovery rate (default 0.05)")
+    dc.add_argument("--split-seed", type=int, default=None, help="seed of the held-out rows")
+    dc.add_argument("--project", action="store_true", help="project orientation matrices onto SO(3)")
+    dc.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON")
+    dc.add_argument("--report", metavar="DIR", help="write a Markdown report with PNG plots into DIR")
+    dc.set_defaults(func=cmd_diagnose_csjm)
 
     # demo
     demo = sub.add_parser(

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -34,8 +34,17 @@ from . import _core
 from ._arrays import f64
 from ._errors import DataFileError, ShapeError
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
+from ._vjm_data import Diagnosis
 
-__all__ = ["StiffnessFit", "identify", "identify_csv", "read_measurements"]
+__all__ = [
+    "StiffnessFit",
+    "Campaign",
+    "identify",
+    "identify_csv",
+    "read_measurements",
+    "simulate",
+    "diagnose",
+]
 
 Array = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -178,4 +187,86 @@ def identify_csv(path: PathLike, *, order: int = 1, project: bool = False) -> St
     """Read a CSJM measurement file and identify K (see :func:`identify`)."""
     return StiffnessFit._from_core(
         _core.csjm_identify_csv(os.fspath(path), order=int(order), project=bool(project))
+    )
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A simulated CSJM campaign: the measurement file text ``csv`` (columns ``r11..r33,
+    tx,ty,tz,ref``) and the truth at the reference pose: ``true_K`` (covariant, symmetric) and
+    ``true_K_D`` (N·m/rad, frame A at R₀), ``true_R0`` (ᴮ_A R₀)."""
+
+    csv: str
+    true_K: Array
+    true_K_D: Array
+    true_R0: Array
+
+
+def simulate(
+    effects: Sequence[Dict[str, Any]] = (),
+    *,
+    seed: int = 0,
+    increments: Optional[int] = None,
+    max_increment: Optional[float] = None,
+) -> Campaign:
+    """Simulate the seed's CSJM campaign on the prototype (pre-loaded reference pose, 85 load
+    increments of up to 1 N·m by default, laser-tracker pose noise and F/T moment noise) with
+    hidden ``effects``:
+
+    * ``{"effect": "platform_gravity"}`` — the platform weight acts but is left out of the
+      recorded moments;
+    * ``{"effect": "cable_hysteresis", "friction": 2.0}`` — Coulomb friction in every cable, N;
+    * ``{"effect": "cable_nonlinearity", "k2": 2e6}`` — cable law t = k e + k₂ e², N/m².
+
+    Same seed, same data.
+    """
+    d = _core.csjm_simulate(
+        [dict(e) for e in effects],
+        seed=int(seed),
+        increments=None if increments is None else int(increments),
+        max_increment=None if max_increment is None else float(max_increment),
+    )
+    return Campaign(csv=d["csv"], true_K=d["true_K"], true_K_D=d["true_K_D"], true_R0=d["true_R0"])
+
+
+def diagnose(
+    data: Any,
+    tau: Any = None,
+    ref: Optional[int] = None,
+    *,
+    fdr: Optional[float] = None,
+    test_fraction: Optional[float] = None,
+    holdout_seed: Optional[int] = None,
+    project: bool = False,
+) -> Diagnosis:
+    """Diagnose a CSJM campaign: fit the first-order baseline Δτ = c + K_D Δζ on training rows,
+    show the structure of its residuals, name effects (``platform_gravity``,
+    ``cable_hysteresis``, ``cable_nonlinearity``, ``connection_term``) by F tests with
+    Benjamini–Hochberg at ``fdr`` confirmed on held-out rows, refit and measure the gain.
+
+    ``data``: a measurement-file path, or arrays ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A
+    and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
+    body-frame displacements Δζ (rad).
+    """
+    import json
+
+    if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
+        text = _core.csjm_diagnose_csv(
+            os.fspath(data), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed, project=bool(project)
+        )
+    elif tau is not None and ref is not None:
+        text = _core.csjm_diagnose(
+            f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
+            holdout_seed=holdout_seed, project=bool(project),
+        )
+    else:
+        raise ShapeError("diagnose needs a measurement-file path, or R (N, 3, 3), tau (N, 3) and ref")
+    raw = json.loads(text)
+    return Diagnosis(
+        baseline=raw["baseline"],
+        findings=raw["findings"],
+        extended=raw["extended"],
+        unexplained=bool(raw["unexplained"]),
+        gain=float(raw["gain"]) if raw.get("gain") is not None else float("nan"),
+        raw=raw,
     )

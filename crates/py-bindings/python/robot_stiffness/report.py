@@ -88,21 +88,52 @@ def _what_is_wrong(r: Dict[str, Any], alpha: float = 0.01) -> str:
     return "; ".join(parts)
 
 
+def is_csjm(result: Dict[str, Any]) -> bool:
+    """True for a CSJM diagnosis (rows carry Δζ and Δτ), False for a VJM one."""
+    rows = result.get("rows") or [{}]
+    return "dzeta" in rows[0] or "connection_term" in result
+
+
+def _what_is_wrong_csjm(r: Dict[str, Any], alpha: float = 0.01) -> str:
+    parts = []
+    rms = r.get("scaled_rms")
+    if rms is not None and math.isfinite(rms):
+        parts.append(f"its moment residuals are {rms:.1f}× the noise level")
+    mag = r.get("load_magnitude")
+    if mag and mag.get("p_value", 1.0) < alpha:
+        parts.append(f"they grow with the load (Spearman ρ = {mag['rho']:+.2f}, p = {_pval(mag['p_value'])})")
+    d = r.get("load_direction")
+    if d and d.get("p_value", 1.0) < alpha:
+        parts.append(f"they depend on the load direction (ANOVA p = {_pval(d['p_value'])})")
+    lu = [x for x in r.get("loading_unloading", []) if x.get("test") and x["test"].get("p_value", 1.0) < alpha]
+    if lu:
+        parts.append("they differ between loading and unloading about " + ", ".join(x["axis"] for x in lu)
+                     + f" (p = {_pval(min(x['test']['p_value'] for x in lu))})")
+    return "; ".join(parts)
+
+
 def story(result: Dict[str, Any]) -> List[str]:
     """A few sentences: what the baseline got wrong, the named cause, the gain on held-out rows."""
     base = result["baseline"]
     ext = result["extended"]
     lines = [
         f"Baseline ({base['model']}, {base['n_params']} parameters): mean relative error "
-        f"{percent(base['test_mean_rel_error'])} on held-out poses."
+        f"{percent(base['test_mean_rel_error'])} on held-out data."
     ]
-    wrong = _what_is_wrong(result.get("residuals", {}).get("baseline", {}))
+    structure = result.get("residuals", {}).get("baseline", {})
+    wrong = _what_is_wrong_csjm(structure) if is_csjm(result) else _what_is_wrong(structure)
     if wrong:
         lines.append("What it gets wrong: " + wrong + ".")
     findings = result.get("findings", [])
     if findings:
         for f in findings:
             ev = f.get("evidence", {})
+            if f["effect"] == "connection_term":
+                lines.append(
+                    "K_D is measurably asymmetric as the connection term −½hat(τ₀) predicts "
+                    "(connection_term): the symmetric covariant K = K_D − ½hat(τ₀) is the stiffness."
+                )
+                continue
             p = ev.get("f_test", {}).get("p_value")
             lines.append(
                 f"Named cause: {f['effect']}{_where(f)} (F-test p = {_pval(p)}, confirmed on "
@@ -113,7 +144,7 @@ def story(result: Dict[str, Any]) -> List[str]:
     gain = result.get("gain")
     lines.append(
         f"Extended model ({ext['model']}, {ext['n_params']} parameters): "
-        f"{percent(ext['test_mean_rel_error'])} on held-out poses"
+        f"{percent(ext['test_mean_rel_error'])} on held-out data"
         + (f", {percent(gain)} lower than the baseline." if gain is not None and math.isfinite(gain) else ".")
     )
     if result.get("unexplained"):
@@ -345,10 +376,113 @@ class atomic_directory:
             shutil.rmtree(old, ignore_errors=True)
 
 
+def _plot_csjm_residuals(result: Dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result.get("rows", [])
+    base = np.array([r["baseline_residual"] for r in rows], dtype=float).reshape(-1, 3)
+    ext = np.array([r["extended_residual"] for r in rows], dtype=float).reshape(-1, 3)
+    test = np.array([r["set"] == "test" for r in rows], dtype=bool)
+    idx = np.arange(len(rows))
+    fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, sharey=True)
+    for ax, res, title in ((axes[0], base, "baseline"), (axes[1], ext, "extended")):
+        err = np.linalg.norm(res, axis=1)
+        ax.bar(idx[~test], err[~test], color="tab:blue", label="training rows", width=1.0)
+        ax.bar(idx[test], err[test], color="tab:orange", label="held-out rows", width=1.0)
+        ax.set_ylabel("‖Δτ − Δτ_pred‖ (N·m)")
+        ax.set_title(f"Moment residuals, {title}: {result[title]['model']}", fontsize=10)
+        ax.legend(loc="upper right", fontsize=8)
+    axes[1].set_xlabel("load increment (file order)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_csjm_effects(result: Dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scores = [s for s in result.get("scores", []) if s.get("f_test")]
+    found = {f["effect"] for f in result.get("findings", [])}
+    labels = [s["effect"] for s in scores]
+    vals = [-math.log10(max(s["f_test"]["p_value"], 1e-300)) for s in scores]
+    colors = ["tab:green" if s["effect"] in found else "tab:gray" for s in scores]
+    fig, ax = plt.subplots(figsize=(8, 2.5))
+    y = np.arange(len(scores))
+    ax.barh(y, vals, color=colors)
+    ax.set_yticks(y)
+    ax.set_yticklabels(labels, fontsize=9)
+    ax.invert_yaxis()
+    fdr = result.get("fdr", 0.05)
+    ax.axvline(-math.log10(fdr / max(1, len(scores))), color="k", linestyle="--", linewidth=0.8,
+               label=f"strictest BH threshold (q = {fdr})")
+    ax.set_xlabel("−log10 p (first-step F test against the baseline)")
+    ax.set_title("Candidate effects (green: named)", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _matrix(m: Any) -> List[str]:
+    return ["| " + " | ".join(f"{v:.3f}" for v in row) + " |" for row in m]
+
+
+def _markdown_csjm(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
+    base, ext = result["baseline"], result["extended"]
+    out = [f"# {title}", ""]
+    if source:
+        out += [f"Data: `{source}` — {result.get('n_train', '?')} training rows, "
+                f"{result.get('n_test', '?')} held-out rows.", ""]
+    out += ["## Summary", ""] + [f"- {s}" for s in story(result)] + [""]
+    out += [
+        "## Models", "",
+        "| model | parameters | held-out mean rel. error of Δζ | training |",
+        "|---|---|---|---|",
+        f"| baseline: {base['model']} | {base['n_params']} | {percent(base['test_mean_rel_error'])} | {percent(base.get('train_mean_rel_error'))} |",
+        f"| extended: {ext['model']} | {ext['n_params']} | {percent(ext['test_mean_rel_error'])} | {percent(ext.get('train_mean_rel_error'))} |",
+        "",
+        "![Moment residuals before and after](residuals.png)", "",
+        "Covariant stiffness K of the extended model (N·m/rad, frame A at R₀):", "",
+        "| | | |", "|---|---|---|", *_matrix(ext.get("k", [])), "",
+        "## Named effects", "", "![Candidate effects](effects.png)", "",
+    ]
+    for f in result.get("findings", []):
+        ev = f.get("evidence", {})
+        out.append(f"### {f['effect']}")
+        out.append("")
+        if "f_test" in ev:
+            ft = ev["f_test"]
+            out.append(f"- F = {ft.get('f', float('nan')):.1f}, p = {_pval(ft.get('p_value'))}; held-out whitened SSE "
+                       f"{ev.get('heldout_sse_before', float('nan')):.1f} → {ev.get('heldout_sse_after', float('nan')):.1f}.")
+            if ev.get("interpretation"):
+                out.append(f"- {ev['interpretation']}")
+        else:
+            out.append("- " + ", ".join(f"{k} = {v}" for k, v in ev.items() if not isinstance(v, (list, dict))))
+        if f.get("aliases"):
+            out.append("- indistinguishable on these data from: " + ", ".join(a["effect"] for a in f["aliases"]) + ".")
+        out.append("")
+    out += ["## Unexplained structure", "",
+            "Structured residual remains that no candidate explains." if result.get("unexplained")
+            else "No significant structure remains in the extended model's residuals.", ""]
+    return "\n".join(out)
+
+
 def render_report(result: Dict[str, Any], directory: PathLike, *, title: str = "Stiffness diagnosis",
                   source: Optional[str] = None) -> Path:
     """Writes ``report.md`` and the plots into an existing ``directory`` (no atomicity)."""
     d = Path(directory)
+    if is_csjm(result):
+        _plot_csjm_residuals(result, d / "residuals.png")
+        _plot_csjm_effects(result, d / "effects.png")
+        md = d / "report.md"
+        md.write_text(_markdown_csjm(result, title, source), encoding="utf-8")
+        return md
     _plot_residuals(result, d / "residuals.png")
     _plot_per_pose(result, d / "errors_per_pose.png")
     _plot_effects(result, d / "effects.png")

@@ -1,0 +1,171 @@
+//! Bindings of `so3_stiffness::diagnose`: CSJM campaigns with hidden effects (testbed) and the
+//! diagnosis of a CSJM measurement file (JSON of the core).
+
+use numpy::PyReadonlyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use so3_stiffness::csjm::PointLoad;
+use so3_stiffness::diagnose::{
+    diagnose, diagnose_file, simulate_campaign, CsjmCampaignSpec, CsjmEffects, DiagnoseError,
+    DiagnoseOptions,
+};
+use so3_stiffness::identification::campaign::GravityRecording;
+use so3_stiffness::identification::ReadOptions;
+
+use crate::convert::to_numpy;
+use crate::errors::{error, internal_error, run, value_error, IntoPyErr, Kind, PyResultExt};
+
+impl IntoPyErr for DiagnoseError {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            DiagnoseError::Data(e) => e.into_py_err(),
+            DiagnoseError::TooFewRows { .. } | DiagnoseError::Unexcited { .. } => {
+                error(Kind::Identification, self.to_string())
+            }
+            other => error(Kind::Value, other.to_string()),
+        }
+    }
+}
+
+fn number(d: &Bound<'_, PyDict>, i: usize, key: &str) -> PyResult<f64> {
+    d.get_item(key)?
+        .ok_or_else(|| value_error(format!("effects[{i}] needs the key `{key}`")))?
+        .extract::<f64>()
+        .map_err(|_| value_error(format!("effects[{i}][`{key}`] must be a number")))
+}
+
+/// The hidden effects from a list of dicts: `platform_gravity` (the prototype's weight acting
+/// but left out of the recorded moments), `cable_hysteresis` with `friction` (N, every cable),
+/// `cable_nonlinearity` with `k2` (N/m², every cable).
+fn effects(list: &Bound<'_, PyList>) -> PyResult<CsjmEffects> {
+    let mut out = CsjmEffects::none();
+    for (i, item) in list.iter().enumerate() {
+        let d = item
+            .cast::<PyDict>()
+            .map_err(|_| value_error(format!("effects[{i}] must be a dict")))?;
+        let name: String = d
+            .get_item("effect")?
+            .ok_or_else(|| value_error(format!("effects[{i}] needs the key `effect`")))?
+            .extract()?;
+        match name.as_str() {
+            "platform_gravity" => {
+                out.gravity = GravityRecording::Omitted(PointLoad::prototype_gravity());
+            }
+            "cable_hysteresis" => out.cable_friction = [number(d, i, "friction")?; 6],
+            "cable_nonlinearity" => out.cable_stiffening = [number(d, i, "k2")?; 6],
+            other => {
+                return Err(value_error(format!(
+                    "effects[{i}]: unknown CSJM effect `{other}` (platform_gravity, cable_hysteresis, cable_nonlinearity)"
+                )))
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Simulates the seed's CSJM campaign (pre-loaded reference, load increments, tracker and F/T
+/// noise) with hidden effects; returns the CSV text and the true stiffness at R₀.
+#[pyfunction]
+#[pyo3(signature = (effects_list, seed = 0, increments = None, max_increment = None))]
+pub fn csjm_simulate<'py>(
+    py: Python<'py>,
+    effects_list: &Bound<'py, PyList>,
+    seed: u64,
+    increments: Option<usize>,
+    max_increment: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mut spec = CsjmCampaignSpec::new(effects(effects_list)?, seed);
+    if let Some(n) = increments {
+        spec.increments = n;
+    }
+    if let Some(m) = max_increment {
+        spec.max_increment = m;
+    }
+    let campaign = run(py, || simulate_campaign(&spec))?.py()?;
+    let mut buf = Vec::new();
+    campaign.dataset.write_csv(&mut buf).py()?;
+    let out = PyDict::new(py);
+    out.set_item(
+        "csv",
+        String::from_utf8(buf).map_err(|e| internal_error(e.to_string()))?,
+    )?;
+    let m = |x: &nalgebra::Matrix3<f64>| -> Vec<f64> {
+        (0..3)
+            .flat_map(|r| (0..3).map(move |c| x[(r, c)]))
+            .collect()
+    };
+    let k = &campaign.true_stiffness;
+    out.set_item("true_K", to_numpy(py, m(&k.covariant), &[3, 3])?)?;
+    out.set_item("true_K_D", to_numpy(py, m(&k.euclidean), &[3, 3])?)?;
+    out.set_item(
+        "true_R0",
+        to_numpy(py, m(campaign.true_r0.matrix()), &[3, 3])?,
+    )?;
+    Ok(out)
+}
+
+fn options(
+    fdr: Option<f64>,
+    test_fraction: Option<f64>,
+    holdout_seed: Option<u64>,
+    project: bool,
+) -> DiagnoseOptions {
+    let mut opts = DiagnoseOptions::default();
+    if let Some(v) = fdr {
+        opts.fdr = v;
+    }
+    if let Some(v) = test_fraction {
+        opts.test_fraction = v;
+    }
+    if let Some(v) = holdout_seed {
+        opts.holdout_seed = v;
+    }
+    if project {
+        opts.read = ReadOptions::projecting();
+    }
+    opts
+}
+
+/// Diagnoses CSJM measurements given as arrays (see `csjm_identify`); returns the core's JSON.
+#[pyfunction]
+#[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, holdout_seed = None, project = false))]
+#[allow(clippy::too_many_arguments)]
+pub fn csjm_diagnose<'py>(
+    py: Python<'py>,
+    r: PyReadonlyArrayDyn<'py, f64>,
+    tau: PyReadonlyArrayDyn<'py, f64>,
+    reference: i64,
+    fdr: Option<f64>,
+    test_fraction: Option<f64>,
+    holdout_seed: Option<u64>,
+    project: bool,
+) -> PyResult<String> {
+    let data = crate::csjm::dataset_from_arrays(&r, &tau, reference, project, None)?;
+    let opts = options(fdr, test_fraction, holdout_seed, project);
+    let result = run(py, || diagnose(&data, &opts))?.map_err(IntoPyErr::into_py_err)?;
+    Ok(result.to_json())
+}
+
+/// Diagnoses a CSJM measurement file; returns the core's JSON.
+#[pyfunction]
+#[pyo3(signature = (path, fdr = None, test_fraction = None, holdout_seed = None, project = false))]
+pub fn csjm_diagnose_csv(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    fdr: Option<f64>,
+    test_fraction: Option<f64>,
+    holdout_seed: Option<u64>,
+    project: bool,
+) -> PyResult<String> {
+    let opts = options(fdr, test_fraction, holdout_seed, project);
+    let result = run(py, || diagnose_file(&path, &opts))?.map_err(IntoPyErr::into_py_err)?;
+    Ok(result.to_json())
+}
+
+/// Registers the functions on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(csjm_simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(csjm_diagnose_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(csjm_diagnose, m)?)?;
+    Ok(())
+}
