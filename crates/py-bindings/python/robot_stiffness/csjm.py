@@ -124,6 +124,17 @@ class StiffnessFit:
         }
 
 
+def _table_arrays(table: Any) -> Tuple[Array, Array, int]:
+    """(R (N, 3, 3), tau (N, 3), ref) from a table with the measurement-file columns."""
+    r9 = columns(table, ROTATION_MATRIX, "the orientation")
+    tau = columns(table, MOMENT, "the moment")
+    flags = columns(table, ["ref"], "the reference flag")[:, 0]
+    hits = np.flatnonzero(flags == 1)
+    if len(hits) != 1:
+        raise DataFileError(f"exactly one row must have ref = 1, found {len(hits)} (rows {hits.tolist()})")
+    return r9.reshape(-1, 3, 3), tau, int(hits[0])
+
+
 def identify(
     R: Any,
     tau: Any = None,
@@ -147,17 +158,7 @@ def identify(
     An ill-conditioned problem raises :class:`~robot_stiffness.IdentificationError`.
     """
     if is_table(R) and tau is None:
-        table = R
-        r9 = columns(table, ROTATION_MATRIX, "the orientation")
-        tau = columns(table, MOMENT, "the moment")
-        flags = columns(table, ["ref"], "the reference flag")[:, 0]
-        hits = np.flatnonzero(flags == 1)
-        if len(hits) != 1:
-            raise DataFileError(
-                f"exactly one row must have ref = 1, found {len(hits)} (rows {hits.tolist()})"
-            )
-        ref = int(hits[0])
-        R = r9.reshape(-1, 3, 3)
+        R, tau, ref = _table_arrays(R)
     elif tau is None or ref is None:
         raise ShapeError("identify needs R (N, 3, 3), tau (N, 3) and ref, or one table")
     d = _core.csjm_identify(
@@ -244,12 +245,14 @@ def diagnose(
     ``cable_hysteresis``, ``cable_nonlinearity``, ``connection_term``) by F tests with
     Benjamini–Hochberg at ``fdr`` confirmed on held-out rows, refit and measure the gain.
 
-    ``data``: a measurement-file path, or arrays ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A
-    and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
+    ``data``: a measurement-file path, a table (DataFrame) with the file's columns, or arrays
+    ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
     body-frame displacements Δζ (rad).
     """
     import json
 
+    if tau is None and ref is None and is_table(data):
+        data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
         text = _core.csjm_diagnose_csv(
             os.fspath(data), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed, project=bool(project)
