@@ -281,7 +281,7 @@ mod seed_like {
     use so3_stiffness::csjm::{stiffness_at, CsjmGeometry};
     use so3_stiffness::identification::campaign::{
         seed_like_simulator, seed_reference_pose, SEED_LIKE_TILT_STIFFNESS, SEED_TABLE3_PRELOAD,
-        SEED_TABLE4_DIRECTION,
+        SEED_TABLE3_R0, SEED_TABLE4_DIRECTION,
     };
     use so3_stiffness::so3;
 
@@ -301,6 +301,9 @@ mod seed_like {
     fn simulator_is_posed_and_calibrated_as_table_3() {
         let sim = seed_like_simulator().unwrap();
         let r0 = seed_reference_pose();
+        // The projection stays within print precision of Table 3's R₀ (r₃₂ = −0.300).
+        let printed = nalgebra::Matrix3::from_fn(|i, j| SEED_TABLE3_R0[i][j]);
+        assert!((r0.matrix() - printed).amax() < 2e-3);
         let preload = Vector3::from(SEED_TABLE3_PRELOAD);
         // The seed's R₀ is an equilibrium under the seed's pre-load.
         assert!((sim.holding_moment(&r0).unwrap() - preload).norm() < 1e-9);
@@ -390,5 +393,117 @@ mod seed_like {
         println!("mean over seeds: first-order {first_mean:.4}, second-order {second_mean:.4}");
         assert!(second_mean > first_mean);
         assert!(second_mean > ACCEPTANCE);
+    }
+
+    /// An independent second-order estimator with the structure of a conservative joint, to
+    /// check that the crate's unconstrained second-order fit does not lose only for lack of
+    /// constraints. In normal coordinates ζ at R₀, f(ζ) = Φ(R₀ exp ζ) has ∇f = J_r(ζ)ᵀτ(ζ),
+    /// so with ∇f = τ₀ + Kζ + ½T(ζ, ζ) (K symmetric, T a symmetric 3-tensor) and
+    /// J_r(ζ)⁻ᵀ = I − ½hat ζ + (1/12)hat²ζ + O(ζ³):
+    /// Δτ + ½ζ×τ₀ − (1/12)ζ×(ζ×τ₀) = c + Kζ − ½ζ×(Kζ) + ½T(ζ, ζ) + O(ζ³):
+    /// 19 coefficients (c, 6 of K, 10 of T) in one stacked least-squares fit, instead of the
+    /// crate's 3 × 10. Only K is returned.
+    fn conservative_second_order_k(c: &Campaign) -> Matrix3<f64> {
+        use nalgebra::{DMatrix, DVector};
+        let mut sym = Vec::new();
+        for a in 0..3 {
+            for b in a..3 {
+                let mut m = Matrix3::zeros();
+                m[(a, b)] = 1.0;
+                m[(b, a)] = 1.0;
+                sym.push(m);
+            }
+        }
+        let mut tensors = Vec::new();
+        for i in 0..3 {
+            for j in i..3 {
+                for k in j..3 {
+                    let mut t = [[[0.0; 3]; 3]; 3];
+                    for (a, b, d) in [
+                        (i, j, k),
+                        (i, k, j),
+                        (j, i, k),
+                        (j, k, i),
+                        (k, i, j),
+                        (k, j, i),
+                    ] {
+                        t[a][b][d] = 1.0;
+                    }
+                    tensors.push(t);
+                }
+            }
+        }
+        let (dzeta, dtau) = c.dataset.increments();
+        let tau0 = c.dataset.reference().moment;
+        // The reference row is a sample at ζ = 0 (as the crate's offset fit treats it).
+        let samples: Vec<(Vector3<f64>, Vector3<f64>)> =
+            std::iter::once((Vector3::zeros(), Vector3::zeros()))
+                .chain(dzeta.iter().copied().zip(dtau.iter().copied()))
+                .collect();
+        let (rows, cols) = (3 * samples.len(), 3 + sym.len() + tensors.len());
+        let (mut x, mut y) = (DMatrix::zeros(rows, cols), DVector::zeros(rows));
+        for (r, (z, t)) in samples.iter().enumerate() {
+            let target = t + 0.5 * z.cross(&tau0) - z.cross(&z.cross(&tau0)) / 12.0;
+            for i in 0..3 {
+                y[3 * r + i] = target[i];
+                x[(3 * r + i, i)] = 1.0;
+            }
+            for (q, b) in sym.iter().enumerate() {
+                let column = b * z - 0.5 * z.cross(&(b * z));
+                for i in 0..3 {
+                    x[(3 * r + i, 3 + q)] = column[i];
+                }
+            }
+            for (q, t3) in tensors.iter().enumerate() {
+                for i in 0..3 {
+                    let mut quadratic = 0.0;
+                    for j in 0..3 {
+                        for k in 0..3 {
+                            quadratic += t3[i][j][k] * z[j] * z[k];
+                        }
+                    }
+                    x[(3 * r + i, 3 + sym.len() + q)] = 0.5 * quadratic;
+                }
+            }
+        }
+        let beta = x.svd(true, true).solve(&y, 1e-12).unwrap();
+        sym.iter()
+            .enumerate()
+            .fold(Matrix3::zeros(), |k, (q, b)| k + b * beta[3 + q])
+    }
+
+    /// Noise-free, the constrained model removes the curvature bias like the crate's
+    /// second-order fit (which checks its derivation); with the seed's noise at 3 N·m it is
+    /// still above 3 % on average: constraints do not rescue the second-order option here.
+    #[test]
+    fn conservative_second_order_fit_does_not_rescue_it_either() {
+        let (mut first_sum, mut constrained_sum) = (0.0, 0.0);
+        for seed in SEEDS {
+            let clean = seed_like(3.0, seed, false);
+            let k_true = clean.true_stiffness.covariant;
+            let bias = rel(&conservative_second_order_k(&clean), &k_true);
+            let first_bias = error_of(&clean, FitOrder::First);
+            assert!(
+                bias < 0.15 * first_bias,
+                "seed {seed}: {bias} vs {first_bias}"
+            );
+            let noisy = seed_like(3.0, seed, true);
+            let constrained = rel(&conservative_second_order_k(&noisy), &k_true);
+            let first = error_of(&noisy, FitOrder::First);
+            println!(
+                "seed {seed}: seed-like ≤ 3 N·m: constrained second order noise-free {bias:.4}, \
+                 noisy {constrained:.4}; first order noisy {first:.4}"
+            );
+            first_sum += first;
+            constrained_sum += constrained;
+        }
+        let n = SEEDS.len() as f64;
+        println!(
+            "mean over seeds: first-order {:.4}, constrained second-order {:.4}",
+            first_sum / n,
+            constrained_sum / n
+        );
+        assert!(constrained_sum / n > ACCEPTANCE);
+        assert!(constrained_sum > first_sum);
     }
 }
