@@ -86,8 +86,9 @@ pub struct Selection {
 /// under all of `wrenches`, for a well-conditioned identification: parameters are scaled
 /// by the pool's column norms, restricted to the pool's identifiable subspace (rank r),
 /// and each step adds the configuration maximising log det of the reduced information
-/// (D-optimal, with a tiny ridge so the first picks are well defined). The score reported
-/// is the condition number of the scaled design on that subspace.
+/// (D-optimal, with a tiny ridge so the first picks are well defined) until the subspace is
+/// covered, then the one giving the smallest condition number. The score reported is the
+/// condition number of the scaled design on that subspace.
 pub fn select_configurations(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -141,16 +142,28 @@ pub fn select_configurations(
         infos.push(info);
     }
     let total: DMatrix<f64> = infos.iter().fold(DMatrix::zeros(m, m), |a, b| a + b);
-    let scale: Vec<f64> = (0..m)
-        .map(|k| total[(k, k)].sqrt().max(f64::MIN_POSITIVE))
+    // Column norms for scaling; a column of pure rounding (a torsion about an axis through
+    // the tip point) is zeroed rather than blown up to unit norm (see lsq::SolveOptions).
+    let norms: Vec<f64> = (0..m).map(|k| total[(k, k)].max(0.0).sqrt()).collect();
+    let nmax = norms.iter().copied().fold(0.0, f64::max);
+    let scale: Vec<f64> = norms
+        .iter()
+        .map(|&s| {
+            if s > crate::lsq::ZERO_COLUMN_RTOL * nmax {
+                1.0 / s
+            } else {
+                0.0
+            }
+        })
         .collect();
-    let scaled =
-        |a: &DMatrix<f64>| DMatrix::from_fn(m, m, |i, j| a[(i, j)] / (scale[i] * scale[j]));
+    let scaled = |a: &DMatrix<f64>| DMatrix::from_fn(m, m, |i, j| a[(i, j)] * scale[i] * scale[j]);
     let eig = SymmetricEigen::new(scaled(&total));
     let lmax = eig.eigenvalues.max();
-    // Eigenvalues of AᵀA are σ²: the rank cut-off 1e-9 on σ is 1e-18 on λ.
+    // Eigenvalues of the Gram matrix carry rounding of order 1e-16·λ_max in structurally
+    // null directions (the squaring that identification avoids with TSQR), so the cut-off
+    // is λ > 1e-12·λ_max, i.e. σ > 1e-6·σ_max — ample for a conditioning score.
     let keep: Vec<usize> = (0..m)
-        .filter(|&i| eig.eigenvalues[i] > 1e-18 * lmax)
+        .filter(|&i| eig.eigenvalues[i] > 1e-12 * lmax)
         .collect();
     let r = keep.len();
     let basis = DMatrix::from_fn(m, r, |i, j| eig.eigenvectors[(i, keep[j])]);
@@ -161,7 +174,7 @@ pub fn select_configurations(
     let cond = |a: &DMatrix<f64>| {
         let e = SymmetricEigen::new(a.clone()).eigenvalues;
         let (hi, lo) = (e.max(), e.min());
-        if lo <= 1e-18 * hi.max(f64::MIN_POSITIVE) {
+        if lo <= 1e-12 * hi.max(f64::MIN_POSITIVE) {
             f64::INFINITY
         } else {
             (hi / lo).sqrt()
@@ -173,6 +186,8 @@ pub fn select_configurations(
     let mut chosen = vec![false; size];
     let mut indices = Vec::with_capacity(count);
     let mut condition_numbers = Vec::with_capacity(count);
+    let ridge_matrix = DMatrix::<f64>::identity(r, r) * ridge;
+    let mut covered = false;
     for _ in 0..count {
         let mut best = (f64::NEG_INFINITY, usize::MAX);
         for (i, info) in reduced.iter().enumerate() {
@@ -180,12 +195,18 @@ pub fn select_configurations(
                 continue;
             }
             let cand = &current + info;
-            let logdet = match cand.cholesky() {
-                Some(c) => c.l().diagonal().iter().map(|d| 2.0 * d.ln()).sum(),
-                None => f64::NEG_INFINITY,
+            // Until the subspace is covered: D-optimal (log det, ridge-regularised); then
+            // directly the smallest condition number.
+            let score = if covered {
+                -cond(&(&cand - &ridge_matrix))
+            } else {
+                match cand.cholesky() {
+                    Some(c) => c.l().diagonal().iter().map(|d| 2.0 * d.ln()).sum(),
+                    None => f64::NEG_INFINITY,
+                }
             };
-            if logdet > best.0 {
-                best = (logdet, i);
+            if score > best.0 {
+                best = (score, i);
             }
         }
         let i = if best.1 == usize::MAX {
@@ -196,7 +217,9 @@ pub fn select_configurations(
         chosen[i] = true;
         current += &reduced[i];
         indices.push(i);
-        condition_numbers.push(cond(&(&current - DMatrix::<f64>::identity(r, r) * ridge)));
+        let c = cond(&(&current - &ridge_matrix));
+        covered = c.is_finite();
+        condition_numbers.push(c);
     }
     Ok(Selection {
         indices,

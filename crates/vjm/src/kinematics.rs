@@ -22,6 +22,7 @@ pub struct Workspace {
     local_axes: Vec<Vector3<f64>>,
     spring_joint: Vec<usize>,
     offsets: Vec<Vector3<f64>>,
+    any_offset: bool,
     /// A copy of the model's springs and offsets, to reject a workspace built for another model.
     model: VirtualJointModel,
     rot: Vec<Matrix3<f64>>,
@@ -58,6 +59,7 @@ impl Workspace {
             local_axes,
             spring_joint: model.springs().iter().map(|s| s.joint).collect(),
             offsets: model.offsets().to_vec(),
+            any_offset: model.offsets().iter().any(|o| *o != Vector3::zeros()),
             model: model.clone(),
             rot: vec![Matrix3::identity(); n],
             pos: vec![Vector3::zeros(); n],
@@ -88,7 +90,7 @@ impl Workspace {
         let mut r = Matrix3::identity();
         let mut t = Vector3::zeros();
         for (j, joint) in chain.joints().iter().enumerate() {
-            let (s, c) = q[j].sin_cos();
+            let (s, c) = crate::fast_math::sin_cos(q[j]);
             // Rodrigues, premultiplied by the fixed origin rotation (see ActuatedJoint::b0).
             let local = joint.b0 + joint.b1 * s + joint.b2 * (1.0 - c);
             t += r * joint.t;
@@ -98,10 +100,17 @@ impl Workspace {
         }
         let tip = chain.tip_offset().translation.vector;
         self.p = t + r * tip;
+        // Spring centres: once per joint (pos is overwritten by the centre), and no product
+        // at all for the usual zero offsets.
+        if self.any_offset {
+            for j in 0..self.n_joints {
+                self.pos[j] += self.rot[j] * self.offsets[j];
+            }
+        }
         for k in 0..self.local_axes.len() {
             let j = self.spring_joint[k];
             self.w[k] = self.rot[j] * self.local_axes[k];
-            self.c[k] = self.pos[j] + self.rot[j] * self.offsets[j];
+            self.c[k] = self.pos[j];
         }
     }
 

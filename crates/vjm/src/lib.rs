@@ -40,6 +40,7 @@ pub mod dataset;
 pub mod design;
 pub mod diagnose;
 mod error;
+mod fast_math;
 mod identify;
 mod kinematics;
 pub mod lsq;

@@ -158,7 +158,7 @@ impl TriangularAccumulator {
         for j in 0..p {
             let (left, right) = self.block.split_at_mut((j + 1) * BLOCK_ROWS);
             let v = &mut left[j * BLOCK_ROWS..j * BLOCK_ROWS + b];
-            let sigma: f64 = v.iter().map(|x| x * x).sum();
+            let sigma = dot(v, v);
             if sigma == 0.0 {
                 continue;
             }
@@ -174,11 +174,7 @@ impl TriangularAccumulator {
             self.r[j * p + j] = beta;
             for k in (j + 1)..p {
                 let xk = &mut right[(k - j - 1) * BLOCK_ROWS..(k - j - 1) * BLOCK_ROWS + b];
-                let mut dot = self.r[j * p + k];
-                for (vi, xi) in v.iter().zip(xk.iter()) {
-                    dot += vi * xi;
-                }
-                let w = tau * dot;
+                let w = tau * (self.r[j * p + k] + dot(v, xk));
                 self.r[j * p + k] -= w;
                 for (vi, xi) in v.iter().zip(xk.iter_mut()) {
                     *xi -= w * vi;
@@ -216,4 +212,24 @@ impl TriangularAccumulator {
             rows: self.rows,
         }
     }
+}
+
+/// Dot product with four independent accumulators, so the compiler can keep SIMD lanes
+/// busy (a single running sum is a serial dependency chain it may not reorder).
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for l in 0..4 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
