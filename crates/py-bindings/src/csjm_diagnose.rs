@@ -6,26 +6,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use so3_stiffness::csjm::PointLoad;
 use so3_stiffness::diagnose::{
-    diagnose, diagnose_file, simulate_campaign, CsjmCampaignSpec, CsjmEffects, DiagnoseError,
-    DiagnoseOptions,
+    diagnose, diagnose_file, simulate_campaign, CsjmCampaignSpec, CsjmEffects, DiagnoseOptions,
 };
 use so3_stiffness::identification::campaign::GravityRecording;
 use so3_stiffness::identification::ReadOptions;
 
 use crate::convert::to_numpy;
-use crate::errors::{error, internal_error, run, value_error, IntoPyErr, Kind, PyResultExt};
-
-impl IntoPyErr for DiagnoseError {
-    fn into_py_err(self) -> PyErr {
-        match self {
-            DiagnoseError::Data(e) => e.into_py_err(),
-            DiagnoseError::TooFewRows { .. } | DiagnoseError::Unexcited { .. } => {
-                error(Kind::Identification, self.to_string())
-            }
-            other => error(Kind::Value, other.to_string()),
-        }
-    }
-}
+use crate::errors::{internal_error, run, value_error, IntoPyErr, PyResultExt};
 
 fn number(d: &Bound<'_, PyDict>, i: usize, key: &str) -> PyResult<f64> {
     d.get_item(key)?

@@ -3,23 +3,11 @@
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
-use vjm::diagnose::{diagnose_with_progress, DiagnoseError, DiagnoseOptions, Progress};
+use vjm::diagnose::{diagnose_with_progress, DiagnoseOptions, Progress};
 
-use crate::errors::{error, run, IntoPyErr, Kind};
+use crate::errors::{run, IntoPyErr};
 use crate::vjm::{parse_model, PyRobot};
 use crate::vjm_data::dataset_from_arrays;
-
-impl IntoPyErr for DiagnoseError {
-    fn into_py_err(self) -> PyErr {
-        match self {
-            DiagnoseError::Model(e) => e.into_py_err(),
-            DiagnoseError::Dataset(e) => e.into_py_err(),
-            DiagnoseError::JointCount { .. } => error(Kind::Shape, self.to_string()),
-            DiagnoseError::TooFewRows { .. } => error(Kind::Identification, self.to_string()),
-            other => error(Kind::Value, other.to_string()),
-        }
-    }
-}
 
 /// Diagnoses a measurement table on `robot`; returns the result as JSON text.
 ///

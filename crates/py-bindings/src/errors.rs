@@ -184,3 +184,39 @@ impl IntoPyErr for vjm::dataset::DatasetError {
         error(kind, self.to_string())
     }
 }
+
+impl IntoPyErr for vjm::diagnose::DiagnoseError {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            vjm::diagnose::DiagnoseError::Model(e) => e.into_py_err(),
+            vjm::diagnose::DiagnoseError::Dataset(e) => e.into_py_err(),
+            vjm::diagnose::DiagnoseError::JointCount { .. } => error(Kind::Shape, self.to_string()),
+            vjm::diagnose::DiagnoseError::TooFewRows { .. } => {
+                error(Kind::Identification, self.to_string())
+            }
+            other => error(Kind::Value, other.to_string()),
+        }
+    }
+}
+
+impl IntoPyErr for so3_stiffness::diagnose::DiagnoseError {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            so3_stiffness::diagnose::DiagnoseError::Data(e) => e.into_py_err(),
+            so3_stiffness::diagnose::DiagnoseError::TooFewRows { .. }
+            | so3_stiffness::diagnose::DiagnoseError::Unexcited { .. } => {
+                error(Kind::Identification, self.to_string())
+            }
+            other => error(Kind::Value, other.to_string()),
+        }
+    }
+}
+
+impl IntoPyErr for vjm::testbed::TestbedError {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            vjm::testbed::TestbedError::Dataset(d) => d.into_py_err(),
+            other => error(Kind::Value, other.to_string()),
+        }
+    }
+}

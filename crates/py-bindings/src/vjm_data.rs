@@ -9,7 +9,7 @@ use vjm::testbed::{self, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
 use vjm::SpringAxis;
 
 use crate::convert::{batch, fixed, to_numpy};
-use crate::errors::{run, value_error, PyResultExt};
+use crate::errors::{run, value_error, IntoPyErr, PyResultExt};
 use crate::vjm::PyRobot;
 
 /// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
@@ -234,13 +234,6 @@ fn true_model(
     Ok(truth)
 }
 
-fn testbed_err(e: testbed::TestbedError) -> PyErr {
-    match e {
-        testbed::TestbedError::Dataset(d) => crate::errors::IntoPyErr::into_py_err(d),
-        other => value_error(other.to_string()),
-    }
-}
-
 /// Simulates a measurement campaign; returns a dict with the dataset arrays, the CSV text and
 /// the hidden truth (`true_displacement`, `applied_wrench`, `truth` as JSON).
 #[pyfunction]
@@ -277,7 +270,8 @@ pub fn vjm_simulate<'py>(
     if let Some(t) = test_fraction {
         spec.test_fraction = t;
     }
-    let campaign = run(py, || testbed::simulate(chain, &truth, &spec))?.map_err(testbed_err)?;
+    let campaign =
+        run(py, || testbed::simulate(chain, &truth, &spec))?.map_err(IntoPyErr::into_py_err)?;
     let out = dataset_to_dict(py, &campaign.dataset)?;
     let n = campaign.dataset.len();
     out.set_item(
@@ -321,8 +315,8 @@ pub fn vjm_seed_study(
     let n = chain.n_joints();
     let torsion: Vec<f64> = (0..n).map(|j| testbed::NOMINAL_TORSION[j % 7]).collect();
     let truth = TrueModel::with_tilts(&torsion, tilt_ratio);
-    let study =
-        run(py, || testbed::seed_study(chain, &truth, noise, seed))?.map_err(testbed_err)?;
+    let study = run(py, || testbed::seed_study(chain, &truth, noise, seed))?
+        .map_err(IntoPyErr::into_py_err)?;
     serde_json::to_string(&study).map_err(|e| crate::errors::internal_error(e.to_string()))
 }
 
