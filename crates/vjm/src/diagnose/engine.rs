@@ -335,3 +335,59 @@ impl Engine<'_> {
         s.iter().map(|v| v * v).sum()
     }
 }
+
+impl Engine<'_> {
+    /// Cluster-robust (pose-clustered, CR1 sandwich) Wald test that the last `k` coefficients
+    /// of `fit` are zero, on the training rows: `W = βᵀ V⁻¹ β / k` against F(k, G − 1), with
+    /// `V = B (Σ_g s_g s_gᵀ) B · G/(G − 1)`, `B = (XᵀX)⁺`, `s_g = X_gᵀ r_g` summed over pose g.
+    /// It does not assume independence within a pose, so it checks a finding against
+    /// within-pose correlation of the residuals. `None` with fewer than 3 poses.
+    pub fn cluster_robust(&self, fit: &Fit, groups: &[usize], k: usize) -> Option<FTest> {
+        let cols = self.design(&fit.terms, &self.train, &fit.lin);
+        let p = cols.len();
+        if k == 0 || k > p {
+            return None;
+        }
+        let n = 3 * self.train.len();
+        let x = nalgebra::DMatrix::from_fn(n, p, |i, j| cols[j][i]);
+        let y = nalgebra::DVector::from_vec(self.observations(&self.train));
+        let beta = nalgebra::DVector::from_column_slice(&fit.coef);
+        let r = &y - &x * &beta;
+        let mut ids: Vec<usize> = self.train.iter().map(|&i| groups[i]).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        let g = ids.len();
+        if g < 3 {
+            return None;
+        }
+        let mut meat = nalgebra::DMatrix::<f64>::zeros(p, p);
+        for gid in &ids {
+            let mut s = nalgebra::DVector::<f64>::zeros(p);
+            for (row, &i) in self.train.iter().enumerate() {
+                if groups[i] != *gid {
+                    continue;
+                }
+                for a in 0..3 {
+                    let o = 3 * row + a;
+                    for c in 0..p {
+                        s[c] += x[(o, c)] * r[o];
+                    }
+                }
+            }
+            meat += &s * s.transpose();
+        }
+        let bread = (x.transpose() * &x).pseudo_inverse(1e-12).ok()?;
+        let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
+        let vcc = v.view((p - k, p - k), (k, k)).into_owned();
+        let bc = beta.rows(p - k, k).into_owned();
+        let vinv = vcc.pseudo_inverse(1e-300).ok()?;
+        let w = (bc.transpose() * vinv * &bc)[(0, 0)];
+        let f = w / k as f64;
+        Some(FTest {
+            f,
+            df_num: k as f64,
+            df_den: (g - 1) as f64,
+            p_value: super::stats::f_sf(f, k as f64, (g - 1) as f64),
+        })
+    }
+}

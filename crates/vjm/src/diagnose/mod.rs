@@ -478,6 +478,7 @@ pub fn diagnose_with_progress(
             n_candidates: testable.len(),
             bh_threshold: opts.fdr * rank_a as f64 / testable.len() as f64,
             sse_reduction: 1.0 - a.sse_full / a.sse_reduced,
+            cluster_robust: eng.cluster_robust(&trial, &groups, a.cand.n_columns()),
             heldout_sse_before: before,
             heldout_sse_after: after,
             estimate: Vec::new(),

@@ -66,6 +66,10 @@ pub struct Evidence {
     pub bh_threshold: f64,
     /// Fraction of the training whitened SSE the candidate removed.
     pub sse_reduction: f64,
+    /// Pose-clustered (CR1 sandwich) Wald test of the candidate's parameters in the model of
+    /// that step: valid without assuming independence within a pose (reported, not used to
+    /// select).
+    pub cluster_robust: Option<FTest>,
     /// Whitened SSE on the held-out rows before adding the candidate.
     pub heldout_sse_before: f64,
     /// Whitened SSE on the held-out rows after adding it (must be lower to be confirmed).

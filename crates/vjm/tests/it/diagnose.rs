@@ -386,6 +386,11 @@ fn json_follows_the_output_contract() {
     assert_eq!(f["axis"], "x");
     assert!(f["aliases"].is_array());
     assert!(f["evidence"]["f_test"]["p_value"].is_f64());
+    // The pose-clustered Wald test agrees that this strong tilt is real, with G − 1 = 29
+    // denominator degrees of freedom (30 training poses).
+    let cr = &d.findings[0].evidence.cluster_robust.unwrap();
+    assert_eq!(cr.df_den, 29.0);
+    assert!(cr.p_value < 1e-3, "{cr:?}");
     assert_eq!(v["extended"]["n_params"], 8);
     // The held-out error is the mean of ‖d_pred − d_meas‖/‖d_meas‖ over test rows, recomputed here.
     let rows = v["rows"].as_array().unwrap();
