@@ -353,41 +353,8 @@ impl Engine<'_> {
         let y = nalgebra::DVector::from_vec(self.observations(&self.train));
         let beta = nalgebra::DVector::from_column_slice(&fit.coef);
         let r = &y - &x * &beta;
-        let mut ids: Vec<usize> = self.train.iter().map(|&i| groups[i]).collect();
-        ids.sort_unstable();
-        ids.dedup();
-        let g = ids.len();
-        if g < 3 {
-            return None;
-        }
-        let mut meat = nalgebra::DMatrix::<f64>::zeros(p, p);
-        for gid in &ids {
-            let mut s = nalgebra::DVector::<f64>::zeros(p);
-            for (row, &i) in self.train.iter().enumerate() {
-                if groups[i] != *gid {
-                    continue;
-                }
-                for a in 0..3 {
-                    let o = 3 * row + a;
-                    for c in 0..p {
-                        s[c] += x[(o, c)] * r[o];
-                    }
-                }
-            }
-            meat += &s * s.transpose();
-        }
-        let bread = (x.transpose() * &x).pseudo_inverse(1e-12).ok()?;
-        let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
-        let vcc = v.view((p - k, p - k), (k, k)).into_owned();
-        let bc = beta.rows(p - k, k).into_owned();
-        let vinv = vcc.pseudo_inverse(1e-300).ok()?;
-        let w = (bc.transpose() * vinv * &bc)[(0, 0)];
-        let f = w / k as f64;
-        Some(FTest {
-            f,
-            df_num: k as f64,
-            df_den: (g - 1) as f64,
-            p_value: super::stats::f_sf(f, k as f64, (g - 1) as f64),
-        })
+        // One cluster id per observation (3 per row).
+        let cluster: Vec<usize> = self.train.iter().flat_map(|&i| [groups[i]; 3]).collect();
+        super::stats::cluster_robust_wald(&x, &r, &beta, &cluster, k)
     }
 }

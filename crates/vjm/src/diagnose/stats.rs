@@ -346,3 +346,51 @@ pub fn spearman(x: &[f64], y: &[f64]) -> Option<Correlation> {
         p_value: t_two_sided(t, df),
     })
 }
+
+/// Cluster-robust (CR1 sandwich) Wald test that the last `k` of the coefficients `beta` of the
+/// regression `y ≈ X β` (residuals `r = y − Xβ`) are zero, with observation `i` in cluster
+/// `cluster[i]`: `V = B (Σ_g s_g s_gᵀ) B · G/(G − 1)`, `B = (XᵀX)⁺`, `s_g = Σ_{i∈g} x_i r_i`;
+/// `W = β_kᵀ V_kk⁺ β_k / k` against F(k, G − 1). `None` with fewer than 3 clusters or
+/// inconsistent shapes.
+pub fn cluster_robust_wald(
+    x: &nalgebra::DMatrix<f64>,
+    r: &nalgebra::DVector<f64>,
+    beta: &nalgebra::DVector<f64>,
+    cluster: &[usize],
+    k: usize,
+) -> Option<FTest> {
+    let (n, p) = x.shape();
+    if k == 0 || k > p || r.len() != n || beta.len() != p || cluster.len() != n {
+        return None;
+    }
+    let mut ids: Vec<usize> = cluster.to_vec();
+    ids.sort_unstable();
+    ids.dedup();
+    let g = ids.len();
+    if g < 3 {
+        return None;
+    }
+    let mut sums = vec![nalgebra::DVector::<f64>::zeros(p); g];
+    for (o, c) in cluster.iter().enumerate() {
+        let gi = ids.binary_search(c).ok()?;
+        sums[gi] += x.row(o).transpose() * r[o];
+    }
+    let mut meat = nalgebra::DMatrix::<f64>::zeros(p, p);
+    for s in &sums {
+        meat += s * s.transpose();
+    }
+    let bread = (x.transpose() * x).pseudo_inverse(1e-12).ok()?;
+    let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
+    let vcc = v.view((p - k, p - k), (k, k)).into_owned();
+    let bc = beta.rows(p - k, k).into_owned();
+    let vinv = vcc.pseudo_inverse(1e-300).ok()?;
+    let w = (bc.transpose() * vinv * &bc)[(0, 0)];
+    let f = w / k as f64;
+    let d2 = (g - 1) as f64;
+    Some(FTest {
+        f,
+        df_num: k as f64,
+        df_den: d2,
+        p_value: f_sf(f, k as f64, d2),
+    })
+}

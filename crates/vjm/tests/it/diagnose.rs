@@ -551,3 +551,41 @@ fn anova_and_spearman_match_hand_computations() {
     let s = spearman(&[1.0, 2.0, 3.0, 4.0, 5.0], &[2.0, 1.0, 4.0, 3.0, 5.0]).unwrap();
     assert!((s.rho - 0.8).abs() < 1e-14);
 }
+
+#[test]
+fn cluster_robust_wald_matches_hand_computation() {
+    use nalgebra::{DMatrix, DVector};
+    use vjm::diagnose::stats::cluster_robust_wald;
+    // One regressor, no intercept: β̂ = Σxy/Σx², B = 1/Σx², V = B² Σ_g (Σ_{i∈g} x_i r_i)² · G/(G−1).
+    let x = [1.0, 2.0, -1.0, 0.5, 3.0, -2.0];
+    let y = [1.2, 1.9, -0.7, 0.8, 2.6, -2.3];
+    let cluster = [0, 0, 1, 1, 2, 2];
+    let sxx: f64 = x.iter().map(|v| v * v).sum();
+    let b = x.iter().zip(&y).map(|(a, c)| a * c).sum::<f64>() / sxx;
+    let r: Vec<f64> = x.iter().zip(&y).map(|(a, c)| c - b * a).collect();
+    let s: Vec<f64> = (0..3)
+        .map(|g| x[2 * g] * r[2 * g] + x[2 * g + 1] * r[2 * g + 1])
+        .collect();
+    let v = s.iter().map(|v| v * v).sum::<f64>() / (sxx * sxx) * 1.5;
+    let w = b * b / v;
+    let t = cluster_robust_wald(
+        &DMatrix::from_column_slice(6, 1, &x),
+        &DVector::from_column_slice(&r),
+        &DVector::from_element(1, b),
+        &cluster,
+        1,
+    )
+    .unwrap();
+    assert!((t.f - w).abs() < 1e-10 * w, "{} vs {w}", t.f);
+    assert_eq!((t.df_num, t.df_den), (1.0, 2.0));
+    assert!((t.p_value - f_sf(w, 1.0, 2.0)).abs() < 1e-14);
+    // Fewer than 3 clusters: no test.
+    assert!(cluster_robust_wald(
+        &DMatrix::from_column_slice(6, 1, &x),
+        &DVector::from_column_slice(&r),
+        &DVector::from_element(1, b),
+        &[0, 0, 0, 1, 1, 1],
+        1
+    )
+    .is_none());
+}
