@@ -6,7 +6,7 @@
 //!    displacement noise: tracker noise plus force-sensor noise propagated through the fitted
 //!    compliance (`Σ_i = σ_d² I + G_i Σ_W G_iᵀ`, `G_i = J_t C Jᵀ`).
 //! 2. Residual structure: per-pose ANOVA, torque, load magnitude and direction correlations.
-//! 3. Candidates from the [catalogue](candidates::catalogue) are scored by nested-model F tests;
+//! 3. Candidates from the [`candidates::catalogue`] are scored by nested-model F tests;
 //!    Benjamini–Hochberg at level `fdr` across the catalogue decides which are significant; the
 //!    most significant one must also lower the whitened error on the held-out rows to be
 //!    accepted (otherwise the next one is tried); then all are re-scored against the extended
