@@ -17,6 +17,10 @@ pub const BUNDLED_FLANGE: &str = "panda_link8";
 /// Tool centre point of [`BUNDLED_URDF`] (0.1034 m beyond the flange).
 pub const BUNDLED_TCP: &str = "panda_hand_tcp";
 
+/// `(name, origin, axis, limits)` of one joint for [`SerialChain::from_joints`]: origin in
+/// the previous joint's child frame (m), axis in the joint frame, limits in rad.
+pub type JointSpec = (String, Isometry3<f64>, Vector3<f64>, (f64, f64));
+
 /// One actuated (revolute or continuous) joint of a [`SerialChain`].
 #[derive(Debug, Clone)]
 pub struct ActuatedJoint {
@@ -219,7 +223,7 @@ impl SerialChain {
     pub fn from_joints(
         base: &str,
         tip: &str,
-        joints: Vec<(String, Isometry3<f64>, Vector3<f64>, (f64, f64))>,
+        joints: Vec<JointSpec>,
         tip_offset: Isometry3<f64>,
     ) -> Result<Self, VjmError> {
         if joints.is_empty() {

@@ -98,7 +98,7 @@ pub fn select_configurations(
     count: usize,
 ) -> Result<Selection, VjmError> {
     let n = chain.n_joints();
-    if pool.is_empty() || pool.len() % n != 0 {
+    if pool.is_empty() || !pool.len().is_multiple_of(n) {
         return Err(VjmError::ShapeMismatch {
             what: "configuration pool (N×n row-major)",
             expected: (pool.len() / n).max(1) * n,

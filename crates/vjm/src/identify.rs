@@ -235,7 +235,7 @@ fn validate(
             });
         }
     }
-    if q.len() % n != 0 || q.is_empty() {
+    if !q.len().is_multiple_of(n) || q.is_empty() {
         return Err(VjmError::ShapeMismatch {
             what: "q (N×n row-major, n = number of joints)",
             expected: (q.len() / n).max(1) * n,

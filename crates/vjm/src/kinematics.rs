@@ -190,7 +190,7 @@ pub fn jacobian_batch_in_place(
     ws.check(chain, model)?;
     let n = chain.n_joints();
     let m6 = 6 * model.n_params();
-    if q.len() % n != 0 {
+    if !q.len().is_multiple_of(n) {
         return Err(VjmError::ShapeMismatch {
             what: "q (N×n row-major)",
             expected: q.len().div_ceil(n) * n,

@@ -47,11 +47,11 @@ pub mod lsq;
 mod model;
 mod predict;
 mod regressor;
-pub mod stats;
+pub use so3_stiffness::stats;
 pub mod testbed;
 
 pub use chain::{
-    ActuatedJoint, SerialChain, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP, BUNDLED_URDF,
+    ActuatedJoint, JointSpec, SerialChain, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP, BUNDLED_URDF,
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;

@@ -274,8 +274,8 @@ pub fn solve_factor(
         }
     }
     let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for k in 0..m {
-        if !identifiable[k] {
+    for (k, &ident) in identifiable.iter().enumerate() {
+        if !ident {
             let root = find(&mut parent, k);
             groups.entry(root).or_default().push(k);
         }
@@ -360,7 +360,7 @@ pub fn solve_dense(
     rhs: &[f64],
     opts: &SolveOptions,
 ) -> Result<RankRevealingSolution, VjmError> {
-    Ok(solve_factor(&dense_factor(design, rows, cols, rhs)?, opts)?)
+    solve_factor(&dense_factor(design, rows, cols, rhs)?, opts)
 }
 
 /// The augmented triangular factor of `[A b]` by a dense faer QR.

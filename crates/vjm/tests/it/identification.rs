@@ -60,8 +60,8 @@ pub fn assert_recovers(id: &Identification, truth: &[f64], tol: f64) {
             expect
         );
     }
-    for k in 0..id.n_params {
-        match id.compliance[k] {
+    for (k, estimate) in id.compliance.iter().enumerate() {
+        match *estimate {
             Some(v) => {
                 assert!(id.identifiable[k]);
                 assert!(
@@ -185,11 +185,10 @@ proptest! {
     }
 }
 
-fn noisy_panda(
-    count: usize,
-    sigma: f64,
-    seed: u64,
-) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+/// q, wrenches, displacements, rotations, true compliances.
+type NoisyData = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
+fn noisy_panda(count: usize, sigma: f64, seed: u64) -> NoisyData {
     let panda = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
     let truth = random_compliances(21, seed);
@@ -265,11 +264,11 @@ fn standard_errors_are_calibrated() {
     for _ in 0..200 {
         let d: Vec<f64> = d0.iter().map(|v| v + noise.sample(&mut rng)).collect();
         let id = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
-        for k in 0..6 {
+        for (k, &t) in truth.iter().enumerate().take(6) {
             let (c, s) = (id.compliance[k].unwrap(), id.stderr[k].unwrap());
-            z2 += ((c - truth[k]) / s).powi(2);
+            z2 += ((c - t) / s).powi(2);
             let (lo, hi) = id.ci95[k].unwrap();
-            covered += usize::from(lo <= truth[k] && truth[k] <= hi);
+            covered += usize::from(lo <= t && t <= hi);
             total += 1;
         }
     }
