@@ -542,8 +542,10 @@ effects (--effect NAME:key=value,...):
 
 def _one_line(e: BaseException) -> str:
     text = " ".join(str(e).split())
-    if isinstance(e, FileNotFoundError) and not isinstance(e, StiffnessError) and e.filename:
-        text = f"file not found: {e.filename}"
+    if isinstance(e, StiffnessError):
+        return text or type(e).__name__
+    if isinstance(e, FileNotFoundError) and e.filename:
+        return f"file not found: {e.filename}"
     return text or type(e).__name__
 
 
