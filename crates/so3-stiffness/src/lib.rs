@@ -38,6 +38,7 @@ pub mod diagnose;
 pub mod error;
 pub mod identification;
 pub mod so3;
+pub mod stats;
 
 pub use csjm::{CsjmGeometry, CsjmSimulator, Stiffness};
 pub use error::{CsjmError, So3Error};

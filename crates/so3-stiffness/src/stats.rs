@@ -2,7 +2,9 @@
 //! Benjamini–Hochberg selection, one-way ANOVA and Spearman rank correlation.
 //!
 //! Everything here is self-contained (no statistics dependency) and checked in the tests against
-//! closed forms and published table values.
+//! closed forms and published table values. One module serves the whole workspace: the CSJM
+//! identification and diagnosis here, and `vjm` (which re-exports it as `vjm::stats` and
+//! `vjm::diagnose::stats`).
 
 use serde::Serialize;
 
@@ -393,4 +395,28 @@ pub fn cluster_robust_wald(
         df_den: d2,
         p_value: f_sf(f, k as f64, d2),
     })
+}
+
+/// Two-sided 95 % quantile of Student's t with `dof` degrees of freedom (0.975 quantile),
+/// from the Cornish–Fisher expansion (Abramowitz & Stegun 26.7.5) for dof ≥ 3 and exact
+/// values below; `None` for dof = 0. Relative error below 1e-3 for dof ≥ 3.
+pub fn student_t_975(dof: usize) -> Option<f64> {
+    match dof {
+        0 => None,
+        1 => Some(12.706_204_736_174_7),
+        2 => Some(4.302_652_729_749_46),
+        _ => {
+            let z: f64 = 1.959_963_984_540_054;
+            let v = dof as f64;
+            let z2 = z * z;
+            let g1 = (z2 * z + z) / 4.0;
+            let g2 = (5.0 * z2 * z2 * z + 16.0 * z2 * z + 3.0 * z) / 96.0;
+            let g3 = (3.0 * z.powi(7) + 19.0 * z.powi(5) + 17.0 * z.powi(3) - 15.0 * z) / 384.0;
+            let g4 = (79.0 * z.powi(9) + 776.0 * z.powi(7) + 1482.0 * z.powi(5)
+                - 1920.0 * z.powi(3)
+                - 945.0 * z)
+                / 92160.0;
+            Some(z + g1 / v + g2 / (v * v) + g3 / v.powi(3) + g4 / v.powi(4))
+        }
+    }
 }

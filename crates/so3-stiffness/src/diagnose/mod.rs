@@ -38,7 +38,7 @@ pub mod candidates;
 pub mod connection;
 mod engine;
 pub mod report;
-pub mod stats;
+pub use crate::stats;
 pub mod structure;
 pub mod testbed;
 

@@ -34,7 +34,7 @@ pub mod candidates;
 mod engine;
 pub mod linalg;
 pub mod report;
-pub mod stats;
+pub use so3_stiffness::stats;
 pub mod structure;
 
 use serde::Serialize;
