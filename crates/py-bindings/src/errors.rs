@@ -98,6 +98,15 @@ where
         })
 }
 
+/// Test hook (private): panics inside [`run`], so the test suite can check that a panic of the
+/// core surfaces as `InternalError` and never as pyo3's `PanicException`.
+#[pyfunction]
+pub fn _panic_for_tests(py: Python<'_>) -> PyResult<()> {
+    run(py, || -> () {
+        panic!("deliberate panic raised by the test suite")
+    })
+}
+
 /// Conversion of a core crate's error into the matching Python exception.
 pub trait IntoPyErr {
     /// The Python exception for this error.

@@ -20,6 +20,7 @@ pub mod vjm_data;
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(errors::_panic_for_tests, m)?)?;
     so3::register(m)?;
     csjm::register(m)?;
     csjm_diagnose::register(m)?;

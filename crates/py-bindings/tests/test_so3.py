@@ -130,3 +130,11 @@ def test_bad_values_are_named():
         so3.project_to_rotation(np.diag([1.0, 1.0, -1.0]))
     with pytest.raises(rs.InvalidValueError, match="numeric"):
         so3.exp(["a", "b", "c"])
+
+
+def test_a_panic_in_the_core_becomes_internal_error():
+    from robot_stiffness import _core
+
+    with pytest.raises(rs.InternalError, match="deliberate panic") as info:
+        _core._panic_for_tests()
+    assert isinstance(info.value, RuntimeError) and isinstance(info.value, rs.StiffnessError)

@@ -14,6 +14,7 @@ _Path = Union[str, os.PathLike[str]]
 __all__ = [
     "Robot",
     "__version__",
+    "_panic_for_tests",
     "csjm_diagnose",
     "csjm_diagnose_csv",
     "csjm_identify",
@@ -42,6 +43,7 @@ __all__ = [
 
 __version__: str
 
+def _panic_for_tests() -> None: ...
 def so3_hat(w: _F64) -> _F64: ...
 def so3_vee(m: _F64) -> _F64: ...
 def so3_exp(w: _F64) -> _F64: ...
