@@ -105,6 +105,20 @@ fn hidden_tilt_survives_the_file_round_trip_and_is_named_with_a_gain() {
             assert!(f.get(key).is_some(), "finding lacks `{key}`: {f}");
         }
     }
+    // The bundled tip lies on joint 7's axis: J7z does not enter translational data, so the
+    // baseline must not report a number for it; every other torsion is a positive estimate.
+    let params = json["baseline"]["parameters"]
+        .as_array()
+        .expect("baseline parameters");
+    for p in params {
+        let label = p["label"].as_str().expect("label");
+        if label == "J7z" {
+            assert!(p["value"].is_null(), "J7z reported as {}", p["value"]);
+        } else {
+            let v = p["value"].as_f64().unwrap_or(f64::NAN);
+            assert!(v > 0.0 && v < 1e-2, "{label} = {v} rad/(N·m)");
+        }
+    }
     let _ = std::fs::remove_file(&path);
 }
 

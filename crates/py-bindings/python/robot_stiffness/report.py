@@ -336,7 +336,8 @@ def _markdown(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
     )
     out += ["", "## Fitted parameters (extended model)", "", "| parameter | value | unit |", "|---|---|---|"]
     for p in ext.get("parameters", []):
-        out.append(f"| {p['label']} | {p['value']:.4e} | {p['unit']} |")
+        value = "not identifiable" if p["value"] is None else f"{p['value']:.4e}"
+        out.append(f"| {p['label']} | {value} | {p['unit']} |")
     out.append("")
     return "\n".join(out)
 

@@ -42,6 +42,9 @@ pub struct Fit {
     /// Numerical rank of the whitened training design.
     #[allow(dead_code)]
     pub rank: usize,
+    /// Per coefficient: `false` when its column is zero up to rounding on these data (the
+    /// coefficient is 0 and is not an estimate).
+    pub in_data: Vec<bool>,
 }
 
 impl Fit {
@@ -179,10 +182,13 @@ impl<'a> Engine<'a> {
         let mut lin = lin0.clone();
         let mut coef = Vec::new();
         let mut rank = 0;
+        let mut in_data = Vec::new();
         for pass in 0..passes {
             let cols = self.design(terms, &self.train, &lin);
-            let (beta, r) = solve_columns(&cols, &y);
-            rank = r;
+            let sol = solve_columns(&cols, &y);
+            let beta = sol.beta;
+            rank = sol.rank;
+            in_data = sol.in_data;
             let mut c = vec![0.0; self.m];
             let mut k = 0;
             for t in terms {
@@ -222,6 +228,7 @@ impl<'a> Engine<'a> {
             lin,
             pred,
             rank,
+            in_data,
         }
     }
 

@@ -127,27 +127,54 @@ pub fn cosine(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
+/// Least-squares solution of `X β ≈ y` with `X` given by columns.
+#[derive(Debug, Clone)]
+pub struct ColumnSolution {
+    /// Minimum-norm coefficients; exactly 0 for the columns flagged in `in_data`.
+    pub beta: Vec<f64>,
+    /// Numerical rank of the design.
+    pub rank: usize,
+    /// `false` for a column that is zero up to rounding (its parameter does not enter the
+    /// data, e.g. a torsion about an axis through the tip point): its coefficient means
+    /// nothing and must not be reported as an estimate.
+    pub in_data: Vec<bool>,
+}
+
 /// Minimum-norm least-squares solution of `X β ≈ y` with `X` given by columns, through a
-/// thin SVD with singular values below `RANK_TOL · σ_max` discarded. Returns `(β, rank)`.
-pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> (Vec<f64>, usize) {
+/// thin SVD of the column-scaled design with singular values below `RANK_TOL · σ_max`
+/// discarded. Columns whose norm is below [`crate::lsq::ZERO_COLUMN_RTOL`] of the largest
+/// are left out (the same rule as the identification solver): scaling them to unit norm
+/// would turn rounding into a spurious, huge coefficient.
+pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
     let p = cols.len();
     if p == 0 {
-        return (Vec::new(), 0);
+        return ColumnSolution {
+            beta: Vec::new(),
+            rank: 0,
+            in_data: Vec::new(),
+        };
     }
     let n = y.len();
-    // Scale columns to unit norm so the rank tolerance is independent of units.
-    let scales: Vec<f64> = cols
+    let norms: Vec<f64> = cols.iter().map(|c| norm(c)).collect();
+    let largest = norms.iter().cloned().fold(0.0, f64::max);
+    let in_data: Vec<bool> = norms
         .iter()
-        .map(|c| {
-            let s = norm(c);
-            if s > 0.0 {
-                s
-            } else {
-                1.0
-            }
-        })
+        .map(|&s| s > crate::lsq::ZERO_COLUMN_RTOL * largest && s.is_finite())
         .collect();
-    let x = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scales[j]);
+    // Scale columns to unit norm so the rank tolerance is independent of units; columns not
+    // in the data are zeroed.
+    let scales: Vec<f64> = norms
+        .iter()
+        .zip(&in_data)
+        .map(|(&s, &keep)| if keep { s } else { 1.0 })
+        .collect();
+    let x = DMatrix::from_fn(n, p, |i, j| {
+        if in_data[j] {
+            cols[j][i] / scales[j]
+        } else {
+            0.0
+        }
+    });
     let svd = x.svd(true, true);
     let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
     let tol = RANK_TOL * smax.max(f64::MIN_POSITIVE);
@@ -156,5 +183,15 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> (Vec<f64>, usize) {
         .solve(&DVector::from_column_slice(y), tol)
         .map(|b| b.iter().cloned().collect::<Vec<f64>>())
         .unwrap_or_else(|_| vec![0.0; p]);
-    (beta.iter().zip(&scales).map(|(b, s)| b / s).collect(), rank)
+    let beta = beta
+        .iter()
+        .zip(&scales)
+        .zip(&in_data)
+        .map(|((b, s), &keep)| if keep { b / s } else { 0.0 })
+        .collect();
+    ColumnSolution {
+        beta,
+        rank,
+        in_data,
+    }
 }

@@ -642,7 +642,7 @@ fn parameters(fit: &Fit) -> Vec<Parameter> {
                 let axis = ["z", "x", "y"][s % 3];
                 out.push(Parameter {
                     label: format!("J{}{}", s / 3 + 1, axis),
-                    value: fit.coef[k],
+                    value: fit.in_data[k].then_some(fit.coef[k]),
                     unit: "rad/(N·m)",
                 });
                 k += 1;
@@ -662,7 +662,7 @@ fn parameters(fit: &Fit) -> Vec<Parameter> {
                 for name in names {
                     out.push(Parameter {
                         label: name,
-                        value: fit.coef[k],
+                        value: fit.in_data[k].then_some(fit.coef[k]),
                         unit: c.unit(),
                     });
                     k += 1;

@@ -27,8 +27,9 @@ pub struct ModelSummary {
 pub struct Parameter {
     /// Label, e.g. `J3z`, `wrench_bias.fx`, `joint_tilt(J3x)`.
     pub label: String,
-    /// Estimate.
-    pub value: f64,
+    /// Estimate; `None` (JSON null) when the parameter does not enter these data at all
+    /// (its column is zero up to rounding, e.g. a torsion about an axis through the tip point).
+    pub value: Option<f64>,
     /// Unit.
     pub unit: &'static str,
 }

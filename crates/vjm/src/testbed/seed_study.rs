@@ -182,7 +182,8 @@ pub fn seed_study(
             .map(|&s| (0..n_id).flat_map(|i| spring_column(&kin[i], s)).collect())
             .collect();
         let y: Vec<f64> = (0..n_id).flat_map(|i| meas[i]).collect();
-        let (beta, rank) = solve_columns(&cols, &y);
+        let sol = solve_columns(&cols, &y);
+        let (beta, rank) = (sol.beta, sol.rank);
         let pred = kin
             .iter()
             .map(|row| {
