@@ -71,10 +71,37 @@ fn rodrigues_coefficients(theta: f64) -> (f64, f64, f64) {
 
 /// Exponential map: the rotation by angle ‖w‖ about w/‖w‖ (Rodrigues' formula).
 pub fn exp(w: &Vector3<f64>) -> Rotation3<f64> {
-    let theta = w.norm();
-    let (a, b, _) = rodrigues_coefficients(theta);
-    let k = hat(w);
-    Rotation3::from_matrix_unchecked(Matrix3::identity() + a * k + b * k * k)
+    // R = I + a·hat(w) + b·hat(w)² with hat(w)² = w wᵀ − θ² I, i.e.
+    // R = cos θ·I + a·hat(w) + b·w wᵀ: one sin_cos and no matrix product (hot path).
+    let t2 = w.norm_squared();
+    let (a, b, cos_t) = if t2 < 1e-8 {
+        // θ < 1e-4: truncation error below θ⁶/5040 < 1e-27.
+        let b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0;
+        (1.0 - t2 / 6.0 + t2 * t2 / 120.0, b, 1.0 - b * t2)
+    } else {
+        let theta = t2.sqrt();
+        let (sin_t, cos_t) = theta.sin_cos();
+        // 1 − cos θ without cancellation: sin²θ/(1 + cos θ) while cos θ > 0.
+        let one_minus_cos = if cos_t > 0.0 {
+            sin_t * sin_t / (1.0 + cos_t)
+        } else {
+            1.0 - cos_t
+        };
+        (sin_t / theta, one_minus_cos / t2, cos_t)
+    };
+    let (x, y, z) = (w.x, w.y, w.z);
+    let (bxy, bxz, byz) = (b * x * y, b * x * z, b * y * z);
+    Rotation3::from_matrix_unchecked(Matrix3::new(
+        cos_t + b * x * x,
+        bxy - a * z,
+        bxz + a * y,
+        bxy + a * z,
+        cos_t + b * y * y,
+        byz - a * x,
+        bxz - a * y,
+        byz + a * x,
+        cos_t + b * z * z,
+    ))
 }
 
 /// Logarithm map: the rotation vector ω with `exp(ω) = r` and ‖ω‖ ∈ [0, π].
@@ -90,11 +117,12 @@ pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
     let theta = s.atan2(c);
     if c >= 0.0 {
         // θ ∈ [0, π/2]: θ / sin θ is well conditioned.
+        // ‖vee(R)‖ = sin θ already: no second transcendental call (hot path).
         let factor = if theta < 1e-4 {
             let t2 = theta * theta;
             1.0 + t2 / 6.0 + 7.0 * t2 * t2 / 360.0
         } else {
-            theta / theta.sin()
+            theta / s
         };
         return factor * s_vec;
     }

@@ -49,6 +49,18 @@ proptest! {
     }
 
     #[test]
+    fn exp_matches_an_independent_rodrigues(n in unit_vector(), log_theta in -9.0..0.5f64, near_pi in 0.0..1e-6f64) {
+        // nalgebra's Rotation3::new is a separate implementation of the same map; compare at
+        // θ from 1e-9 to ~3.16 rad and just below π.
+        for theta in [10f64.powf(log_theta), PI - near_pi] {
+            let w = n * theta;
+            let reference = Rotation3::new(w);
+            prop_assert!((exp(&w).matrix() - reference.matrix()).norm() < 4e-16 * 9.0,
+                "θ = {theta:e}: {:e}", (exp(&w).matrix() - reference.matrix()).norm());
+        }
+    }
+
+    #[test]
     fn exp_is_a_rotation(w in vector(10.0)) {
         let r = exp(&w);
         prop_assert!(orthogonality_error(r.matrix()) < 1e-14);
