@@ -13,6 +13,19 @@ use rand_distr::StandardNormal;
 /// The seed the benches use unless they say otherwise.
 pub const SEED: u64 = 0x5eed_2024;
 
+/// CPU time consumed so far by all threads of this process, s, from Linux's per-thread
+/// `/proc/self/task/*/schedstat` (ns resolution, brought up to date at scheduler events, so
+/// read it around work of at least tens of milliseconds). Unlike wall time it does not grow
+/// while other processes hold the cores; `None` where `/proc` is unavailable.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let mut total_ns: u64 = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total_ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total_ns as f64 * 1e-9)
+}
+
 /// A deterministic generator for stream `seed`.
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)

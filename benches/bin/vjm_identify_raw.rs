@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use robot_stiffness_benches::{VjmBatch, SEED};
+use robot_stiffness_benches::{process_cpu_seconds, VjmBatch, SEED};
 use vjm::{identify, IdentifyOptions, SerialChain, VirtualJointModel};
 
 struct Args {
@@ -109,17 +109,6 @@ fn rss_and_peak() -> Option<(u64, u64)> {
         Some(kib * 1024)
     };
     Some((field("VmRSS:")?, field("VmHWM:")?))
-}
-
-/// CPU time consumed so far by all threads of this process, s (Linux `schedstat`, ns resolution).
-/// Unlike wall time it does not grow when other processes compete for the cores.
-fn process_cpu_seconds() -> Option<f64> {
-    let mut total_ns: u64 = 0;
-    for task in std::fs::read_dir("/proc/self/task").ok()? {
-        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
-        total_ns += stat.split_whitespace().next()?.parse::<u64>().ok()?;
-    }
-    Some(total_ns as f64 * 1e-9)
 }
 
 /// Resets the peak-RSS counter to the current RSS (Linux ≥ 4.0).
