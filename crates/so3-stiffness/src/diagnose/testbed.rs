@@ -120,7 +120,7 @@ pub struct CsjmCampaignSpec {
 impl Default for CsjmCampaignSpec {
     fn default() -> Self {
         CsjmCampaignSpec {
-            preload: Vector3::new(-0.06, -3.08, 1.07),
+            preload: Vector3::from(crate::identification::campaign::SEED_TABLE3_PRELOAD),
             increments: 85,
             max_increment: 1.0,
             pattern: LoadPattern::Symmetric,

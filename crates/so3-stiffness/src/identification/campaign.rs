@@ -295,7 +295,7 @@ pub struct CampaignConfig {
 impl Default for CampaignConfig {
     fn default() -> Self {
         CampaignConfig {
-            preload: Vector3::new(-0.06, -3.08, 1.07),
+            preload: Vector3::from(SEED_TABLE3_PRELOAD),
             increments: 85,
             max_increment: 1.0,
             pattern: LoadPattern::Symmetric,
