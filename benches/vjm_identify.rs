@@ -1,10 +1,11 @@
 //! The VJM identification (regressor build + rank-revealing solve) on the bundled Panda,
 //! N = 1e3 … 1e6 seeded measurements, extended (21 springs) and traditional (7) models.
 //!
-//! `identify` is the streaming path (row blocks folded into per-thread triangular factors on
-//! rayon's pool, i.e. both cores); `identify_dense` (whole design + faer QR) is measured up to
-//! N = 1e5 for reference. Throughput is in measurements. At N = 1e6 criterion's minimum of 10
-//! samples keeps the bench short.
+//! `streaming` is `identify` with its default reduction (`SolveMethod::Auto`: lane-wise normal
+//! equations on rayon's pool, i.e. both cores; this design has κ ≈ 70 so they are kept);
+//! `streaming_qr` forces the TSQR reduction; `identify_dense` (whole design + faer QR) is
+//! measured up to N = 1e5 for reference. Throughput is in measurements. At N = 1e6
+//! criterion's minimum of 10 samples keeps the bench short.
 use std::time::Duration;
 
 use criterion::{
@@ -12,7 +13,7 @@ use criterion::{
 };
 use robot_stiffness_benches::{VjmBatch, SEED};
 use std::hint::black_box;
-use vjm::{identify, identify_dense, IdentifyOptions, SerialChain, VirtualJointModel};
+use vjm::{identify, identify_dense, IdentifyOptions, SerialChain, SolveMethod, VirtualJointModel};
 
 const SIZES: [usize; 4] = [1_000, 10_000, 100_000, 1_000_000];
 
@@ -45,6 +46,20 @@ fn bench_identify(c: &mut Criterion) {
                     b.iter(|| {
                         black_box(
                             identify(&chain, &model, d.q, d.wrench, d.displacement, None, &opts)
+                                .expect("valid data"),
+                        )
+                    })
+                },
+            );
+            let mut qr = opts;
+            qr.method = SolveMethod::Qr;
+            group.bench_with_input(
+                BenchmarkId::new(format!("streaming_qr/{id}"), size),
+                &batch,
+                |b, d| {
+                    b.iter(|| {
+                        black_box(
+                            identify(&chain, &model, d.q, d.wrench, d.displacement, None, &qr)
                                 .expect("valid data"),
                         )
                     })

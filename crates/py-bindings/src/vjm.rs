@@ -202,7 +202,7 @@ impl PyRobot {
     }
 
     /// Rank-revealing identification; returns the result as JSON text (the core's serde form).
-    #[pyo3(signature = (q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false))]
+    #[pyo3(signature = (q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto"))]
     #[allow(clippy::too_many_arguments)]
     fn identify<'py>(
         &self,
@@ -216,7 +216,18 @@ impl PyRobot {
         noise_scale_known: bool,
         nonnegative: bool,
         dense: bool,
+        method: &str,
     ) -> PyResult<String> {
+        let method = match method {
+            "auto" => vjm::SolveMethod::Auto,
+            "normal_equations" => vjm::SolveMethod::NormalEquations,
+            "qr" => vjm::SolveMethod::Qr,
+            other => {
+                return Err(value_error(format!(
+                    "method must be 'auto', 'normal_equations' or 'qr', got {other:?}"
+                )))
+            }
+        };
         let n = self.n();
         let model = parse_model(n, model)?;
         let q = batch(&q, "q", &[n])?;
@@ -238,6 +249,7 @@ impl PyRobot {
         opts.noise_scale_known = noise_scale_known;
         opts.nonnegative = nonnegative;
         opts.use_rotations = r.is_some();
+        opts.method = method;
         let chain = &self.chain;
         let rot = r.as_ref().map(|r| &*r.data);
         let id = run(py, || {

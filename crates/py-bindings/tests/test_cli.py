@@ -67,6 +67,7 @@ def test_identify_vjm_json_contract(campaign, tmp_path):
         assert isinstance(p["identifiable"], bool)
         assert (p["compliance"] is None) == (not p["identifiable"])
     assert len(doc["combinations"]) == doc["rank"] and all("value" in c for c in doc["combinations"])
+    assert doc["method"] in ("normal_equations", "qr")
 
 
 def test_diagnose_vjm_json_and_report(campaign, tmp_path):

@@ -117,6 +117,26 @@ def test_identify_recovers_identifiable_combinations_noise_free(panda, rng):
         assert comb.value == pytest.approx(value, rel=1e-9)
 
 
+def test_identify_methods_agree_and_say_which_ran(panda, rng):
+    """The normal-equations and QR reductions give the same identification on a
+    well-conditioned campaign (κ ≈ 70: rounding ~κ²ε); ``method`` reports the one used, and an
+    unknown name is a ValueError naming the choices."""
+    extended = np.repeat(NOMINAL, 3) * np.tile([1.0, 0.1, 0.1], 7)  # [z, x, y] per joint
+    q, w, d = _campaign(panda, rng, n=150, model="extended", c=extended)
+    d = d + 1e-6 * rng.normal(size=d.shape)
+    ne = panda.identify(q, w, d, model="extended", method="normal_equations")
+    qr = panda.identify(q, w, d, model="extended", method="qr")
+    auto = panda.identify(q, w, d, model="extended")
+    assert (ne.method, qr.method, auto.method) == ("normal_equations", "qr", "normal_equations")
+    assert ne.rank == qr.rank == 15
+    ok = qr.identifiable
+    np.testing.assert_array_equal(ne.identifiable, ok)
+    np.testing.assert_allclose(ne.compliance[ok], qr.compliance[ok], rtol=1e-9)
+    np.testing.assert_allclose(ne.stderr[ok], qr.stderr[ok], rtol=1e-7)
+    with pytest.raises(ValueError, match="normal_equations"):
+        panda.identify(q, w, d, model="extended", method="cholesky")
+
+
 def test_flange_on_the_last_axis_makes_its_torsion_unidentifiable(panda, rng):
     """The flange point lies on joint 7's axis: its torsion cannot move the tip point, so from
     translations alone J7z must be reported as not identifiable (NaN), never as a number."""

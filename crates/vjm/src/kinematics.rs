@@ -20,6 +20,13 @@ pub struct Workspace {
     n_joints: usize,
     /// Spring axes in their joint's child frame.
     local_axes: Vec<Vector3<f64>>,
+    /// Per spring: `Some(i)` when its local axis is the basis vector e_i (then the base-frame
+    /// axis is column i of the joint rotation, no product needed).
+    basis_axis: Vec<Option<usize>>,
+    /// Scratch: sin and cos of each joint angle.
+    sc: Vec<(f64, f64)>,
+    /// The instruction set found when the workspace was made (detected once, not per call).
+    arch: pulp::Arch,
     spring_joint: Vec<usize>,
     offsets: Vec<Vector3<f64>>,
     any_offset: bool,
@@ -42,7 +49,7 @@ impl Workspace {
         model.check_chain(chain)?;
         let m = model.n_params();
         let n = chain.n_joints();
-        let local_axes = model
+        let local_axes: Vec<Vector3<f64>> = model
             .springs()
             .iter()
             .map(|s| {
@@ -54,8 +61,17 @@ impl Workspace {
                 }
             })
             .collect();
+        let basis_axis = local_axes
+            .iter()
+            .map(|a: &Vector3<f64>| {
+                (0..3).find(|&i| a[i] == 1.0 && a[(i + 1) % 3] == 0.0 && a[(i + 2) % 3] == 0.0)
+            })
+            .collect();
         Ok(Self {
             n_joints: n,
+            basis_axis,
+            sc: vec![(0.0, 1.0); n],
+            arch: pulp::Arch::new(),
             local_axes,
             spring_joint: model.springs().iter().map(|s| s.joint).collect(),
             offsets: model.offsets().to_vec(),
@@ -76,7 +92,11 @@ impl Workspace {
     }
 
     fn check(&self, chain: &SerialChain, model: &VirtualJointModel) -> Result<(), VjmError> {
-        if self.n_joints != chain.n_joints() || &self.model != model {
+        // Field by field, cheapest first; the model's name does not matter here.
+        if self.n_joints != chain.n_joints()
+            || self.model.springs() != model.springs()
+            || self.model.offsets() != model.offsets()
+        {
             return Err(VjmError::InvalidModel {
                 message: "the workspace was built for another chain or model; create it with Workspace::new(chain, model)".into(),
             });
@@ -87,10 +107,13 @@ impl Workspace {
     /// Evaluates joint frames, spring axes/centres and the tip point at `q` (no checks).
     #[inline]
     pub(crate) fn evaluate(&mut self, chain: &SerialChain, q: &[f64]) {
+        // All sines and cosines first: they are independent, so their polynomial chains
+        // overlap instead of waiting on each joint's 3×3 product.
+        crate::lanes::sin_cos_slice(self.arch, q, &mut self.sc);
         let mut r = Matrix3::identity();
         let mut t = Vector3::zeros();
         for (j, joint) in chain.joints().iter().enumerate() {
-            let (s, c) = crate::fast_math::sin_cos(q[j]);
+            let (s, c) = self.sc[j];
             // Rodrigues, premultiplied by the fixed origin rotation (see ActuatedJoint::b0).
             let local = joint.b0 + joint.b1 * s + joint.b2 * (1.0 - c);
             t += r * joint.t;
@@ -109,7 +132,10 @@ impl Workspace {
         }
         for k in 0..self.local_axes.len() {
             let j = self.spring_joint[k];
-            self.w[k] = self.rot[j] * self.local_axes[k];
+            self.w[k] = match self.basis_axis[k] {
+                Some(i) => self.rot[j].column(i).into_owned(),
+                None => self.rot[j] * self.local_axes[k],
+            };
             self.c[k] = self.pos[j];
         }
     }
@@ -208,10 +234,12 @@ pub fn jacobian_batch_in_place(
     for (i, qi) in q.chunks_exact(n).enumerate() {
         check_finite("q", qi, i, 0)?;
     }
-    for (qi, oi) in q.chunks_exact(n).zip(out.chunks_exact_mut(m6)) {
-        ws.evaluate(chain, qi);
-        ws.write_jacobian(oi);
-    }
+    // Lane-wise over configurations (see `crate::lanes`); the workspace is not needed there.
+    crate::lanes::gram::jacobian_batch(
+        &crate::lanes::kinematics::ChainLanes::new(chain, model),
+        q,
+        out,
+    );
     Ok(())
 }
 

@@ -40,9 +40,9 @@ pub mod dataset;
 pub mod design;
 pub mod diagnose;
 mod error;
-mod fast_math;
 mod identify;
 mod kinematics;
+mod lanes;
 pub mod lsq;
 mod model;
 mod predict;
@@ -57,7 +57,8 @@ pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
 pub use identify::{
     accumulate, build_design, identify, identify_dense, identify_from_factor, Combination,
-    CombinationTerm, Identification, IdentifyOptions, ParameterEstimate,
+    CombinationTerm, Identification, IdentifyOptions, ParameterEstimate, SolveMethod,
+    NORMAL_EQUATIONS_MAX_CONDITION, NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
 };
 pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,

@@ -168,6 +168,7 @@ class Robot:
         noise_scale_known: bool = False,
         nonnegative: bool = False,
         dense: bool = False,
+        method: str = "auto",
     ) -> str: ...
     def predict_deflection(
         self,

@@ -245,6 +245,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         _model_spec(args.model),
         rotation=data.rotation if args.use_rotations else None,
         nonnegative=args.nonnegative,
+        method=args.method,
     )
     doc = res.to_dict()
     if args.json:
@@ -473,6 +474,8 @@ effects (--effect NAME:key=value,...):
                     help="traditional (torsion only), extended (3 springs per joint) or labels like J1z,J2x (default traditional)")
     iv.add_argument("--use-rotations", action="store_true", help="also use the rx,ry,rz columns")
     iv.add_argument("--nonnegative", action="store_true", help="constrain compliances to be ≥ 0")
+    iv.add_argument("--method", choices=("auto", "normal_equations", "qr"), default="auto",
+                    help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")
     iv.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
     iv.set_defaults(func=cmd_identify_vjm)
     ic = ide_sub.add_parser(

@@ -108,6 +108,7 @@ class Identification:
     parameter is not identifiable on its own; ``stderr`` (NaN likewise); ``ci95`` (m, 2) 95 %
     intervals; ``identifiable`` (bool). ``rank`` is the number of identifiable combinations,
     listed in ``combinations``; ``aliases`` groups parameter labels that alias each other.
+    ``method`` is the streaming reduction that produced it (``"normal_equations"`` or ``"qr"``).
     ``raw`` is the core's full result as a JSON-ready dict.
     """
 
@@ -125,6 +126,7 @@ class Identification:
     residual_rms: float
     condition_number: float
     singular_values: Array
+    method: str
     raw: Dict[str, Any] = field(repr=False)
 
     @classmethod
@@ -161,6 +163,7 @@ class Identification:
             residual_rms=float(raw["residual_rms"]),
             condition_number=float(raw["condition_number"]) if raw["condition_number"] is not None else np.inf,
             singular_values=np.array(raw["singular_values"], dtype=np.float64),
+            method=str(raw["method"]),
             raw=raw,
         )
 
@@ -191,6 +194,7 @@ class Identification:
             "aliases": raw.get("alias_labels", []),
             "residual_rms": raw["residual_rms"],
             "condition_number": raw["condition_number"],
+            "method": raw["method"],
         }
 
 
@@ -296,6 +300,7 @@ class Robot:
         noise_scale_known: bool = False,
         nonnegative: bool = False,
         dense: bool = False,
+        method: str = "auto",
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
@@ -308,7 +313,10 @@ class Robot:
         ``noise_sigma``: per-axis noise standard deviations ``[dx, dy, dz, rx, ry, rz]`` (m, rad)
         used as weights; only their ratios matter unless ``noise_scale_known``. ``nonnegative``
         constrains compliances to be ≥ 0. ``dense`` uses the dense reference solver instead of
-        the streaming one (same answer to ~1e-10).
+        the streaming one (same answer to ~1e-10). ``method`` picks the streaming reduction:
+        ``"auto"`` (normal equations, re-read through QR when the column-scaled design's condition
+        number exceeds 1e4), ``"normal_equations"`` or ``"qr"``; ``Identification.method`` says
+        which one produced the result.
 
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
@@ -338,6 +346,7 @@ class Robot:
             noise_scale_known=bool(noise_scale_known),
             nonnegative=bool(nonnegative),
             dense=bool(dense),
+            method=str(method),
         )
         return Identification._from_json(text)
 

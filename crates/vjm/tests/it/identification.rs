@@ -6,7 +6,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use vjm::{
     build_design, identify, identify_dense, predict_deflection, Identification, IdentifyOptions,
-    SerialChain, VirtualJointModel,
+    SerialChain, SolveMethod, VirtualJointModel, NORMAL_EQUATIONS_MAX_CONDITION,
+    NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
 };
 
 use crate::strategies::{
@@ -82,12 +83,17 @@ pub fn assert_recovers(id: &Identification, truth: &[f64], tol: f64) {
 }
 
 fn noise_free_panda(use_rotations: bool) -> Identification {
+    noise_free_panda_with(use_rotations, SolveMethod::Auto)
+}
+
+fn noise_free_panda_with(use_rotations: bool, method: SolveMethod) -> Identification {
     let panda = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
     let truth = random_compliances(21, 7);
     let (q, f, d, r) = synthetic(&panda, &model, &truth, 300, 100);
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = use_rotations;
+    opts.method = method;
     let id = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
     assert_recovers(&id, &truth, 1e-9);
     id
@@ -133,8 +139,26 @@ fn rank_of_extended_model_on_bundled_panda() {
     assert_eq!(id3.alias_labels, expect3);
     assert_eq!(id3.compliance[18], None, "J7z");
     assert!(id6.compliance[18].is_some(), "J7z is seen by rotations");
-    // The rank gap is structural: the first deficient singular value is rounding.
-    assert!(id3.singular_values[14] > 1e-3 && id3.singular_values[15] < 1e-12);
+    // The default reduction is the normal equations here (κ ≈ 70): their deficient singular
+    // values sit at the √ε floor, far below the cut-off.
+    assert_eq!(id3.method, SolveMethod::NormalEquations);
+    assert!(id3.singular_values[14] > 1e-3 && id3.singular_values[15] < 1e-7);
+    // Through QR the gap is visibly structural: the first deficient singular value is
+    // rounding. Same rank, same alias groups, same estimates.
+    let qr = noise_free_panda_with(false, SolveMethod::Qr);
+    assert_eq!(qr.method, SolveMethod::Qr);
+    assert!(qr.singular_values[14] > 1e-3 && qr.singular_values[15] < 1e-12);
+    assert_eq!((qr.rank, &qr.alias_labels), (id3.rank, &id3.alias_labels));
+    for (a, b) in qr.combinations.iter().zip(&id3.combinations) {
+        assert_eq!(a.label, b.label);
+        assert!(
+            (a.value - b.value).abs() <= 1e-10 * a.value.abs(),
+            "{}: {} vs {}",
+            a.label,
+            a.value,
+            b.value
+        );
+    }
 }
 
 /// The traditional model (7 torsions): rank 6 with translations (J7z unseen), 7 with rotations.
@@ -185,6 +209,146 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(config(24))]
+
+    /// The normal equations and the streaming QR agree on random chains (random axes, spring
+    /// offsets, translations or 6-D data) wherever Auto keeps the normal equations: same
+    /// rank and alias groups, base parameters within 1000·κ²ε (+1e-13) of their scale. Where the
+    /// design is worse conditioned than NORMAL_EQUATIONS_MAX_CONDITION, Auto returns the
+    /// QR result itself.
+    #[test]
+    fn normal_equations_agree_with_qr(chain in arb_chain(2..=7), seed in 0u64..1000, rot in any::<bool>(), offsets in any::<bool>()) {
+        let n = chain.n_joints();
+        let mut model = VirtualJointModel::extended(n);
+        if offsets {
+            let o = (0..n).map(|j| nalgebra::Vector3::new(0.02 * j as f64, -0.01, 0.015)).collect();
+            model = model.with_offsets(o).unwrap();
+        }
+        let truth = random_compliances(model.n_params(), seed);
+        let (q, f, d, r) = synthetic(&chain, &model, &truth, 203, seed + 5);
+        let mut opts = IdentifyOptions::default();
+        opts.use_rotations = rot;
+        opts.method = SolveMethod::Qr;
+        let qr = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        opts.method = SolveMethod::Auto;
+        let auto = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let gray = qr.singular_values[qr.rank..].iter().any(|&s| s > 1e-12 * qr.singular_values[0]);
+        if qr.condition_number <= 0.5 * NORMAL_EQUATIONS_MAX_CONDITION && !gray {
+            prop_assert_eq!(auto.method, SolveMethod::NormalEquations);
+            prop_assert_eq!(auto.rank, qr.rank);
+            prop_assert_eq!(&auto.aliases, &qr.aliases);
+            // Normal equations: relative error ≲ c·p·κ²ε; c·p = 1000 covers p ≤ 22 with room.
+            let tol = 1e3 * qr.condition_number.powi(2) * f64::EPSILON + 1e-13;
+            for (a, b) in auto.combinations.iter().zip(&qr.combinations) {
+                prop_assert_eq!(&a.label, &b.label);
+                let scale: f64 = b.terms.iter().map(|t| (t.coefficient * truth[t.param]).abs()).sum();
+                prop_assert!((a.value - b.value).abs() <= tol * scale, "{}: {} vs {} (tol {tol:e})", a.label, a.value, b.value);
+            }
+        } else if auto.method == SolveMethod::Qr {
+            prop_assert_eq!(&auto.compliance, &qr.compliance);
+            prop_assert_eq!(auto.rank, qr.rank);
+        }
+    }
+}
+
+/// Auto reads the data again through QR when the normal equations cannot be trusted: all
+/// configurations within 0.3 mrad of one pose make the design nearly rank-deficient
+/// (κ > 1e4), and the result is then exactly the QR one; forcing the normal equations is
+/// still possible and says so.
+#[test]
+fn auto_falls_back_to_qr_when_ill_conditioned() {
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let truth = random_compliances(21, 9);
+    let (q0, f, _, _) = synthetic(&panda, &model, &truth, 400, 90);
+    // Shrink every configuration towards the first one.
+    let q: Vec<f64> = q0
+        .iter()
+        .enumerate()
+        .map(|(i, v)| q0[i % 7] + 1e-4 * (v - q0[i % 7]))
+        .collect();
+    let mut d = Vec::new();
+    for i in 0..400 {
+        let mut fi = [0.0; 6];
+        fi.copy_from_slice(&f[6 * i..6 * i + 6]);
+        d.extend(
+            &predict_deflection(&panda, &model, &truth, &q[7 * i..7 * i + 7], &fi, false).unwrap()
+                [..3],
+        );
+    }
+    let mut opts = IdentifyOptions::default();
+    let auto = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    opts.method = SolveMethod::Qr;
+    let qr = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    assert!(
+        qr.condition_number > NORMAL_EQUATIONS_MAX_CONDITION,
+        "κ = {}",
+        qr.condition_number
+    );
+    assert_eq!(auto.method, SolveMethod::Qr);
+    assert_eq!(auto.compliance, qr.compliance);
+    assert_eq!(auto.singular_values, qr.singular_values);
+    opts.method = SolveMethod::NormalEquations;
+    let ne = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    assert_eq!(ne.method, SolveMethod::NormalEquations);
+    assert!(
+        ne.rank <= qr.rank,
+        "normal equations rank {} vs QR {}",
+        ne.rank,
+        qr.rank
+    );
+}
+
+/// The other fallback: a direction QR resolves but the normal equations cannot. Two joints
+/// at one origin whose axes differ by 3e-7 rad: their torsions differ in the data only
+/// through that angle, σ₂/σ₁ ≈ 1e-7 — above QR's cut-off (1e-9), below the normal
+/// equations' (1e-6) but above their rounding floor. Auto must not report rank 1.
+#[test]
+fn auto_falls_back_to_qr_for_a_weak_but_real_direction() {
+    use nalgebra::{Isometry3, Vector3};
+    let delta: f64 = 3e-7;
+    let joints = vec![
+        (
+            "j1".to_string(),
+            Isometry3::translation(0.0, 0.0, 0.3),
+            Vector3::z(),
+            (-3.0, 3.0),
+        ),
+        (
+            "j2".to_string(),
+            Isometry3::identity(),
+            Vector3::new(delta.sin(), 0.0, delta.cos()),
+            (-3.0, 3.0),
+        ),
+    ];
+    let tip = Isometry3::translation(0.4, 0.1, 0.2);
+    let chain = SerialChain::from_joints("base", "tip", joints, tip).unwrap();
+    let model = VirtualJointModel::traditional(2);
+    let truth = [2e-5, 3e-5];
+    let (q, f, d, r) = synthetic(&chain, &model, &truth, 500, 3);
+    let mut opts = IdentifyOptions::default();
+    opts.use_rotations = true;
+    opts.method = SolveMethod::Qr;
+    let qr = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    assert_eq!(qr.rank, 2, "singular values {:?}", qr.singular_values);
+    let weak = qr.singular_values[1] / qr.singular_values[0];
+    assert!(
+        weak > NORMAL_EQUATIONS_ROUNDING_FLOOR && weak < NORMAL_EQUATIONS_RANK_RTOL,
+        "{weak:e}"
+    );
+    opts.method = SolveMethod::NormalEquations;
+    assert_eq!(
+        identify(&chain, &model, &q, &f, &d, Some(&r), &opts)
+            .unwrap()
+            .rank,
+        1
+    );
+    opts.method = SolveMethod::Auto;
+    let auto = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    assert_eq!((auto.method, auto.rank), (SolveMethod::Qr, 2));
+}
+
 /// q, wrenches, displacements, rotations, true compliances.
 type NoisyData = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
 
@@ -205,19 +369,32 @@ fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / a.abs().max(b.abs()).max(f64::MIN_POSITIVE)
 }
 
-/// Acceptance: the streaming path (TSQR over rayon threads, blocks of 64 rows, chunks of
-/// 4096 measurements) and the dense path (whole design, faer QR) agree to 1e-10 relative
-/// on estimates, standard errors and base parameters — with noisy data, so the residual
-/// and σ² are exercised too.
+/// Acceptance: both streaming paths — normal equations (lane-wise, the default here) and
+/// TSQR (rayon threads, blocks of 64 rows, chunks of 4096 measurements) — agree with the
+/// dense path (whole design, faer QR) to 1e-10 relative on estimates, standard errors and
+/// base parameters, with noisy data, so the residual and σ² are exercised too. (κ ≈ 70 on
+/// this design, so the normal equations' κ²ε is ~1e-12.) 20 000 is not a multiple of the
+/// lane count or the chunk size, so partial blocks are exercised as well.
 #[test]
 fn streaming_matches_dense() {
     let panda = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
-    for rot in [false, true] {
-        let (q, f, d, r, _) = noisy_panda(20_000, 1e-6, 40);
+    for (rot, method) in [false, true]
+        .into_iter()
+        .flat_map(|r| [(r, SolveMethod::Auto), (r, SolveMethod::Qr)])
+    {
+        let (q, f, d, r, _) = noisy_panda(20_003, 1e-6, 40);
         let mut opts = IdentifyOptions::default();
         opts.use_rotations = rot;
+        opts.method = method;
         let s = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let expect = if method == SolveMethod::Qr {
+            SolveMethod::Qr
+        } else {
+            SolveMethod::NormalEquations
+        };
+        assert_eq!(s.method, expect);
+        opts.method = SolveMethod::Qr;
         let dn = identify_dense(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
         assert_eq!(s.rank, dn.rank);
         assert_eq!(s.aliases, dn.aliases);

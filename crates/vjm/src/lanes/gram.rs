@@ -1,0 +1,216 @@
+//! Lane-wise regressor rows folded straight into the Gram matrix `[A b]ᵀ[A b]`, and the
+//! lane-wise batched Jacobian.
+//!
+//! For measurement i, spring k on joint j with base-frame axis w_k, lever `ℓ_j = p − c_j`
+//! and wrench `(f, m)`: the generalised force on the spring is
+//! `J_kᵀF = (w_k × ℓ_j)·f + w_k·m = w_k·(ℓ_j × f + m)`, so one `u_j = ℓ_j × f + m` per joint
+//! serves its three springs; the regressor entries are `(w_k × ℓ_j)[r]·J_kᵀF` (translation
+//! rows) and `w_k[r]·J_kᵀF` (rotation rows), whitened by 1/σ_r (see `crate::regressor`).
+
+use pulp::{Simd, WithSimd};
+
+use super::kinematics::{ChainLanes, FramesLanes};
+use super::vector::{cross3, dot3, MAX_LANES};
+use super::V;
+
+/// One identification problem's inputs, row-major as `crate::identify` takes them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct GramProblem<'a> {
+    pub(crate) chain: &'a ChainLanes,
+    /// N×n joint angles, rad.
+    pub(crate) q: &'a [f64],
+    /// N×6 wrenches at the tip point, base frame (N, N·m).
+    pub(crate) wrench: &'a [f64],
+    /// N×3 tip displacements, base frame (m).
+    pub(crate) displacement: &'a [f64],
+    /// N×3 small tip rotations, base frame (rad), used when `rows == 6`.
+    pub(crate) rotation: Option<&'a [f64]>,
+    /// Rows per measurement: 3 (translation) or 6 (translation and rotation).
+    pub(crate) rows: usize,
+    /// 1/σ per row.
+    pub(crate) inv_sigma: [f64; 6],
+}
+
+/// The (m+1)×(m+1) Gram matrix, row-major, of the whitened `[A b]` rows of measurements
+/// `start..end`.
+pub(crate) fn gram_range(problem: &GramProblem<'_>, start: usize, end: usize) -> Vec<f64> {
+    struct Task<'a, 'b>(&'b GramProblem<'a>, usize, usize);
+    impl WithSimd for Task<'_, '_> {
+        type Output = Vec<f64>;
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) -> Vec<f64> {
+            let Task(pb, start, end) = self;
+            if pb.rows == 6 {
+                gram_lanes::<S, 6>(s, pb, start, end)
+            } else {
+                gram_lanes::<S, 3>(s, pb, start, end)
+            }
+        }
+    }
+    pulp::Arch::new().dispatch(Task(problem, start, end))
+}
+
+/// Gathers column `col` of the row-major `rows×width` table for the `count` measurements
+/// from `i` into lanes; unused lanes are 0 (they then add nothing to any sum).
+#[inline(always)]
+fn gather<S: Simd>(s: S, data: &[f64], width: usize, col: usize, i: usize, count: usize) -> V<S> {
+    let mut buf = [0.0; MAX_LANES];
+    for (l, b) in buf.iter_mut().enumerate().take(count) {
+        *b = data[(i + l) * width + col];
+    }
+    V::load(s, &buf)
+}
+
+#[inline(always)]
+fn gram_lanes<S: Simd, const R: usize>(
+    s: S,
+    pb: &GramProblem<'_>,
+    start: usize,
+    end: usize,
+) -> Vec<f64> {
+    let lanes = V::<S>::LANES;
+    let chain = pb.chain;
+    let nj = chain.n_joints();
+    let m = chain.n_springs();
+    let p = m + 1;
+    // Packed upper triangle of the Gram matrix, row by row, one vector of lane sums each.
+    let mut acc = vec![V::zero(s); p * (p + 1) / 2];
+    // Regressor block of `lanes` measurements: a[k][r] is row r, parameter k (column m is b).
+    let mut a = vec![[V::zero(s); R]; p];
+    let mut frames = FramesLanes::new(s, nj);
+    let mut qv = vec![V::zero(s); nj];
+    let mut lever = vec![[V::zero(s); 3]; nj];
+    let mut u = vec![[V::zero(s); 3]; nj];
+    let mut isig = [V::zero(s); R];
+    for (r, v) in isig.iter_mut().enumerate() {
+        *v = V::splat(s, pb.inv_sigma[r]);
+    }
+    let mut i = start;
+    while i < end {
+        let count = (end - i).min(lanes);
+        for (j, qj) in qv.iter_mut().enumerate() {
+            *qj = gather(s, pb.q, nj, j, i, count);
+        }
+        let mut force = [V::zero(s); 3];
+        let mut moment = [V::zero(s); 3];
+        for d in 0..3 {
+            force[d] = gather(s, pb.wrench, 6, d, i, count);
+            moment[d] = gather(s, pb.wrench, 6, 3 + d, i, count);
+        }
+        chain.evaluate(s, &qv, &mut frames);
+        for ((lj, uj), c) in lever.iter_mut().zip(u.iter_mut()).zip(&frames.centre) {
+            for d in 0..3 {
+                lj[d] = frames.tip[d] - c[d];
+            }
+            let lf = cross3(lj, &force);
+            for d in 0..3 {
+                uj[d] = lf[d] + moment[d];
+            }
+        }
+        for (k, col) in a[..m].iter_mut().enumerate() {
+            let j = chain.spring_joint(k);
+            let w = chain.spring_axis(s, &frames, k);
+            let g = dot3(&w, &u[j]);
+            let lin = cross3(&w, &lever[j]);
+            for r in 0..3 {
+                col[r] = lin[r] * (g * isig[r]);
+            }
+            for r in 3..R {
+                col[r] = w[r - 3] * (g * isig[r]);
+            }
+        }
+        let rhs = &mut a[m];
+        for r in 0..3 {
+            rhs[r] = gather(s, pb.displacement, 3, r, i, count) * isig[r];
+        }
+        if let Some(rot) = pb.rotation {
+            for r in 3..R {
+                rhs[r] = gather(s, rot, 3, r - 3, i, count) * isig[r];
+            }
+        }
+        // acc[(j, k ≥ j)] += Σ_r a[j][r]·a[k][r], walking the packed rows without indexing.
+        let mut rest: &mut [V<S>] = &mut acc;
+        for j in 0..p {
+            let (row, tail) = std::mem::take(&mut rest).split_at_mut(p - j);
+            let aj = a[j];
+            for (sum, ak) in row.iter_mut().zip(&a[j..]) {
+                let mut t = *sum;
+                for r in 0..R {
+                    t = aj[r].mul_add(ak[r], t);
+                }
+                *sum = t;
+            }
+            rest = tail;
+        }
+        i += count;
+    }
+    let mut gram = vec![0.0; p * p];
+    let mut idx = 0;
+    for j in 0..p {
+        for k in j..p {
+            let v = acc[idx].sum();
+            gram[j * p + k] = v;
+            gram[k * p + j] = v;
+            idx += 1;
+        }
+    }
+    gram
+}
+
+/// Jacobians of the configurations in `q` (N×n row-major, rad) into `out`: N blocks of 6·m
+/// values, each a column-major 6×m Jacobian (`[w × (p − c); w]` per spring, base frame).
+pub(crate) fn jacobian_batch(chain: &ChainLanes, q: &[f64], out: &mut [f64]) {
+    struct Task<'a>(&'a ChainLanes, &'a [f64], &'a mut [f64]);
+    impl WithSimd for Task<'_> {
+        type Output = ();
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) {
+            let Task(chain, q, out) = self;
+            jacobian_lanes(s, chain, q, out)
+        }
+    }
+    pulp::Arch::new().dispatch(Task(chain, q, out))
+}
+
+#[inline(always)]
+fn jacobian_lanes<S: Simd>(s: S, chain: &ChainLanes, q: &[f64], out: &mut [f64]) {
+    let lanes = V::<S>::LANES;
+    let nj = chain.n_joints();
+    let m = chain.n_springs();
+    let rows = q.len() / nj;
+    let mut frames = FramesLanes::new(s, nj);
+    let mut qv = vec![V::zero(s); nj];
+    let mut lever = vec![[V::zero(s); 3]; nj];
+    let mut buf = [[0.0; MAX_LANES]; 6];
+    let mut i = 0;
+    while i < rows {
+        let count = (rows - i).min(lanes);
+        for (j, qj) in qv.iter_mut().enumerate() {
+            *qj = gather(s, q, nj, j, i, count);
+        }
+        chain.evaluate(s, &qv, &mut frames);
+        for (lj, c) in lever.iter_mut().zip(&frames.centre) {
+            for d in 0..3 {
+                lj[d] = frames.tip[d] - c[d];
+            }
+        }
+        for k in 0..m {
+            let w = chain.spring_axis(s, &frames, k);
+            let lin = cross3(&w, &lever[chain.spring_joint(k)]);
+            for d in 0..3 {
+                lin[d].store(&mut buf[d]);
+                w[d].store(&mut buf[3 + d]);
+            }
+            for (l, block) in out[i * 6 * m..]
+                .chunks_exact_mut(6 * m)
+                .take(count)
+                .enumerate()
+            {
+                for (d, od) in block[6 * k..6 * k + 6].iter_mut().enumerate() {
+                    *od = buf[d][l];
+                }
+            }
+        }
+        i += count;
+    }
+}

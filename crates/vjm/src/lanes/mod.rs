@@ -1,0 +1,24 @@
+//! Structure-of-arrays kinematics over `L` configurations at once.
+//!
+//! The batch paths (the streaming identification and [`jacobian_batch_in_place`]) evaluate
+//! many independent configurations of one chain. Written per configuration, a 7-joint
+//! Jacobian is a chain of small dependent 3×3 products that keeps one SIMD lane busy; written
+//! across configurations, every operation is the same for all lanes, so `L` configurations
+//! (4 with AVX2) go through the instructions one would take. The code here is plain lane-wise
+//! Rust over [`V`]: [`pulp`] (faer's SIMD layer, already a dependency through faer) runs it inside a
+//! function compiled for the best instruction set the CPU reports (AVX2 + FMA on x86-64,
+//! 4 lanes), through pulp's vector types; the same code with pulp's scalar type (1 lane) is
+//! the portable fallback, so nothing depends on an unchecked CPU feature.
+//!
+//! Every function on the hot path is `#[inline(always)]`: a callee that is not inlined into
+//! the dispatched function is compiled without the features (still correct, but scalar, and
+//! `mul_add` would become a library call). Plain lane-wise arrays left to the auto-vectoriser
+//! were tried first and measured ~10× slower: LLVM kept most of it scalar.
+//!
+//! [`jacobian_batch_in_place`]: crate::jacobian_batch_in_place
+
+pub(crate) mod gram;
+pub(crate) mod kinematics;
+mod vector;
+
+pub(crate) use vector::{sin_cos, sin_cos_slice, V};
