@@ -36,7 +36,7 @@ pub enum SolveMethod {
     #[default]
     Auto,
     /// Normal equations only: one pass, about half the arithmetic of QR and vectorised
-    /// (AVX2 + FMA when the CPU has them). Squares the condition number, so singular values
+    /// (AVX-512 or AVX2 + FMA when the CPU has them). Squares the condition number, so singular values
     /// below [`NORMAL_EQUATIONS_RANK_RTOL`]·σ₁ count as zero whatever `rank_rtol` says.
     NormalEquations,
     /// Streaming Householder QR (TSQR): backward stable, resolves singular values down to

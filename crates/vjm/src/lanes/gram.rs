@@ -214,3 +214,159 @@ fn jacobian_lanes<S: Simd>(s: S, chain: &ChainLanes, q: &[f64], out: &mut [f64])
         i += count;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! Every instruction set this machine has (and pulp's scalar type) against an independent
+    //! path: the Gram matrix of the dense whitened design built row by row by
+    //! `crate::build_design`, and the scalar per-configuration Jacobian.
+    use super::*;
+    use crate::{build_design, IdentifyOptions, SerialChain, VirtualJointModel, Workspace};
+
+    fn problem_data(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+        // Deterministic, spread over the joint ranges; n is not a multiple of any lane count.
+        let chain = SerialChain::bundled();
+        let mut q = Vec::new();
+        for i in 0..n {
+            for (j, &(lo, hi)) in chain.limits().iter().enumerate() {
+                let t = ((i * 7 + j * 3) % 17) as f64 / 16.0;
+                q.push(lo + (hi - lo) * t);
+            }
+        }
+        let w: Vec<f64> = (0..6 * n)
+            .map(|k| ((k * 37 % 23) as f64 - 11.0) * if k % 6 < 3 { 4.0 } else { 0.3 })
+            .collect();
+        let d: Vec<f64> = (0..3 * n)
+            .map(|k| ((k * 13 % 19) as f64 - 9.0) * 1e-5)
+            .collect();
+        let r: Vec<f64> = (0..3 * n)
+            .map(|k| ((k * 11 % 7) as f64 - 3.0) * 1e-5)
+            .collect();
+        (q, w, d, r)
+    }
+
+    struct Each<'a, 'b>(&'b GramProblem<'a>, usize);
+    impl WithSimd for Each<'_, '_> {
+        type Output = Vec<f64>;
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) -> Vec<f64> {
+            if self.0.rows == 6 {
+                gram_lanes::<S, 6>(s, self.0, 0, self.1)
+            } else {
+                gram_lanes::<S, 3>(s, self.0, 0, self.1)
+            }
+        }
+    }
+
+    fn levels<'a, 'b>(pb: &'b GramProblem<'a>, n: usize) -> Vec<(&'static str, Vec<f64>)> {
+        let mut out = vec![("scalar", Each(pb, n).with_simd(pulp::Scalar))];
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        {
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                out.push(("avx2", Simd::vectorize(v3, Each(pb, n))));
+            }
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                out.push(("avx512", Simd::vectorize(v4, Each(pb, n))));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn gram_equals_the_dense_design_on_every_instruction_set() {
+        let chain = SerialChain::bundled();
+        let model = VirtualJointModel::extended(7);
+        let lanes = ChainLanes::new(&chain, &model);
+        let n = 37;
+        let (q, w, d, r) = problem_data(n);
+        for rot in [false, true] {
+            let mut opts = IdentifyOptions::default();
+            opts.use_rotations = rot;
+            opts.noise_sigma = [1e-5, 2e-5, 1.5e-5, 1e-4, 2e-4, 3e-4];
+            let (design, rhs) = build_design(&chain, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+            let (m, p) = (21, 22);
+            let rows = rhs.len();
+            let mut expect = vec![0.0; p * p];
+            for i in 0..rows {
+                let row: Vec<f64> = design[i * m..(i + 1) * m]
+                    .iter()
+                    .copied()
+                    .chain([rhs[i]])
+                    .collect();
+                for a in 0..p {
+                    for b in 0..p {
+                        expect[a * p + b] += row[a] * row[b];
+                    }
+                }
+            }
+            let scale = expect.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+            let pb = GramProblem {
+                chain: &lanes,
+                q: &q,
+                wrench: &w,
+                displacement: &d,
+                rotation: rot.then_some(&r[..]),
+                rows: if rot { 6 } else { 3 },
+                inv_sigma: opts.noise_sigma.map(|s| 1.0 / s),
+            };
+            for (name, got) in levels(&pb, n) {
+                let worst = got
+                    .iter()
+                    .zip(&expect)
+                    .fold(0.0f64, |s, (a, b)| s.max((a - b).abs()));
+                assert!(
+                    worst <= 1e-13 * scale,
+                    "{name}, rotations {rot}: {worst:e} of {scale:e}"
+                );
+            }
+        }
+    }
+
+    struct Jac<'a>(&'a ChainLanes, &'a [f64], usize);
+    impl WithSimd for Jac<'_> {
+        type Output = Vec<f64>;
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) -> Vec<f64> {
+            let mut out = vec![0.0; self.2];
+            jacobian_lanes(s, self.0, self.1, &mut out);
+            out
+        }
+    }
+
+    #[test]
+    fn batched_jacobian_equals_the_scalar_one_on_every_instruction_set() {
+        let chain = SerialChain::bundled();
+        // Offsets and a custom spring list exercise the general-axis and offset branches.
+        let offsets = (0..7)
+            .map(|j| nalgebra::Vector3::new(0.01 * j as f64, -0.02, 0.005))
+            .collect();
+        let model = VirtualJointModel::extended(7)
+            .with_offsets(offsets)
+            .unwrap();
+        let lanes = ChainLanes::new(&chain, &model);
+        let n = 21;
+        let (q, ..) = problem_data(n);
+        let mut ws = Workspace::new(&chain, &model).unwrap();
+        let mut expect = vec![0.0; n * 126];
+        for (qi, oi) in q.chunks_exact(7).zip(expect.chunks_exact_mut(126)) {
+            crate::jacobian_in_place(&chain, &model, qi, &mut ws, oi).unwrap();
+        }
+        let mut got = vec![("scalar", Jac(&lanes, &q, n * 126).with_simd(pulp::Scalar))];
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        {
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                got.push(("avx2", Simd::vectorize(v3, Jac(&lanes, &q, n * 126))));
+            }
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                got.push(("avx512", Simd::vectorize(v4, Jac(&lanes, &q, n * 126))));
+            }
+        }
+        for (name, g) in got {
+            let worst = g
+                .iter()
+                .zip(&expect)
+                .fold(0.0f64, |s, (a, b)| s.max((a - b).abs()));
+            assert!(worst <= 1e-14 * 8.0, "{name}: {worst:e}");
+        }
+    }
+}

@@ -126,15 +126,23 @@ impl ChainLanes {
                 local[e] = V::splat(s, b[2][e])
                     .mul_add(omc, V::splat(s, b[1][e]).mul_add(sn, V::splat(s, b[0][e])));
             }
-            // t += R·t_j with the parent rotation, then R ← R·local.
-            affine(s, &r, tj, &mut t);
-            let prev = r;
-            for a in 0..3 {
-                for col in 0..3 {
-                    r[3 * a + col] = prev[3 * a + 2].mul_add(
-                        local[6 + col],
-                        prev[3 * a + 1].mul_add(local[3 + col], prev[3 * a] * local[col]),
-                    );
+            // t += R·t_j with the parent rotation, then R ← R·local (for the first joint R
+            // is the identity: no product).
+            if j == 0 {
+                for a in 0..3 {
+                    t[a] = V::splat(s, tj[a]);
+                }
+                r = local;
+            } else {
+                affine(s, &r, tj, &mut t);
+                let prev = r;
+                for a in 0..3 {
+                    for col in 0..3 {
+                        r[3 * a + col] = prev[3 * a + 2].mul_add(
+                            local[6 + col],
+                            prev[3 * a + 1].mul_add(local[3 + col], prev[3 * a] * local[col]),
+                        );
+                    }
                 }
             }
             out.rot[j] = r;

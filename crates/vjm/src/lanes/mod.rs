@@ -4,10 +4,11 @@
 //! many independent configurations of one chain. Written per configuration, a 7-joint
 //! Jacobian is a chain of small dependent 3×3 products that keeps one SIMD lane busy; written
 //! across configurations, every operation is the same for all lanes, so `L` configurations
-//! (4 with AVX2) go through the instructions one would take. The code here is plain lane-wise
+//! (8 or 16 with AVX2 or AVX-512, two vectors per step) go through the instructions one would
+//! take. The code here is plain lane-wise
 //! Rust over [`V`]: [`pulp`] (faer's SIMD layer, already a dependency through faer) runs it inside a
-//! function compiled for the best instruction set the CPU reports (AVX2 + FMA on x86-64,
-//! 4 lanes), through pulp's vector types; the same code with pulp's scalar type (1 lane) is
+//! function compiled for the best instruction set the CPU reports (x86-64-v4: AVX-512,
+//! or v3: AVX2 + FMA), through pulp's vector types; the same code with pulp's scalar type (1 lane) is
 //! the portable fallback, so nothing depends on an unchecked CPU feature.
 //!
 //! Every function on the hot path is `#[inline(always)]`: a callee that is not inlined into

@@ -15,7 +15,8 @@ const UNROLL: usize = 2;
 /// Most lanes a [`V`] has (8 f64 per vector under AVX-512); sizes lane buffers.
 pub(crate) const MAX_LANES: usize = 8 * UNROLL;
 
-/// `UNROLL · S::F64_LANES` lanes of f64 (8 under AVX2, 2 in the scalar fallback).
+/// `UNROLL · S::F64_LANES` lanes of f64 (16 under AVX-512, 8 under AVX2, 2 in the scalar
+/// fallback).
 #[derive(Clone, Copy)]
 pub(crate) struct V<S: Simd> {
     s: S,
@@ -268,7 +269,7 @@ mod tests {
     use pulp::WithSimd;
 
     /// Against the platform on a dense grid of joint-like angles, quadrant boundaries, and
-    /// arguments that take the fallback; on the dispatched instruction set and on scalar.
+    /// arguments that take the fallback; on every instruction set the machine has.
     struct Check(Vec<f64>);
     impl WithSimd for Check {
         type Output = f64;
@@ -311,6 +312,17 @@ mod tests {
         assert!(worst <= 4.5e-16, "dispatched: max abs difference {worst:e}");
         let worst = Check(inputs()).with_simd(pulp::Scalar);
         assert!(worst <= 4.5e-16, "scalar: max abs difference {worst:e}");
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        {
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                let worst = Simd::vectorize(v3, Check(inputs()));
+                assert!(worst <= 4.5e-16, "avx2: max abs difference {worst:e}");
+            }
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                let worst = Simd::vectorize(v4, Check(inputs()));
+                assert!(worst <= 4.5e-16, "avx512: max abs difference {worst:e}");
+            }
+        }
     }
 
     struct CrossDot;
