@@ -36,6 +36,7 @@
 pub mod csjm;
 pub mod diagnose;
 pub mod error;
+mod fast_math;
 pub mod identification;
 pub mod so3;
 pub mod stats;

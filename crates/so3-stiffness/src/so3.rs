@@ -22,6 +22,7 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::error::So3Error;
+use crate::fast_math;
 
 /// Below this angle the Jacobian coefficients use their Taylor series: the closed forms
 /// subtract nearly equal numbers (θ − sin θ, 1/θ² − cot(θ/2)/(2θ)) and lose digits.
@@ -109,39 +110,88 @@ pub fn exp(w: &Vector3<f64>) -> Rotation3<f64> {
 /// Exact at the identity; relative accuracy ~1e-16 for small angles; near θ = π the axis is
 /// taken from the symmetric part `(R + Rᵀ)/2 = cos θ I + (1 − cos θ) n nᵀ` and only its sign
 /// from the skew part. At exactly θ = π either of the two valid answers ±π n may be returned.
+///
+/// θ is not taken from libm's `atan2` but reduced by cos θ to atan(u) with |u| ≤ tan(π/6),
+/// evaluated by a polynomial in u² (`fast_math`), which needs no square root and so overlaps
+/// with the normalisation: θ = 2 atan(tan(θ/2)) for cos θ > ½, θ = π/2 − atan(cot θ) for
+/// |cos θ| ≤ ½, θ = π − 2 atan(tan((π − θ)/2)) for cos θ < −½.
 pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
     let m = r.matrix();
-    let s_vec = vee(m); // = sin θ · n
-    let s = s_vec.norm();
-    let c = 0.5 * (m.trace() - 1.0);
-    let theta = s.atan2(c);
-    if c >= 0.0 {
-        // θ ∈ [0, π/2]: θ / sin θ is well conditioned.
-        // ‖vee(R)‖ = sin θ already: no second transcendental call (hot path).
-        let factor = if theta < 1e-4 {
-            let t2 = theta * theta;
-            1.0 + t2 / 6.0 + 7.0 * t2 * t2 / 360.0
+    // vee(R) = sin θ · n; cos θ = (tr R − 1)/2, summed as a tree (a shorter dependency chain
+    // than `trace() − 1`).
+    let s_vec = vee(m);
+    let c = 0.5 * ((m[(0, 0)] + m[(1, 1)]) + (m[(2, 2)] - 1.0));
+    let ss = s_vec.norm_squared(); // = sin²θ
+    if c < -0.5 {
+        return log_near_pi(m, &s_vec, c);
+    }
+    if c > 0.5 {
+        // θ < π/3: ω = θ/sin θ · vee(R).
+        if ss < 1e-8 {
+            // θ < 1e-4: θ/sin θ = asin(s)/s = 1 + s²/6 + 3s⁴/40 + O(s⁶), s⁶ < 1e-24. No
+            // division: θ = 0 gives exactly 0, and tiny θ keeps full relative accuracy
+            // even where sin²θ underflows.
+            return (1.0 + ss * (1.0 / 6.0 + ss * (3.0 / 40.0))) * s_vec;
+        }
+        // τ = tan(θ/2) = s/(1 + c) ≤ tan(π/6): θ/sin θ = 2 atan(τ)/s = 2(1 + τ² f(τ²))/(1 + c).
+        // No square root and no cancellation.
+        let one_plus_c = 1.0 + c;
+        let tau2 = ss / (one_plus_c * one_plus_c);
+        return ((2.0 + (2.0 * tau2) * fast_math::atan_tail(tau2)) / one_plus_c) * s_vec;
+    }
+    // θ ∈ [π/3, 2π/3]: sin θ ≥ 0.86, so the axis from vee(R) is as good as the symmetric
+    // part's. t = cot θ = c/s, |t| ≤ tan(π/6): θ = π/2 − atan(t) = π/2 − t − t·t² f(t²), with t²
+    // formed before the square root.
+    let cot2 = (c * c) / ss;
+    let poly = cot2 * fast_math::atan_tail(cot2);
+    let s = ss.sqrt();
+    let t = c / s;
+    // π/2 as FRAC_PI_2 + its low part, so that θ is rounded once.
+    let theta = std::f64::consts::FRAC_PI_2 + ((6.123_233_995_736_766e-17 - t * poly) - t);
+    (theta / s) * s_vec
+}
+
+/// [`log`] for cos θ = `c` < −½ (θ > 2π/3), from the matrix `m` and `s_vec` = vee(m).
+#[inline]
+fn log_near_pi(m: &Matrix3<f64>, s_vec: &Vector3<f64>, c: f64) -> Vector3<f64> {
+    // n nᵀ ∝ (R + Rᵀ)/2 − cos θ I. Its column k with the largest diagonal entry (the largest
+    // R_kk) is the best-conditioned multiple of n: v = (R + Rᵀ)e_k − 2c e_k, with no division
+    // by sin θ. Scale factors drop out in the normalisation below.
+    let d = m.diagonal();
+    let k = if d.x >= d.y {
+        if d.x >= d.z {
+            0
         } else {
-            theta / s
-        };
-        return factor * s_vec;
-    }
-    // θ ∈ (π/2, π]: n nᵀ = ((R + Rᵀ)/2 − c I) / (1 − c), with 1 − c ∈ (1, 2].
-    let sym = 0.5 * (m + m.transpose());
-    let nn = (sym - Matrix3::identity() * c) / (1.0 - c);
-    // Column with the largest diagonal entry is the best-conditioned multiple of n.
-    let k = (0..3)
-        .max_by(|&i, &j| nn[(i, i)].total_cmp(&nn[(j, j)]))
-        .unwrap_or(0);
-    let mut n = nn.column(k).into_owned();
-    let norm = n.norm();
-    if norm > 0.0 {
-        n /= norm;
-    }
-    if n.dot(&s_vec) < 0.0 {
-        n = -n;
-    }
-    theta * n
+            2
+        }
+    } else if d.y >= d.z {
+        1
+    } else {
+        2
+    };
+    // e_k without indexing a temporary (a scalar store into it stalls the vector reload).
+    let e_k = Vector3::new(
+        f64::from(u8::from(k == 0)),
+        f64::from(u8::from(k == 1)),
+        f64::from(u8::from(k == 2)),
+    );
+    let v = m.column(k) + m.row(k).transpose() - (2.0 * c) * e_k;
+    let vv = v.norm_squared();
+    // The sign of the axis from the skew part, and sin θ as the projection n·vee(R) = dot/‖v‖,
+    // which (unlike ‖vee(R)‖) does not pick up the rounding noise of vee(R) across the axis as
+    // sin θ → 0.
+    let dot = v.dot(s_vec);
+    // τ = tan((π − θ)/2) = sin θ/(1 − c) = |dot|/(‖v‖(1 − c)) ≤ tan(π/6):
+    // θ = π − 2 atan(τ) = π − 2τ − 2τ·τ² f(τ²), with τ² formed before the square root.
+    let one_minus_c = 1.0 - c;
+    let tau2 = (dot * dot) / (vv * (one_minus_c * one_minus_c));
+    let poly = tau2 * fast_math::atan_tail(tau2);
+    let norm = vv.sqrt();
+    let two_tau = 2.0 * dot.abs() / (norm * one_minus_c);
+    // π as PI + its low part, so that θ is rounded once.
+    let theta = std::f64::consts::PI + ((1.224_646_799_147_353_2e-16 - two_tau * poly) - two_tau);
+    let factor = theta / norm;
+    (if dot < 0.0 { -factor } else { factor }) * v
 }
 
 /// Adjoint of SO(3): `adjoint(r) = r`, so that `r hat(ω) rᵀ = hat(r ω)`.

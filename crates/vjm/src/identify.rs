@@ -224,8 +224,17 @@ pub fn identify(
         let factor = accumulate(chain, model, q, wrench, displacement, rotation, opts)?;
         return finish(chain, model, &factor, opts, SolveMethod::Qr);
     }
-    let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
+    let inputs = validate_inner(chain, model, q, wrench, displacement, rotation, opts, false)?;
     let gram = accumulate_gram(chain, model, q, wrench, displacement, rotation, &inputs);
+    if !gram.iter().all(|v| v.is_finite()) {
+        // A non-finite input, reported with its row and column; otherwise finite values so
+        // large that squares of whitened rows overflow (> 1e154), which no reduction here
+        // survives (the QR's Householder norms square them too).
+        check_all_finite(q, chain.n_joints(), wrench, displacement, rotation, opts)?;
+        return Err(VjmError::Numerical {
+            message: "the whitened measurements overflow when squared (|value / noise_sigma| > 1e154): check the units of displacement, wrench and noise_sigma".into(),
+        });
+    }
     let factor = lsq::factor_from_gram(
         model.n_params() + 1,
         &gram,
@@ -345,6 +354,50 @@ fn validate(
     rotation: Option<&[f64]>,
     opts: &IdentifyOptions,
 ) -> Result<Inputs, VjmError> {
+    validate_inner(chain, model, q, wrench, displacement, rotation, opts, true)
+}
+
+/// Every input value finite, or an error naming the first bad row and column.
+fn check_all_finite(
+    q: &[f64],
+    n: usize,
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+) -> Result<(), VjmError> {
+    let all_finite = |what: &'static str, data: &[f64], cols: usize| -> Result<(), VjmError> {
+        if data.iter().all(|v| v.is_finite()) {
+            return Ok(());
+        }
+        for (i, row) in data.chunks_exact(cols).enumerate() {
+            check_finite(what, row, i, 0)?;
+        }
+        Ok(())
+    };
+    all_finite("q", q, n)?;
+    all_finite("wrench", wrench, 6)?;
+    all_finite("displacement", displacement, 3)?;
+    if let (true, Some(rot)) = (opts.use_rotations, rotation) {
+        all_finite("rotation", rot, 3)?;
+    }
+    Ok(())
+}
+
+/// Shapes and options; the values too when `check_values` (the normal-equations path
+/// skips that pass over the data: a non-finite value makes the Gram matrix non-finite, and
+/// only then are the values searched for the row and column to report).
+#[allow(clippy::too_many_arguments)]
+fn validate_inner(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+    check_values: bool,
+) -> Result<Inputs, VjmError> {
     model.check_chain(chain)?;
     let n = chain.n_joints();
     for (i, s) in opts.noise_sigma.iter().enumerate() {
@@ -385,20 +438,8 @@ fn validate(
         };
         check_len("rotation (N×3)", rot, 3)?;
     }
-    let all_finite = |what: &'static str, data: &[f64], cols: usize| -> Result<(), VjmError> {
-        if data.iter().all(|v| v.is_finite()) {
-            return Ok(());
-        }
-        for (i, row) in data.chunks_exact(cols).enumerate() {
-            check_finite(what, row, i, 0)?;
-        }
-        Ok(())
-    };
-    all_finite("q", q, n)?;
-    all_finite("wrench", wrench, 6)?;
-    all_finite("displacement", displacement, 3)?;
-    if let (true, Some(rot)) = (opts.use_rotations, rotation) {
-        all_finite("rotation", rot, 3)?;
+    if check_values {
+        check_all_finite(q, n, wrench, displacement, rotation, opts)?;
     }
     let measured = opts.measured();
     let m = model.n_params();

@@ -74,7 +74,7 @@ fn gram_lanes<S: Simd, const R: usize>(
     let m = chain.n_springs();
     let p = m + 1;
     // Packed upper triangle of the Gram matrix, row by row, one vector of lane sums each.
-    let mut acc = vec![V::zero(s); p * (p + 1) / 2];
+    let mut acc = vec![s.splat_f64s(0.0); p * (p + 1) / 2];
     // Regressor block of `lanes` measurements: a[k][r] is row r, parameter k (column m is b).
     let mut a = vec![[V::zero(s); R]; p];
     let mut frames = FramesLanes::new(s, nj);
@@ -129,14 +129,14 @@ fn gram_lanes<S: Simd, const R: usize>(
             }
         }
         // acc[(j, k ≥ j)] += Σ_r a[j][r]·a[k][r], walking the packed rows without indexing.
-        let mut rest: &mut [V<S>] = &mut acc;
+        let mut rest: &mut [S::f64s] = &mut acc;
         for j in 0..p {
             let (row, tail) = std::mem::take(&mut rest).split_at_mut(p - j);
             let aj = a[j];
             for (sum, ak) in row.iter_mut().zip(&a[j..]) {
                 let mut t = *sum;
                 for r in 0..R {
-                    t = aj[r].mul_add(ak[r], t);
+                    t = aj[r].fma_into(ak[r], t);
                 }
                 *sum = t;
             }
@@ -148,7 +148,7 @@ fn gram_lanes<S: Simd, const R: usize>(
     let mut idx = 0;
     for j in 0..p {
         for k in j..p {
-            let v = acc[idx].sum();
+            let v = s.reduce_sum_f64s(acc[idx]);
             gram[j * p + k] = v;
             gram[k * p + j] = v;
             idx += 1;
@@ -280,9 +280,11 @@ mod tests {
         let n = 37;
         let (q, w, d, r) = problem_data(n);
         for rot in [false, true] {
-            let mut opts = IdentifyOptions::default();
-            opts.use_rotations = rot;
-            opts.noise_sigma = [1e-5, 2e-5, 1.5e-5, 1e-4, 2e-4, 3e-4];
+            let opts = IdentifyOptions {
+                use_rotations: rot,
+                noise_sigma: [1e-5, 2e-5, 1.5e-5, 1e-4, 2e-4, 3e-4],
+                ..Default::default()
+            };
             let (design, rhs) = build_design(&chain, &model, &q, &w, &d, Some(&r), &opts).unwrap();
             let (m, p) = (21, 22);
             let rows = rhs.len();

@@ -2,8 +2,8 @@
 
 use vjm::{
     complementary_stiffness, identify, jacobian, jacobian_in_place, predict_deflection,
-    IdentifyOptions, SerialChain, Spring, SpringAxis, VirtualJointModel, VjmError, Workspace,
-    BUNDLED_URDF,
+    IdentifyOptions, SerialChain, SolveMethod, Spring, SpringAxis, VirtualJointModel, VjmError,
+    Workspace, BUNDLED_URDF,
 };
 
 fn two_link(extra: &str) -> String {
@@ -159,6 +159,76 @@ fn nan_in_q_or_wrench_names_row_and_column() {
         ),
         "{err}"
     );
+}
+
+/// The normal-equations path checks values only when its Gram matrix comes out non-finite;
+/// every reduction must still name the bad entry, and finite values whose squares overflow
+/// get a numerical error, not NaN estimates.
+#[test]
+fn non_finite_measurements_are_named_by_every_reduction() {
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let n = 40;
+    let q: Vec<f64> = (0..n * 7).map(|i| 0.05 * (i % 13) as f64).collect();
+    let f: Vec<f64> = (0..n * 6).map(|i| 1.0 + (i % 5) as f64).collect();
+    let mut d = vec![1e-4; n * 3];
+    let mut r = vec![1e-5; n * 3];
+    d[3 * 33 + 2] = f64::NAN;
+    r[3 * 7 + 1] = f64::INFINITY;
+    for method in [
+        SolveMethod::Auto,
+        SolveMethod::NormalEquations,
+        SolveMethod::Qr,
+    ] {
+        let mut opts = IdentifyOptions::default();
+        opts.method = method;
+        let err = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                VjmError::NonFinite {
+                    what: "displacement",
+                    row: 33,
+                    column: 2,
+                    ..
+                }
+            ),
+            "{method:?}: {err}"
+        );
+        let mut d_ok = d.clone();
+        d_ok[3 * 33 + 2] = 0.0;
+        opts.use_rotations = true;
+        let err = identify(&panda, &model, &q, &f, &d_ok, Some(&r), &opts).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                VjmError::NonFinite {
+                    what: "rotation",
+                    row: 7,
+                    column: 1,
+                    ..
+                }
+            ),
+            "{method:?}: {err}"
+        );
+        // Rotations are not used: their bad value does not matter.
+        opts.use_rotations = false;
+        assert!(identify(&panda, &model, &q, &f, &d_ok, Some(&r), &opts).is_ok());
+    }
+    let mut huge = vec![1e-4; n * 3];
+    huge[5] = 1e160;
+    let err = identify(
+        &panda,
+        &model,
+        &q,
+        &f,
+        &huge,
+        None,
+        &IdentifyOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(err, VjmError::Numerical { .. }), "{err}");
+    assert!(err.to_string().contains("overflow"), "{err}");
 }
 
 #[test]
