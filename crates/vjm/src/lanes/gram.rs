@@ -169,6 +169,13 @@ pub(crate) fn jacobian_batch(chain: &ChainLanes, q: &[f64], out: &mut [f64]) {
             jacobian_lanes(s, chain, q, out)
         }
     }
+    // AVX2 even where AVX-512 is available: the output is written lane by lane (126 values per
+    // configuration), and 16-lane blocks only add gather and scatter work (measured: see
+    // docs/benchmarks.md).
+    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+    if let Some(v3) = pulp::x86::V3::try_new() {
+        return Simd::vectorize(v3, Task(chain, q, out));
+    }
     pulp::Arch::new().dispatch(Task(chain, q, out))
 }
 
