@@ -9,7 +9,8 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Translation3, Vector3};
 
 use crate::chain::{check_finite, rotation_about, SerialChain};
 use crate::error::VjmError;
-use crate::model::{spring_axes, SpringAxis, VirtualJointModel};
+use crate::lanes::kinematics::ChainLanes;
+use crate::model::{basis_index, local_spring_axis, spring_axes, SpringAxis, VirtualJointModel};
 
 /// Reusable scratch for batched kinematics (Data in pinocchio's Model/Data split).
 ///
@@ -27,6 +28,8 @@ pub struct Workspace {
     sc: Vec<(f64, f64)>,
     /// The instruction set found when the workspace was made (detected once, not per call).
     arch: pulp::Arch,
+    /// The chain and model flattened for the lane-wise batch path (built once, here).
+    lanes: ChainLanes,
     spring_joint: Vec<usize>,
     offsets: Vec<Vector3<f64>>,
     any_offset: bool,
@@ -52,22 +55,11 @@ impl Workspace {
         let local_axes: Vec<Vector3<f64>> = model
             .springs()
             .iter()
-            .map(|s| {
-                let [z, x, y] = spring_axes(chain.joints()[s.joint].axis());
-                match s.axis {
-                    SpringAxis::Z => z,
-                    SpringAxis::X => x,
-                    SpringAxis::Y => y,
-                }
-            })
+            .map(|s| local_spring_axis(chain, s))
             .collect();
-        let basis_axis = local_axes
-            .iter()
-            .map(|a: &Vector3<f64>| {
-                (0..3).find(|&i| a[i] == 1.0 && a[(i + 1) % 3] == 0.0 && a[(i + 2) % 3] == 0.0)
-            })
-            .collect();
+        let basis_axis = local_axes.iter().map(basis_index).collect();
         Ok(Self {
+            lanes: ChainLanes::new(chain, model),
             n_joints: n,
             basis_axis,
             sc: vec![(0.0, 1.0); n],
@@ -234,12 +226,8 @@ pub fn jacobian_batch_in_place(
     for (i, qi) in q.chunks_exact(n).enumerate() {
         check_finite("q", qi, i, 0)?;
     }
-    // Lane-wise over configurations (see `crate::lanes`); the workspace is not needed there.
-    crate::lanes::gram::jacobian_batch(
-        &crate::lanes::kinematics::ChainLanes::new(chain, model),
-        q,
-        out,
-    );
+    // Lane-wise over configurations (see `crate::lanes`), on the workspace's flattened chain.
+    crate::lanes::gram::jacobian_batch(&ws.lanes, q, out);
     Ok(())
 }
 

@@ -80,6 +80,22 @@ pub fn spring_axes(a: &Vector3<f64>) -> [Vector3<f64>; 3] {
     [a, u, v]
 }
 
+/// Spring `s`'s unit axis in its joint's child frame (one of [`spring_axes`]).
+pub(crate) fn local_spring_axis(chain: &crate::SerialChain, s: &Spring) -> Vector3<f64> {
+    let [z, x, y] = spring_axes(chain.joints()[s.joint].axis());
+    match s.axis {
+        SpringAxis::Z => z,
+        SpringAxis::X => x,
+        SpringAxis::Y => y,
+    }
+}
+
+/// `Some(i)` when `a` is exactly the basis vector e_i: its base-frame image is then column i
+/// of the joint rotation, with no product (the common case: URDF axes along x, y or z).
+pub(crate) fn basis_index(a: &Vector3<f64>) -> Option<usize> {
+    (0..3).find(|&i| a[i] == 1.0 && a[(i + 1) % 3] == 0.0 && a[(i + 2) % 3] == 0.0)
+}
+
 /// A virtual-joint stiffness model: an ordered list of springs (the parameters) and
 /// optional per-joint offsets of where the springs sit.
 ///

@@ -6,7 +6,7 @@ use pulp::Simd;
 use super::vector::dot3;
 use super::{sin_cos, V};
 use crate::chain::SerialChain;
-use crate::model::{spring_axes, SpringAxis, VirtualJointModel};
+use crate::model::{basis_index, local_spring_axis, VirtualJointModel};
 
 /// A spring's axis in its joint's child frame: a basis vector (the common case, a URDF
 /// joint axis along x, y or z) needs no product to be taken to the base frame.
@@ -66,15 +66,8 @@ impl ChainLanes {
             .springs()
             .iter()
             .map(|s| {
-                let [z, x, y] = spring_axes(joints[s.joint].axis());
-                let a = match s.axis {
-                    SpringAxis::Z => z,
-                    SpringAxis::X => x,
-                    SpringAxis::Y => y,
-                };
-                match (0..3)
-                    .find(|&i| a[i] == 1.0 && a[(i + 1) % 3] == 0.0 && a[(i + 2) % 3] == 0.0)
-                {
+                let a = local_spring_axis(chain, s);
+                match basis_index(&a) {
                     Some(i) => LocalAxis::Basis(i),
                     None => LocalAxis::General([a.x, a.y, a.z]),
                 }
