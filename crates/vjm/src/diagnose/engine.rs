@@ -84,6 +84,9 @@ pub struct Engine<'a> {
     /// Per row: √diag Σ, m.
     pub sigma_axis: Vec<[f64; 3]>,
     pub m: usize,
+    /// Polled per candidate while scoring: once cancelled, scoring stops early (the result is
+    /// incomplete) and the caller returns `Cancelled` at its next check.
+    pub cancel: stiffness_core::Cancel,
 }
 
 impl<'a> Engine<'a> {
@@ -300,6 +303,7 @@ impl<'a> Engine<'a> {
         let sse0: f64 = r.iter().map(|v| v * v).sum();
         let n_obs = y.len();
         pool.iter()
+            .take_while(|_| !self.cancel.is_cancelled())
             .map(|cand| {
                 let cc = self.design(&[Term::Cand(*cand)], &self.train, &fit.lin);
                 let orth = orthogonalise(&basis, &cc);

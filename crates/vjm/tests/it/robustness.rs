@@ -107,3 +107,74 @@ fn from_joints_refuses_non_finite_origins_and_nan_limits() {
     continuous.3 = (f64::NEG_INFINITY, f64::INFINITY);
     SerialChain::from_joints("b", "t", vec![continuous], Isometry3::identity()).unwrap();
 }
+
+// ---------------------------------------------------------------- cancellation
+
+mod cancellation {
+    use std::sync::Mutex;
+    use std::time::Instant;
+
+    use stiffness_core::{Cancel, Monitor, Progress};
+    use vjm::diagnose::{diagnose, diagnose_monitored, DiagnoseError, DiagnoseOptions};
+    use vjm::testbed::{simulate, Campaign, CampaignSpec, TrueModel};
+    use vjm::SerialChain;
+
+    fn campaign(chain: &SerialChain) -> Campaign {
+        let spec = CampaignSpec {
+            n_poses: 30,
+            wrenches_per_pose: 4,
+            seed: 3,
+            ..Default::default()
+        };
+        simulate(chain, &TrueModel::nominal(7), &spec).unwrap()
+    }
+
+    #[test]
+    fn a_sink_that_cancels_ends_diagnose_with_cancelled_at_once() {
+        let chain = SerialChain::bundled();
+        let data = campaign(&chain).dataset;
+        let cancel = Cancel::new();
+        let stages = Mutex::new(Vec::new());
+        let sink = |p: Progress| {
+            stages.lock().unwrap().push(p.stage);
+            if p.stage == "baseline" {
+                cancel.cancel();
+            }
+        };
+        let monitor = Monitor::new(cancel.clone()).with_progress(&sink);
+        let result = diagnose_monitored(&chain, &data, &DiagnoseOptions::default(), &monitor);
+        assert!(
+            matches!(result, Err(DiagnoseError::Cancelled(_))),
+            "{result:?}"
+        );
+        assert_eq!(*stages.lock().unwrap(), ["kinematics", "baseline"]);
+        assert_eq!(
+            DiagnoseError::Cancelled(stiffness_core::Cancelled).to_string(),
+            "diagnosis cancelled"
+        );
+    }
+
+    #[test]
+    fn a_cancelled_token_stops_diagnose_and_an_idle_one_changes_nothing() {
+        let chain = SerialChain::bundled();
+        let data = campaign(&chain).dataset;
+        let opts = DiagnoseOptions::default();
+        let start = Instant::now();
+        let full = diagnose(&chain, &data, &opts).unwrap();
+        let full_time = start.elapsed();
+        // Cancelled before it starts: nothing is computed.
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let start = Instant::now();
+        let r = diagnose_monitored(&chain, &data, &opts, &Monitor::new(cancel));
+        assert!(matches!(r, Err(DiagnoseError::Cancelled(_))));
+        assert!(
+            start.elapsed() < full_time,
+            "{:?} vs {full_time:?}",
+            start.elapsed()
+        );
+        // Not cancelled: the same answer as the plain call.
+        let same = diagnose_monitored(&chain, &data, &opts, &Monitor::none()).unwrap();
+        assert_eq!(same.to_json(), full.to_json());
+    }
+}
