@@ -12,6 +12,7 @@ pub mod csjm;
 pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
+pub mod interrupt;
 pub mod so3;
 pub mod vjm;
 pub mod vjm_data;

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from . import _core
 from ._errors import (
+    CancelledError,
+    ConvergenceError,
     DataFileError,
     IdentificationError,
     InternalError,
@@ -46,4 +48,6 @@ __all__ = [
     "RobotModelError",
     "IdentificationError",
     "InternalError",
+    "ConvergenceError",
+    "CancelledError",
 ]

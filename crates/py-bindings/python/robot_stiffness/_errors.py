@@ -18,6 +18,8 @@ __all__ = [
     "RobotModelError",
     "IdentificationError",
     "InternalError",
+    "ConvergenceError",
+    "CancelledError",
 ]
 
 
@@ -55,3 +57,16 @@ class IdentificationError(StiffnessError, ValueError):
 
 class InternalError(StiffnessError, RuntimeError):
     """A bug inside the Rust core (a caught panic). Please report it with the inputs."""
+
+
+class ConvergenceError(StiffnessError, RuntimeError):
+    """An iterative computation hit its iteration cap (almost always: non-finite or extreme
+    input reached a solver). The message names the computation and the cap."""
+
+
+class CancelledError(StiffnessError, RuntimeError):
+    """A long computation was cancelled without a Python exception to re-raise.
+
+    Ctrl-C during a long call raises the ordinary ``KeyboardInterrupt`` and an exception raised
+    by a ``progress`` callback propagates as itself; this class covers a cancel with neither
+    cause."""
