@@ -111,7 +111,10 @@ pub enum DatasetError {
         column: String,
     },
     /// The file's `q` columns do not match the chain's actuated joint count.
-    #[error("the file has {found} joint columns (q1..q{found}) but the chain has {expected} actuated joints")]
+    #[error(
+        "the data have {} but the chain has {expected} actuated joints (expected columns q1..q{expected})",
+        joint_columns(*found)
+    )]
     JointCount {
         /// Joint columns found (or joint values per row given).
         found: usize,
@@ -170,6 +173,11 @@ pub enum DatasetError {
         /// The likely cause, e.g. "looks like mm, expected m".
         hint: &'static str,
     },
+    /// The file is empty: not even a header line.
+    #[error(
+        "the file is empty: no header line (expected columns q1..qN, fx,fy,fz,mx,my,mz, dx,dy,dz)"
+    )]
+    NoHeader,
     /// The file has a header but no data rows.
     #[error("no data rows")]
     Empty,
@@ -373,6 +381,9 @@ impl Dataset {
             message: e.to_string(),
         };
         let headers = rdr.headers().map_err(csv_err)?.clone();
+        if headers.iter().all(|h| h.is_empty()) {
+            return Err(DatasetError::NoHeader);
+        }
         // Map column name -> field index, rejecting unknown and duplicate names.
         let mut index: BTreeMap<String, usize> = BTreeMap::new();
         let mut q_found = 0usize;
@@ -747,5 +758,14 @@ impl Dataset {
         }
         self.set = Some(set);
         Ok(self)
+    }
+}
+
+/// "no joint columns", "1 joint column", "7 joint columns".
+fn joint_columns(found: usize) -> String {
+    match found {
+        0 => "no joint columns".to_string(),
+        1 => "1 joint column".to_string(),
+        n => format!("{n} joint columns"),
     }
 }

@@ -178,3 +178,46 @@ mod cancellation {
         assert_eq!(same.to_json(), full.to_json());
     }
 }
+
+// ---------------------------------------------------------------- messages
+
+mod messages {
+    use vjm::dataset::Dataset;
+
+    #[test]
+    fn an_empty_file_says_it_has_no_header() {
+        let err = Dataset::from_reader("".as_bytes(), 7).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("no header"), "{msg}");
+        assert!(!msg.contains("q1..q0"), "{msg}");
+    }
+
+    #[test]
+    fn a_header_without_rows_says_no_data_rows() {
+        let header = "q1,q2,fx,fy,fz,mx,my,mz,dx,dy,dz\n";
+        let msg = Dataset::from_reader(header.as_bytes(), 2)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("no data rows"), "{msg}");
+    }
+
+    #[test]
+    fn a_wrong_joint_count_names_found_and_expected_columns() {
+        let text = "fx,fy,fz,mx,my,mz,dx,dy,dz\n1,2,3,4,5,6,1e-4,0,0\n";
+        let msg = Dataset::from_reader(text.as_bytes(), 7)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("no joint columns") && msg.contains("q1..q7") && !msg.contains("q1..q0"),
+            "{msg}"
+        );
+        let text = "q1,q2,q3,fx,fy,fz,mx,my,mz,dx,dy,dz\n0,0,0,1,2,3,4,5,6,1e-4,0,0\n";
+        let msg = Dataset::from_reader(text.as_bytes(), 7)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("3 joint columns") && msg.contains("q1..q7"),
+            "{msg}"
+        );
+    }
+}
