@@ -15,7 +15,7 @@ use crate::vjm_data::dataset_from_arrays;
 /// `progress`, when given, is called as `progress(stage, done, total)` on the calling thread;
 /// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None))]
+#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_diagnose<'py>(
     py: Python<'py>,
@@ -32,11 +32,15 @@ pub fn vjm_diagnose<'py>(
     split_seed: Option<u64>,
     max_findings: Option<usize>,
     progress: Option<Py<PyAny>>,
+    allow_outside_limits: bool,
 ) -> PyResult<String> {
     let chain = &robot.chain;
     let n = chain.n_joints();
     let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
-    let mut opts = DiagnoseOptions::default();
+    let mut opts = DiagnoseOptions {
+        allow_outside_limits,
+        ..DiagnoseOptions::default()
+    };
     if let Some(b) = &baseline {
         opts.baseline = Some(parse_model(n, b)?);
     }

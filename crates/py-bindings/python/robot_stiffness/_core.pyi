@@ -134,6 +134,7 @@ def vjm_diagnose(
     split_seed: Optional[int] = None,
     max_findings: Optional[int] = None,
     progress: Optional[Callable[[str, int, int], Any]] = None,
+    allow_outside_limits: bool = False,
 ) -> str: ...
 
 @final

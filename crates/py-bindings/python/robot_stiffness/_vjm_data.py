@@ -223,6 +223,7 @@ def diagnose(
     split_seed: Optional[int] = None,
     max_findings: Optional[int] = None,
     progress: Optional[ProgressCallback] = None,
+    allow_outside_limits: bool = False,
 ) -> Diagnosis:
     """Show what the baseline model gets wrong on ``data``, name the cause, extend the model
     and measure the gain on held-out rows.
@@ -231,7 +232,9 @@ def diagnose(
     ``baseline``: a model spec (default the traditional VJM). Findings are selected by
     Benjamini–Hochberg at false-discovery rate ``fdr`` (default 0.01) and confirmed on held-out
     poses (the ``set`` column, or ``test_fraction`` of the poses drawn with ``split_seed``).
-    ``progress(stage, done, total)`` is called during long runs.
+    ``progress(stage, done, total)`` is called during long runs; an exception it raises stops
+    the run and propagates (so does Ctrl-C). Joint angles outside the robot's limits are refused
+    (naming row and joint) unless ``allow_outside_limits=True``.
     """
     m = as_measurements(data, robot.n_joints)
     text = _core.vjm_diagnose(
@@ -248,6 +251,7 @@ def diagnose(
         split_seed=split_seed,
         max_findings=max_findings,
         progress=progress,
+        allow_outside_limits=bool(allow_outside_limits),
     )
     raw = json.loads(text)
     return Diagnosis(

@@ -305,6 +305,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             fdr=args.fdr,
             split_seed=args.split_seed,
             progress=_progress_printer(show),
+            allow_outside_limits=getattr(args, "allow_outside_limits", False),
         )
     finally:
         if show:
@@ -512,6 +513,9 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON")
     dv.add_argument("--report", metavar="DIR", help="write a Markdown report with PNG plots into DIR")
     dv.add_argument("--quiet", action="store_true", help="no progress display")
+    dv.add_argument("--allow-outside-limits", action="store_true",
+                    help="accept joint angles outside the URDF limits (refused by default: degrees or a wrong "
+                    "joint order?)")
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
         "csjm",

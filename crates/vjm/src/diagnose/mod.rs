@@ -97,6 +97,10 @@ pub struct DiagnoseOptions {
     pub alias_alpha: f64,
     /// Level of the per-pose ANOVA that sets `unexplained` (default 0.01).
     pub unexplained_alpha: f64,
+    /// Accept joint angles outside the URDF limits (default `false`: such a row is refused,
+    /// naming row and joint, since it usually means degrees or a wrong joint order).
+    /// Continuous joints have no limits.
+    pub allow_outside_limits: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -111,6 +115,7 @@ impl Default for DiagnoseOptions {
             alias_cosine: 0.99,
             alias_alpha: 0.05,
             unexplained_alpha: 0.01,
+            allow_outside_limits: false,
         }
     }
 }
@@ -242,6 +247,9 @@ fn prepare<'a>(
             data: data.n_joints(),
             chain: n,
         });
+    }
+    if !opts.allow_outside_limits {
+        data.check_joint_limits(chain)?;
     }
     let baseline_model = match &opts.baseline {
         Some(m) => {
