@@ -4,6 +4,7 @@ progress callback, non-finite robots and inputs are refused by name."""
 from __future__ import annotations
 
 import _thread
+import dataclasses
 import threading
 import time
 
@@ -112,3 +113,62 @@ def test_sigint_during_a_long_diagnose_ends_it_within_a_second(big_campaign):
     assert stopped_after < min(1.0, 0.5 * full), (
         f"stopped {stopped_after:.2f} s after Ctrl-C (full run {full:.2f} s)"
     )
+
+
+# ----------------------------------------------------------------------------- effects, limits
+
+
+def test_an_unknown_effect_key_is_refused_listing_the_valid_ones():
+    panda = Robot.bundled()
+    tilt = {"effect": "joint_tilt", "joint": 3, "axis": "x", "compliance": 5e-5, "complience": 1e-4}
+    with pytest.raises(rs.InvalidValueError, match=r"unknown key `complience`.*joint, axis, compliance"):
+        vjm.simulate(panda, [tilt], n_poses=4, wrenches_per_pose=2)
+    from robot_stiffness import csjm
+
+    with pytest.raises(rs.InvalidValueError, match=r"cable_hysteresis.*unknown key `frict`"):
+        csjm.simulate([{"effect": "cable_hysteresis", "frict": 2.0}])
+
+
+@pytest.mark.parametrize("value", [-1.0, float("nan")])
+def test_a_bad_effect_value_blames_the_effect_not_a_file_column(value):
+    panda = Robot.bundled()
+    tilt = {"effect": "joint_tilt", "joint": 3, "axis": "x", "compliance": value}
+    with pytest.raises(rs.StiffnessError) as info:
+        vjm.simulate(panda, [tilt], n_poses=4, wrenches_per_pose=2)
+    msg = str(info.value)
+    assert "joint_tilt at joint 3" in msg and "'dx'" not in msg and "line" not in msg, msg
+    from robot_stiffness import csjm
+
+    with pytest.raises(rs.InvalidValueError, match=r"cable_hysteresis.*`friction` must be finite and ≥ 0"):
+        csjm.simulate([{"effect": "cable_hysteresis", "friction": value}])
+
+
+def test_an_implausible_force_max_blames_the_campaign_not_a_file_column():
+    panda = Robot.bundled()
+    with pytest.raises(rs.StiffnessError) as info:
+        vjm.simulate(panda, [], n_poses=4, wrenches_per_pose=2, force_max=1e9)
+    msg = str(info.value)
+    assert "force" in msg and "'dx'" not in msg and "line" not in msg, msg
+
+
+def test_joint_angles_outside_the_limits_are_refused_unless_allowed(big_campaign):
+    panda, camp = big_campaign
+    m = camp.measurements
+    q = np.array(m.q, copy=True)[:400]
+    q[7, 3] = 1.0  # joint 4 of the Panda lives in [-3.07, -0.07] rad
+    data = dataclasses.replace(
+        m,
+        q=q,
+        wrench=np.asarray(m.wrench)[:400],
+        displacement=np.asarray(m.displacement)[:400],
+        pose=None if m.pose is None else list(m.pose)[:400],
+        set=None if m.set is None else list(m.set)[:400],
+    )
+    with pytest.raises(rs.DataFileError, match=r"line 9, column 'q4' \(joint `panda_joint4`\)"):
+        vjm.diagnose(panda, data)
+    vjm.diagnose(panda, data, allow_outside_limits=True)
+
+
+def test_the_new_error_classes_are_stiffness_errors():
+    assert issubclass(rs.CancelledError, rs.StiffnessError) and issubclass(rs.CancelledError, RuntimeError)
+    assert issubclass(rs.ConvergenceError, rs.StiffnessError) and issubclass(rs.ConvergenceError, RuntimeError)
