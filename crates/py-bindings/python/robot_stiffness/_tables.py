@@ -12,7 +12,8 @@ from typing import Any, List, Optional, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from ._errors import DataFileError
+from ._arrays import f64
+from ._errors import DataFileError, InvalidValueError
 
 
 def is_table(x: Any) -> bool:
@@ -41,9 +42,15 @@ def columns(table: Any, names: Sequence[str], what: str) -> npt.NDArray[np.float
                 f"missing column '{name}' for {what} (table columns: {', '.join(available)})"
             )
         try:
-            cols.append(np.asarray(table[lower[name]], dtype=np.float64))
-        except (TypeError, ValueError) as e:
-            raise DataFileError(f"column '{name}' is not numeric: {e}") from None
+            col = f64(table[lower[name]], f"column '{lower[name]}'")
+        except InvalidValueError as e:
+            raise DataFileError(str(e)) from None
+        if col.ndim != 1:
+            raise DataFileError(f"column '{lower[name]}' must be one-dimensional, got shape {col.shape}")
+        cols.append(col)
+    lengths = {len(c) for c in cols}
+    if len(lengths) > 1:
+        raise DataFileError(f"the columns for {what} have different lengths {sorted(lengths)}")
     return np.ascontiguousarray(np.column_stack(cols))
 
 

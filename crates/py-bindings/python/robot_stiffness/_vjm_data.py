@@ -11,7 +11,9 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import check_path, checked
 from ._arrays import f64
+from ._errors import ArgumentTypeError, DataFileError
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, column_names, columns, is_table, joint_columns, optional_columns
 
 Array = npt.NDArray[np.float64]
@@ -85,6 +87,7 @@ class Measurements:
         return pd.DataFrame(data)
 
 
+@checked
 def read_measurements(path: PathLike, n_joints: int) -> Measurements:
     """Read and validate a VJM measurement file for a robot with ``n_joints`` actuated joints.
 
@@ -93,7 +96,16 @@ def read_measurements(path: PathLike, n_joints: int) -> Measurements:
     ``set``. Errors name the line and column (missing column, NaN, a displacement in mm…);
     a missing file raises :class:`~robot_stiffness.MissingFileError`.
     """
-    return Measurements._from_core(_core.vjm_read_csv(os.fspath(path), int(n_joints)))
+    return Measurements._from_core(_core.vjm_read_csv(path, n_joints))
+
+
+def _pose_ids(values: Array) -> npt.NDArray[np.int64]:
+    """Pose ids must be whole numbers: 1.7 is refused (naming the row), never truncated."""
+    bad = ~np.isfinite(values) | (values != np.round(values)) | (np.abs(values) > 2**53)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise DataFileError(f"column 'pose', row {row}: pose ids must be whole numbers, got {values[row]!r}")
+    return values.astype(np.int64)
 
 
 def as_measurements(data: Any, n_joints: int) -> Measurements:
@@ -101,12 +113,12 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
     if isinstance(data, Measurements):
         return data
     if isinstance(data, (str, os.PathLike)):
-        return read_measurements(data, n_joints)
+        return read_measurements(check_path(data, "data"), n_joints)
     if is_table(data):
         names = {c.lower() for c in column_names(data)}
         pose = None
         if "pose" in names:
-            pose = columns(data, ["pose"], "pose")[:, 0].astype(np.int64)
+            pose = _pose_ids(columns(data, ["pose"], "pose")[:, 0])
         sets = None
         if "set" in names:
             key = next(c for c in column_names(data) if c.lower() == "set")
@@ -119,7 +131,7 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
             pose=pose,
             set=sets,
         )
-    raise TypeError(
+    raise ArgumentTypeError(
         "data must be a path to a measurement file, a pandas DataFrame / dict of columns, "
         "or a Measurements object"
     )
@@ -140,6 +152,7 @@ class Campaign:
     spec: Dict[str, Any]
 
 
+@checked
 def simulate(
     robot: Any,
     effects: Sequence[Dict[str, Any]] = (),
@@ -173,10 +186,10 @@ def simulate(
     d = _core.vjm_simulate(
         robot._inner,
         [dict(e) for e in effects],
-        n_poses=int(n_poses),
-        wrenches_per_pose=int(wrenches_per_pose),
-        seed=int(seed),
-        noise=bool(noise),
+        n_poses=n_poses,
+        wrenches_per_pose=wrenches_per_pose,
+        seed=seed,
+        noise=noise,
         torsion=None if torsion is None else f64(torsion, "torsion"),
         force_max=force_max,
         moment_max=moment_max,
@@ -213,6 +226,7 @@ class Diagnosis:
         return self.raw
 
 
+@checked
 def diagnose(
     robot: Any,
     data: Any,
@@ -233,6 +247,8 @@ def diagnose(
     poses (the ``set`` column, or ``test_fraction`` of the poses drawn with ``split_seed``).
     ``progress(stage, done, total)`` is called during long runs.
     """
+    if progress is not None and not callable(progress):
+        raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     m = as_measurements(data, robot.n_joints)
     text = _core.vjm_diagnose(
         robot._inner,
@@ -260,9 +276,10 @@ def diagnose(
     )
 
 
+@checked
 def seed_study(robot: Any, *, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> Dict[str, Any]:
     """The seed paper's study on ``robot`` (7 joints): Table I configurations clipped to the
     joint limits, two wrenches each, a true model with tilting springs of ``tilt_ratio`` × the
     torsional compliance. Returns the mean relative errors of the traditional and extended
     models (the seed reports 7.75 % → 3.74 %) and the clipped angles."""
-    return dict(json.loads(_core.vjm_seed_study(robot._inner, float(tilt_ratio), bool(noise), int(seed))))
+    return dict(json.loads(_core.vjm_seed_study(robot._inner, tilt_ratio, noise, seed)))

@@ -36,8 +36,9 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import checked
 from ._arrays import f64
-from ._errors import ShapeError
+from ._errors import ArgumentTypeError, ShapeError
 from ._vjm_data import (
     Campaign,
     Diagnosis,
@@ -75,6 +76,7 @@ __all__ = [
 ModelSpec = Union[str, Sequence[str]]
 
 Array = npt.NDArray[np.float64]
+PathLike = Union[str, "os.PathLike[str]"]
 
 
 def _model(model: ModelSpec) -> Union[str, List[str]]:
@@ -210,26 +212,29 @@ class Robot:
     def __init__(self, inner: Any) -> None:
         """Wraps a ``robot_stiffness._core.Robot``; use the class methods instead."""
         if not isinstance(inner, _core.Robot):
-            raise TypeError("use Robot.bundled(), Robot.from_urdf() or Robot.from_urdf_string()")
+            raise ArgumentTypeError("use Robot.bundled(), Robot.from_urdf() or Robot.from_urdf_string()")
         self._inner = inner
 
     @classmethod
+    @checked
     def bundled(cls, tip: Optional[str] = None) -> "Robot":
         """The bundled 7-DoF Franka Emika Panda arm, base ``panda_link0``, tip the flange
         ``panda_link8`` unless another link of the bundled URDF (e.g. ``panda_hand_tcp``) is named."""
         return cls(_core.Robot.bundled(tip))
 
     @classmethod
-    def from_urdf(cls, path: Union[str, "os.PathLike[str]"], base: str, tip: str) -> "Robot":
+    @checked
+    def from_urdf(cls, path: PathLike, base: str, tip: str) -> "Robot":
         """The chain ``base`` → ``tip`` of the URDF file at ``path``.
 
         Raises :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``) if the file
         does not exist and :class:`~robot_stiffness.RobotModelError` naming the link or joint
         when the chain cannot be built (unknown link, base not an ancestor of tip, mimic joint…).
         """
-        return cls(_core.Robot.from_urdf(os.fspath(path), base, tip))
+        return cls(_core.Robot.from_urdf(path, base, tip))
 
     @classmethod
+    @checked
     def from_urdf_string(cls, xml: str, base: str, tip: str) -> "Robot":
         """The chain ``base`` → ``tip`` of a URDF document given as text."""
         return cls(_core.Robot.from_urdf_string(xml, base, tip))
@@ -259,6 +264,7 @@ class Robot:
         """Name of the tip link; the tip point is its origin."""
         return str(self._inner.tip_link)
 
+    @checked
     def labels(self, model: ModelSpec = "extended") -> List[str]:
         """Parameter labels of ``model`` in parameter order, e.g. ``["J1z", "J1x", "J1y", ...]``."""
         return list(self._inner.model_labels(_model(model)))
@@ -269,6 +275,7 @@ class Robot:
             return arr.reshape(1, -1), True
         return arr, False
 
+    @checked
     def forward_kinematics(self, q: Any) -> Array:
         """Tip poses: homogeneous transforms of the tip frame in the base frame (m).
 
@@ -278,6 +285,7 @@ class Robot:
         out = self._inner.forward_kinematics(arr)
         return out[0] if single else out
 
+    @checked
     def jacobian(self, q: Any, model: ModelSpec = "extended") -> Array:
         """Virtual-joint Jacobians at the tip point, base frame, rows ``[linear; angular]``.
 
@@ -288,6 +296,7 @@ class Robot:
         out = self._inner.jacobian(arr, _model(model))
         return out[0] if single else out
 
+    @checked
     def identify(
         self,
         q: Any,
@@ -350,6 +359,7 @@ class Robot:
         )
         return Identification._from_json(text)
 
+    @checked
     def predict_deflection(
         self,
         compliance: Any,
