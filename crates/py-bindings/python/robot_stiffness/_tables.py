@@ -7,13 +7,15 @@ CSJM: ``r11..r33``, ``tx,ty,tz``, ``ref``.
 
 from __future__ import annotations
 
-from typing import Any, List, Optional, Sequence
+import contextlib
+import re
+from typing import Any, Iterator, List, Optional, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
 from ._arrays import f64
-from ._errors import DataFileError, InvalidValueError
+from ._errors import DataFileError, InvalidValueError, StiffnessError
 
 
 def is_table(x: Any) -> bool:
@@ -76,3 +78,43 @@ DISPLACEMENT = ["dx", "dy", "dz"]
 ROTATION = ["rx", "ry", "rz"]
 ROTATION_MATRIX = ["r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33"]
 MOMENT = ["tx", "ty", "tz"]
+
+
+_LINE = re.compile(r"\bline (\d+), column '")
+_ARRAY_CELL = re.compile(r"\bin (q|wrench|displacement|rotation) at row (\d+), column (\d+)")
+
+
+def _array_column(array: str, k: int) -> Optional[str]:
+    names = {"wrench": WRENCH, "displacement": DISPLACEMENT, "rotation": ROTATION}.get(array)
+    if array == "q":
+        return f"q{k + 1}"
+    return names[k] if names is not None and k < len(names) else None
+
+
+def rows_not_lines(message: str) -> str:
+    """The core reports a measurement *file*'s cells by line (header = line 1); for a table or
+    arrays given in Python that is wrong blame. Rewrite ``line N, column 'c'`` as
+    ``row N-2 (counting from 0), column 'c'`` and ``in wrench at row r, column k`` as
+    ``in column 'fy', row r``."""
+    message = _LINE.sub(lambda m: f"row {int(m.group(1)) - 2} (counting from 0), column '", message)
+
+    def cell(m: "re.Match[str]") -> str:
+        name = _array_column(m.group(1), int(m.group(3)))
+        if name is None:
+            return m.group(0)
+        return f"in column '{name}' ({m.group(1)}), row {m.group(2)} (counting from 0)"
+
+    return _ARRAY_CELL.sub(cell, message)
+
+
+@contextlib.contextmanager
+def blame_rows() -> Iterator[None]:
+    """Within the block, core errors about data given in Python name rows, not file lines."""
+    try:
+        yield
+    except StiffnessError as e:
+        text = str(e)
+        better = rows_not_lines(text)
+        if better == text:
+            raise
+        raise type(e)(better) from None

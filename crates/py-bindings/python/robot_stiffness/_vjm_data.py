@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -14,7 +15,7 @@ from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError
-from ._tables import DISPLACEMENT, ROTATION, WRENCH, column_names, columns, is_table, joint_columns, optional_columns
+from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
 
 Array = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -104,8 +105,17 @@ def _pose_ids(values: Array) -> npt.NDArray[np.int64]:
     bad = ~np.isfinite(values) | (values != np.round(values)) | (np.abs(values) > 2**53)
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
-        raise DataFileError(f"column 'pose', row {row}: pose ids must be whole numbers, got {values[row]!r}")
+        raise DataFileError(
+            f"column 'pose', row {row} (counting from 0): pose ids must be whole numbers, got {float(values[row])!r}"
+        )
     return values.astype(np.int64)
+
+
+def _pose_list(pose: Any) -> List[int]:
+    arr = np.asarray(pose)
+    if arr.dtype.kind in "iu":
+        return [int(p) for p in arr]
+    return [int(p) for p in _pose_ids(f64(arr, "pose"))]
 
 
 def as_measurements(data: Any, n_joints: int) -> Measurements:
@@ -250,21 +260,9 @@ def diagnose(
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     m = as_measurements(data, robot.n_joints)
-    text = _core.vjm_diagnose(
-        robot._inner,
-        f64(m.q, "q"),
-        f64(m.wrench, "wrench"),
-        f64(m.displacement, "displacement"),
-        rotation=None if m.rotation is None else f64(m.rotation, "rotation"),
-        pose=None if m.pose is None else [int(p) for p in m.pose],
-        set=m.set,
-        baseline=None if baseline is None else (baseline if isinstance(baseline, str) else list(baseline)),
-        fdr=fdr,
-        test_fraction=test_fraction,
-        split_seed=split_seed,
-        max_findings=max_findings,
-        progress=progress,
-    )
+    blame = contextlib.nullcontext() if isinstance(data, (str, os.PathLike)) else blame_rows()
+    with blame:
+        text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress)
     raw = json.loads(text)
     return Diagnosis(
         baseline=raw["baseline"],
@@ -274,6 +272,25 @@ def diagnose(
         gain=float(raw["gain"]) if raw.get("gain") is not None else float("nan"),
         raw=raw,
     )
+
+
+def _diagnose_core(robot: Any, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
+                   split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback]) -> str:
+    return str(_core.vjm_diagnose(
+        robot._inner,
+        f64(m.q, "q"),
+        f64(m.wrench, "wrench"),
+        f64(m.displacement, "displacement"),
+        rotation=None if m.rotation is None else f64(m.rotation, "rotation"),
+        pose=None if m.pose is None else _pose_list(m.pose),
+        set=m.set,
+        baseline=None if baseline is None else (baseline if isinstance(baseline, str) else list(baseline)),
+        fdr=fdr,
+        test_fraction=test_fraction,
+        split_seed=split_seed,
+        max_findings=max_findings,
+        progress=progress,
+    ))
 
 
 @checked

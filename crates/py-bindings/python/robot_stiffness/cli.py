@@ -468,8 +468,8 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
     sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")
     _add_robot_args(sv)
     sv.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect in the truth (repeatable)")
-    sv.add_argument("--poses", type=T.count(1, T.MAX_POSES), default=40,
-                    help=f"number of configurations, 1..{T.MAX_POSES} (default 40)")
+    sv.add_argument("--poses", type=T.count(2, T.MAX_POSES), default=40,
+                    help=f"number of configurations, 2..{T.MAX_POSES} (default 40)")
     sv.add_argument("--wrenches-per-pose", type=T.count(1, T.MAX_WRENCHES_PER_POSE), default=4,
                     help=f"wrenches per configuration, 1..{T.MAX_WRENCHES_PER_POSE} (default 4)")
     sv.add_argument("--force-max", type=T.positive_float(T.MAX_FORCE, "N"), default=None,
@@ -496,8 +496,8 @@ effects (--effect NAME:key=value,...):
     )
     sc.add_argument("out", metavar="OUT.csv", help="measurement file to write")
     sc.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect (repeatable)")
-    sc.add_argument("--increments", type=T.count(1, T.MAX_INCREMENTS), default=None,
-                    help=f"load increments, at most {T.MAX_INCREMENTS} (default 85, as the seed)")
+    sc.add_argument("--increments", type=T.count(3, T.MAX_INCREMENTS), default=None,
+                    help=f"load increments, 3..{T.MAX_INCREMENTS} (default 85, as the seed)")
     sc.add_argument("--max-increment", type=T.positive_float(T.MAX_CSJM_INCREMENT, "N·m"), default=None,
                     help=f"largest load increment, N·m, at most {T.MAX_CSJM_INCREMENT:g} (default 1)")
     sc.add_argument("--seed", type=T.seed, default=0, help="random seed, 0..2**64-1 (default 0)")

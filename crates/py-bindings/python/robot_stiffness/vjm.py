@@ -52,6 +52,7 @@ from ._tables import (
     DISPLACEMENT,
     ROTATION,
     WRENCH,
+    blame_rows,
     columns,
     is_table,
     joint_columns,
@@ -345,7 +346,14 @@ class Robot:
                 "measurement columns as its first argument"
             )
         q_arr = f64(q, "q")
-        text = self._inner.identify(
+        with blame_rows():
+            text = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
+                                  noise_scale_known, nonnegative, dense, method)
+        return Identification._from_json(text)
+
+    def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
+                  noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str) -> str:
+        return str(self._inner.identify(
             q_arr,
             f64(wrench, "wrench"),
             f64(displacement, "displacement"),
@@ -356,8 +364,7 @@ class Robot:
             nonnegative=bool(nonnegative),
             dense=bool(dense),
             method=str(method),
-        )
-        return Identification._from_json(text)
+        ))
 
     @checked
     def predict_deflection(
