@@ -314,6 +314,14 @@ def test_bad_flags_give_one_line_naming_the_flag(tmp_path, args, flag):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_too_many_simulated_rows_are_refused_before_the_run(tmp_path):
+    proc = run_cli(["simulate", "vjm", "o.csv", "--poses", "100000", "--wrenches-per-pose", "1000"], cwd=tmp_path)
+    assert proc.returncode == 1
+    line = one_error_line(proc)
+    assert "--poses 100000" in line and "--wrenches-per-pose 1000" in line and "2000000" in line, line
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_help_documents_the_caps(tmp_path):
     text = run_cli(["simulate", "vjm", "--help"], cwd=tmp_path).stdout
     assert "100000" in text and "10000 (default 80)" in " ".join(text.split())
@@ -331,6 +339,10 @@ def test_help_documents_the_caps(tmp_path):
         ("joint_tilt:joint=3,axis=x", ["compliance"]),  # found by the core, re-attributed
         ("no_such_effect:joint=3", ["no_such_effect"]),
         ("joint_tilt:joint=99,axis=x,compliance=5e-5", ["99"]),
+        # Found by the core's checks of the simulated data (or, with hB's validation, of the
+        # effect itself): never blamed on a line or column of a file the user did not give.
+        ("joint_tilt:joint=3,axis=x,compliance=-1", []),
+        ("joint_tilt:joint=3,axis=x,compliance=1e300", []),
     ],
 )
 def test_bad_effect_specs_name_the_effect_argument(tmp_path, spec, words):

@@ -16,6 +16,7 @@ from typing import Callable, Optional
 __all__ = [
     "MAX_POSES",
     "MAX_WRENCHES_PER_POSE",
+    "MAX_ROWS",
     "MAX_INCREMENTS",
     "MAX_FORCE",
     "MAX_MOMENT",
@@ -31,6 +32,8 @@ __all__ = [
 MAX_POSES = 100_000
 #: ``simulate vjm --wrenches-per-pose``.
 MAX_WRENCHES_PER_POSE = 1_000
+#: ``simulate vjm``: poses × wrenches per pose (a 2-million-row campaign is ~0.5 GB of CSV).
+MAX_ROWS = 2_000_000
 #: ``simulate csjm --increments``.
 MAX_INCREMENTS = 100_000
 #: ``simulate vjm --force-max``, N (a heavy industrial arm at full payload stays below).

@@ -31,7 +31,7 @@ from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequ
 
 from . import __version__
 from . import _cli_types as T
-from ._errors import StiffnessError
+from ._errors import DataFileError, StiffnessError
 from ._interrupt import (
     Cancelled,
     Terminated,
@@ -174,6 +174,7 @@ def parse_effect(spec: str) -> Dict[str, Any]:
     return effect
 
 
+_FILE_CELL = re.compile(r"\bline \d+, column '(\w+)'")
 _EFFECT_INDEX = re.compile(r"effects\[(\d+)\](?:\[`?(\w+)`?\])?:?\s*")
 
 
@@ -182,6 +183,16 @@ def _effect_errors(specs: Sequence[str]) -> Iterator[None]:
     """Re-attribute the core's ``effects[i] …`` messages to the user's ``--effect`` text."""
     try:
         yield
+    except DataFileError as e:
+        # The simulated campaign failed the measurement checks: no file of the user's is
+        # involved, so a "line N, column 'dx'" would be wrong blame; name the cause instead.
+        detail = _FILE_CELL.sub(r"simulated \1", " ".join(str(e).split()))
+        detail = detail.split("; looks like")[0]
+        culprit = f"--effect {specs[0]!r}" if len(specs) == 1 else "the --effect values"
+        raise CliError(
+            f"the simulated measurements are implausible ({detail}); check {culprit} and the load and "
+            "size flags"
+        ) from None
     except StiffnessError as e:
         text = str(e)
         m = _EFFECT_INDEX.search(text)
@@ -194,6 +205,10 @@ def _effect_errors(specs: Sequence[str]) -> Iterator[None]:
 def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
     from .vjm import simulate
 
+    rows = args.poses * args.wrenches_per_pose
+    if rows > T.MAX_ROWS:
+        raise CliError(f"--poses {args.poses} × --wrenches-per-pose {args.wrenches_per_pose} = {rows} rows; "
+                       f"at most {T.MAX_ROWS} rows are simulated at once")
     csv_out = out.file(args.out)
     truth_out = out.file(args.truth, "--truth") if args.truth else None
     robot = _robot(args)
@@ -471,7 +486,8 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
     sv.add_argument("--poses", type=T.count(2, T.MAX_POSES), default=40,
                     help=f"number of configurations, 2..{T.MAX_POSES} (default 40)")
     sv.add_argument("--wrenches-per-pose", type=T.count(1, T.MAX_WRENCHES_PER_POSE), default=4,
-                    help=f"wrenches per configuration, 1..{T.MAX_WRENCHES_PER_POSE} (default 4)")
+                    help=f"wrenches per configuration, 1..{T.MAX_WRENCHES_PER_POSE}; poses × wrenches ≤ "
+                    f"{T.MAX_ROWS} (default 4)")
     sv.add_argument("--force-max", type=T.positive_float(T.MAX_FORCE, "N"), default=None,
                     help=f"largest force magnitude, N, at most {T.MAX_FORCE:g} (default 80)")
     sv.add_argument("--moment-max", type=T.positive_float(T.MAX_MOMENT, "N·m"), default=None,
@@ -646,6 +662,7 @@ def _outcome(e: BaseException, out: Outputs) -> Tuple[int, Optional[str]]:
 
 
 def _run(args: argparse.Namespace) -> int:
+    cancel.clear()
     out = Outputs(inputs=[getattr(args, "data", None), getattr(args, "urdf", None)])
     with sigterm_raises():
         try:
@@ -672,7 +689,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     130 Ctrl-C, 143 SIGTERM. Every temporary file is removed in all of these cases.
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except BrokenPipeError:  # `robot-stiffness --help | head -1`
+        _quiet_broken_pipe()
+        return 0
     code = _run(args)
     if worker_running():
         # Interrupted while the core was still computing in the worker thread: nothing will use
