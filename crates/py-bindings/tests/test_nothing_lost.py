@@ -167,6 +167,39 @@ def test_write_report_api_follows_the_same_rules(csjm_csv, tmp_path):
     assert not leftovers(tmp_path)
 
 
+def test_a_manifest_never_reaches_outside_its_folder(csjm_csv, tmp_path):
+    from robot_stiffness import csjm
+    from robot_stiffness.report import write_report
+
+    result = csjm.diagnose(csjm_csv)
+    out = tmp_path / "r"
+    write_report(result, out)
+    outside = tmp_path / "outside.txt"
+    outside.write_text("precious\n")
+    sha = hashlib.sha256(outside.read_bytes()).hexdigest()
+    manifest = json.loads((out / MANIFEST).read_text())
+    manifest["files"].update({"../outside.txt": sha, str(outside): sha})
+    (out / MANIFEST).write_text(json.dumps(manifest))
+    write_report(result, out, force=True)
+    assert outside.read_text() == "precious\n"
+    assert set(json.loads((out / MANIFEST).read_text())["files"]) == {"report.md", "residuals.png", "effects.png"}
+
+
+def test_a_foreign_manifest_is_refused(csjm_csv, tmp_path):
+    import robot_stiffness as rs
+    from robot_stiffness import csjm
+    from robot_stiffness.report import write_report
+
+    out = tmp_path / "r"
+    out.mkdir()
+    (out / MANIFEST).write_text("not json")
+    before = digest(tmp_path)
+    with pytest.raises(rs.OutputPathError) as e:
+        write_report(csjm.diagnose(csjm_csv), out, force=True)
+    assert "not a manifest written by robot-stiffness" in str(e.value)
+    assert digest(tmp_path) == before and not leftovers(tmp_path)
+
+
 # ----------------------------------------------------------------------------- output paths, up front
 
 
@@ -187,7 +220,7 @@ def test_unwritable_json_names_the_users_path_and_the_reason(small, tmp_path):
     assert proc.returncode == 1
     line = one_error_line(proc)
     assert "/proc/x.json" in line and ".tmp-" not in line, line
-    assert any(r in line for r in ("permission denied", "read-only", "no such")), line
+    assert any(r in line for r in ("permission denied", "read-only", "cannot create files")), line
 
     proc = run_cli(["identify", "vjm", str(small), "--json", "nodir/x.json"], cwd=tmp_path)
     line = one_error_line(proc)

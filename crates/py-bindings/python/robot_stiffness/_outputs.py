@@ -62,8 +62,8 @@ def _reason(e: OSError) -> str:
         return "read-only file system"
     if e.errno in (errno.EACCES, errno.EPERM):
         return "permission denied"
-    if e.errno == errno.ENOENT:
-        return "no such folder"
+    if e.errno == errno.ENOENT:  # the folder exists (checked before) but refuses new files
+        return "cannot create files in that folder"
     if e.errno == errno.ENOSPC:
         return "no space left on device"
     if e.errno == errno.ENOTDIR:
