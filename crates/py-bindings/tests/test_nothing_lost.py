@@ -232,6 +232,12 @@ def test_unwritable_json_names_the_users_path_and_the_reason(small, tmp_path):
     assert proc.returncode == 1 and "--json adir" in line and "folder" in line, line
 
 
+def test_one_path_for_two_outputs_is_refused(tmp_path):
+    proc = run_cli(["simulate", "vjm", "o.csv", "--poses", "3", "--truth", "./o.csv"], cwd=tmp_path)
+    assert proc.returncode == 1 and "given as two different outputs" in one_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs POSIX permissions, not root")
 def test_read_only_folder_is_reported_as_permission_denied(small, tmp_path):
     ro = tmp_path / "ro"

@@ -27,6 +27,7 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -333,7 +334,8 @@ class Robot:
         naming the array and dimension, :class:`~robot_stiffness.InvalidValueError` for NaN,
         :class:`~robot_stiffness.IdentificationError` for too few measurements.
         """
-        if is_table(q) and wrench is None and displacement is None:
+        from_table = is_table(q) and wrench is None and displacement is None
+        if from_table:
             table = q
             q = columns(table, joint_columns(self.n_joints), "joint angles")
             wrench = columns(table, WRENCH, "the wrench")
@@ -346,7 +348,8 @@ class Robot:
                 "measurement columns as its first argument"
             )
         q_arr = f64(q, "q")
-        with blame_rows():
+        # A table's cells are named by column and row; arrays keep the core's array/row/column.
+        with blame_rows() if from_table else contextlib.nullcontext():
             text = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
                                   noise_scale_known, nonnegative, dense, method)
         return Identification._from_json(text)
