@@ -238,6 +238,25 @@ def test_one_path_for_two_outputs_is_refused(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_input_problems_name_the_input(small, tmp_path):
+    (tmp_path / "adir").mkdir()
+    (tmp_path / "wrong.csv").write_text("a,b\n1,2\n")
+    cases = [
+        (["identify", "vjm", "adir"], "DATA.csv adir is a folder"),
+        (["simulate", "vjm", "o.csv", "--urdf", "adir", "--base", "a", "--tip", "b"], "--urdf adir is a folder"),
+        (["identify", "csjm", "wrong.csv"], "wrong.csv: missing column"),
+        (["diagnose", "vjm", "wrong.csv"], "wrong.csv: "),
+        (["identify", "vjm", str(small), "--json="], "--json: empty file name"),
+        (["diagnose", "vjm", str(small), "--report="], "--report: empty folder name"),
+    ]
+    before = listing(tmp_path)
+    for args, words in cases:
+        proc = run_cli(args, cwd=tmp_path)
+        line = one_error_line(proc)
+        assert proc.returncode == 1 and words in line, (args, line)
+        assert listing(tmp_path) == before
+
+
 @pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs POSIX permissions, not root")
 def test_read_only_folder_is_reported_as_permission_denied(small, tmp_path):
     ro = tmp_path / "ro"

@@ -313,6 +313,8 @@ class Outputs:
 
     def file(self, final: PathLike, flag: Optional[str] = None) -> StagedFile:
         """Reserve the output file ``final``; ``flag`` (e.g. ``--json``) names it in messages."""
+        if not os.fspath(final):
+            raise OutputPathError(f"{flag or 'output'}: empty file name")
         path = Path(final)
         label = _label(path, flag)
         if path.is_dir():
@@ -334,6 +336,8 @@ class Outputs:
     ) -> StagedDirectory:
         """Reserve the output folder ``final`` (see the module docstring). ``expected`` are the
         relative names the command will write, checked against the user's files up front."""
+        if not os.fspath(final):
+            raise OutputPathError(f"{flag or 'output folder'}: empty folder name")
         path = Path(final)
         label = _label(path, flag)
         for inp in self._inputs:

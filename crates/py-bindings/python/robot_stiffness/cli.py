@@ -112,7 +112,32 @@ def _robot(args: argparse.Namespace) -> Any:
         return Robot.bundled(args.tip)
     if not args.base or not args.tip:
         raise CliError("--urdf needs both --base LINK and --tip LINK")
+    _check_input(args.urdf, "--urdf")
     return Robot.from_urdf(args.urdf, args.base, args.tip)
+
+
+def _check_input(path: str, what: str) -> None:
+    """An input file must be a readable regular file (checked before anything is computed)."""
+    p = Path(path)
+    if not path:
+        raise CliError(f"{what}: empty file name")
+    if p.is_dir():
+        raise CliError(f"{what} {path} is a folder, expected a file")
+    if p.exists() and not os.access(p, os.R_OK):
+        raise CliError(f"{what} {path}: permission denied")
+
+
+@contextlib.contextmanager
+def _data_file(path: str) -> Iterator[None]:
+    """Name the measurement file in its errors (the core names only line and column)."""
+    _check_input(path, "DATA.csv")
+    try:
+        yield
+    except DataFileError as e:
+        text = " ".join(str(e).split())
+        if path in text:
+            raise
+        raise CliError(f"{path}: {text}") from None
 
 
 def _model_spec(text: str) -> Any:
@@ -210,7 +235,7 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
         raise CliError(f"--poses {args.poses} × --wrenches-per-pose {args.wrenches_per_pose} = {rows} rows; "
                        f"at most {T.MAX_ROWS} rows are simulated at once")
     csv_out = out.file(args.out)
-    truth_out = out.file(args.truth, "--truth") if args.truth else None
+    truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
     robot = _robot(args)
     specs = list(args.effect or [])
     effects = [parse_effect(e) for e in specs]
@@ -240,7 +265,7 @@ def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import simulate as simulate_csjm
 
     csv_out = out.file(args.out)
-    truth_out = out.file(args.truth, "--truth") if args.truth else None
+    truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
     specs = list(args.effect or [])
     effects = [parse_effect(e) for e in specs]
     with _effect_errors(specs):
@@ -261,9 +286,10 @@ def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
 def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from .vjm import read_measurements
 
-    json_out = out.file(args.json, "--json") if args.json else None
+    json_out = out.file(args.json, "--json") if args.json is not None else None
     robot = _robot(args)
-    data = in_worker(read_measurements, args.data, robot.n_joints)
+    with _data_file(args.data):
+        data = in_worker(read_measurements, args.data, robot.n_joints)
     res = in_worker(
         robot.identify,
         data.q,
@@ -294,8 +320,9 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
 def cmd_identify_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import identify_csv
 
-    json_out = out.file(args.json, "--json") if args.json else None
-    fit = in_worker(identify_csv, args.data, order=args.order, project=args.project)
+    json_out = out.file(args.json, "--json") if args.json is not None else None
+    with _data_file(args.data):
+        fit = in_worker(identify_csv, args.data, order=args.order, project=args.project)
     doc = fit.to_dict()
     if json_out is not None:
         json_out.write_text(_json_text(doc))
@@ -345,7 +372,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
 
 
 def _report_dir(out: Outputs, args: argparse.Namespace, files: Sequence[str]) -> Optional[Path]:
-    if not args.report:
+    if args.report is None:
         return None
     return out.directory(args.report, force=args.force, flag="--report", expected=files).path
 
@@ -354,10 +381,11 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from .report import REPORT_FILES, render_report, story
     from .vjm import read_measurements
 
-    json_out = out.file(args.json, "--json") if args.json else None
+    json_out = out.file(args.json, "--json") if args.json is not None else None
     report_dir = _report_dir(out, args, REPORT_FILES)
     robot = _robot(args)
-    data = in_worker(read_measurements, args.data, robot.n_joints)
+    with _data_file(args.data):
+        data = in_worker(read_measurements, args.data, robot.n_joints)
     result = _diagnose(robot, data, args).to_dict()
     if json_out is not None:
         json_out.write_text(_json_text(result))
@@ -375,11 +403,13 @@ def cmd_diagnose_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import diagnose as diagnose_csjm
     from .report import CSJM_REPORT_FILES, render_report, story
 
-    json_out = out.file(args.json, "--json") if args.json else None
+    json_out = out.file(args.json, "--json") if args.json is not None else None
     report_dir = _report_dir(out, args, CSJM_REPORT_FILES)
-    result = in_worker(
-        diagnose_csjm, args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project
-    ).to_dict()
+    with _data_file(args.data):
+        diagnosis = in_worker(
+            diagnose_csjm, args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project
+        )
+    result = diagnosis.to_dict()
     if json_out is not None:
         json_out.write_text(_json_text(result))
     if report_dir is not None:
