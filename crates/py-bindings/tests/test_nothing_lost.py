@@ -442,3 +442,23 @@ def test_an_unexpected_exception_is_one_line_asking_for_a_report(tmp_path, monke
     monkeypatch.setenv("ROBOT_STIFFNESS_DEBUG", "1")
     assert cli.main(["identify", "csjm", "x.csv"]) == 1
     assert "Traceback" in capsys.readouterr().err
+
+
+def test_a_conflict_found_at_commit_leaves_no_output_at_all(tmp_path):
+    """A file of the user's that appears in the report folder during the run is refused at the
+    end, before any output (the JSON too) is renamed into place."""
+    import robot_stiffness as rs
+    from robot_stiffness._outputs import Outputs
+
+    (tmp_path / "rep").mkdir()
+    out = Outputs()
+    staged_json = out.file(tmp_path / "d.json", "--json")
+    staged_dir = out.directory(tmp_path / "rep", expected=["report.md"])
+    staged_json.write_text("{}\n")
+    (staged_dir.path / "report.md").write_text("the tool's report\n")
+    (tmp_path / "rep" / "report.md").write_text("the user's report\n")  # appears meanwhile
+    with pytest.raises(rs.OutputPathError):
+        out.commit()
+    out.discard()
+    assert (tmp_path / "rep" / "report.md").read_text() == "the user's report\n"
+    assert not (tmp_path / "d.json").exists() and not leftovers(tmp_path)

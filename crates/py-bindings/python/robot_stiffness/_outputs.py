@@ -236,6 +236,13 @@ class StagedDirectory:
                 out.append(Path(root, name).relative_to(self.path).as_posix())
         return sorted(out)
 
+    def precheck(self) -> None:
+        """The checks :meth:`commit` makes, without writing (run for every output first)."""
+        if self.final.exists() or self.final.is_symlink():
+            if not self.final.is_dir():
+                raise OutputPathError(f"cannot write {self.label}: it exists and is not a folder")
+            self._check_conflicts(self._staged_files())
+
     def commit(self) -> None:
         written = self._staged_files()
         new = _Manifest({rel: _sha256(self.path / rel) for rel in written})
@@ -352,6 +359,8 @@ class Outputs:
     def commit(self) -> None:
         """Rename every staged output into place."""
         with self._lock, signals_deferred():
+            for d in self._dirs:  # a refused folder must not leave the files half-committed
+                d.precheck()
             mode = 0o666 & ~_UMASK
             for f in self._files:
                 os.chmod(f.tmp, mode)
