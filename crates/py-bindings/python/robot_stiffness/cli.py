@@ -63,6 +63,12 @@ Examples:
   robot-stiffness identify csjm csjm.csv --json k.json
   robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
   robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
+
+Outputs: every output path is checked before the run. A --report/--out folder is created if
+missing; an existing non-empty one needs --force, and then only the files robot-stiffness wrote
+there earlier (its .robot-stiffness-manifest.json) are replaced — nothing else is touched.
+Exit status: 0 done, 1 error (one line on stderr), 2 bad flag, 130 Ctrl-C, 143 SIGTERM.
+ROBOT_STIFFNESS_DEBUG=1 shows the traceback of an internal error.
 """
 
 
