@@ -12,7 +12,8 @@ the function named. The rules:
 * ``bool``: ``True``/``False`` (numpy booleans and the integers 0/1 too);
 * ``str``: a string;
 * ``PathLike``: a ``str`` or ``os.PathLike`` that does not look like file *contents* (CSV or
-  XML text passed where a path is expected is refused, quoting at most 40 characters).
+  XML text passed where a path is expected is refused, quoting at most 40 characters);
+* ``Robot``: a :class:`robot_stiffness.vjm.Robot`.
 """
 
 from __future__ import annotations
@@ -111,12 +112,24 @@ def _check_str(value: Any, name: str) -> str:
     return value
 
 
+def _robot(value: Any, name: str) -> Any:
+    from .vjm import Robot
+
+    if not isinstance(value, Robot):
+        raise ArgumentTypeError(
+            f"{name} must be a robot_stiffness.vjm.Robot (Robot.bundled(), Robot.from_urdf(...)), "
+            f"got {_type_name(value)} {quote(value)}"
+        )
+    return value
+
+
 _CHECKS: Dict[str, Callable[[Any, str], Any]] = {
     "int": integer,
     "float": real,
     "bool": flag,
     "str": _check_str,
     "PathLike": check_path,
+    "Robot": _robot,
 }
 
 

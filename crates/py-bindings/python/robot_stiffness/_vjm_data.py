@@ -6,7 +6,7 @@ import contextlib
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, List, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -16,6 +16,9 @@ from ._arguments import check_path, checked
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
+
+if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
+    from .vjm import Robot
 
 Array = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -164,7 +167,7 @@ class Campaign:
 
 @checked
 def simulate(
-    robot: Any,
+    robot: Robot,
     effects: Sequence[Dict[str, Any]] = (),
     *,
     n_poses: int = 40,
@@ -238,7 +241,7 @@ class Diagnosis:
 
 @checked
 def diagnose(
-    robot: Any,
+    robot: Robot,
     data: Any,
     *,
     baseline: Any = None,
@@ -274,7 +277,7 @@ def diagnose(
     )
 
 
-def _diagnose_core(robot: Any, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
+def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
                    split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback]) -> str:
     return str(_core.vjm_diagnose(
         robot._inner,
@@ -294,7 +297,7 @@ def _diagnose_core(robot: Any, m: Measurements, baseline: Any, fdr: Optional[flo
 
 
 @checked
-def seed_study(robot: Any, *, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> Dict[str, Any]:
+def seed_study(robot: Robot, *, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> Dict[str, Any]:
     """The seed paper's study on ``robot`` (7 joints): Table I configurations clipped to the
     joint limits, two wrenches each, a true model with tilting springs of ``tilt_ratio`` × the
     torsional compliance. Returns the mean relative errors of the traditional and extended

@@ -23,6 +23,8 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
+from ._arguments import checked
+from ._errors import ArgumentTypeError, InvalidValueError
 from ._outputs import Outputs
 
 __all__ = ["write_report", "story", "percent", "atomic_directory", "REPORT_FILES", "CSJM_REPORT_FILES"]
@@ -486,6 +488,7 @@ def render_report(result: Dict[str, Any], directory: PathLike, *, title: str = "
     return md
 
 
+@checked
 def write_report(result: Any, out_dir: PathLike, *, title: str = "Stiffness diagnosis",
                  source: Optional[str] = None, force: bool = False) -> Path:
     """Write the report of a diagnosis (a :class:`~robot_stiffness.vjm.Diagnosis` or its dict)
@@ -496,8 +499,16 @@ def write_report(result: Any, out_dir: PathLike, *, title: str = "Stiffness diag
     report wrote there (listed in its ``.robot-stiffness-manifest.json``, unchanged since) are
     replaced or removed, and every other file is left alone. Nothing is written unless the
     whole report was rendered."""
-    data = result.to_dict() if hasattr(result, "to_dict") else dict(result)
+    data = result.to_dict() if hasattr(result, "to_dict") else result
+    if not isinstance(data, dict) or not {"baseline", "findings", "extended"} <= set(data):
+        raise ArgumentTypeError(
+            "result must be a diagnosis: the value returned by vjm.diagnose / csjm.diagnose or its to_dict(), "
+            f"got {type(result).__name__}"
+        )
     files = CSJM_REPORT_FILES if is_csjm(data) else REPORT_FILES
     with atomic_directory(out_dir, force=force, expected=files) as tmp:
-        render_report(data, tmp, title=title, source=source)
+        try:
+            render_report(data, tmp, title=title, source=source)
+        except (KeyError, IndexError, TypeError) as e:
+            raise InvalidValueError(f"result is not a complete diagnosis ({type(e).__name__}: {e})") from None
     return Path(out_dir) / "report.md"

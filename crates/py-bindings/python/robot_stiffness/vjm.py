@@ -82,7 +82,18 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 def _model(model: ModelSpec) -> Union[str, List[str]]:
-    return model if isinstance(model, str) else [str(s) for s in model]
+    if isinstance(model, str):
+        return model
+    try:
+        labels = list(model)
+    except TypeError:
+        labels = None
+    if labels is not None and all(isinstance(s, str) for s in labels):
+        return [str(s) for s in labels]
+    raise ArgumentTypeError(
+        f"model must be 'traditional', 'extended' or a list of spring labels like ['J1z', 'J2x'], "
+        f"got {type(model).__name__} {repr(model)[:40]}"
+    )
 
 
 def _nan(values: Sequence[Optional[float]]) -> Array:
