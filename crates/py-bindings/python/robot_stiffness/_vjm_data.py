@@ -14,7 +14,7 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
-from ._errors import ArgumentTypeError, DataFileError
+from ._errors import ArgumentTypeError, DataFileError, ShapeError
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
@@ -55,17 +55,25 @@ class Measurements:
     def __len__(self) -> int:
         return int(self.q.shape[0])
 
+    @checked
     def to_csv_text(self) -> str:
         """The table in the measurement-file format (validated, full float precision)."""
+        q = f64(self.q, "q")
+        if q.ndim != 2:
+            raise ShapeError(f"q must be (N, n) joint angles, got shape {q.shape}")
+        if self.set is not None and (
+            isinstance(self.set, str) or not all(isinstance(v, str) for v in self.set)
+        ):
+            raise ArgumentTypeError("set must be a list of 'train'/'test' strings")
         return str(
             _core.vjm_to_csv(
-                int(self.q.shape[1]),
-                self.q,
-                self.wrench,
-                self.displacement,
-                rotation=self.rotation,
-                pose=None if self.pose is None else [int(p) for p in self.pose],
-                set=self.set,
+                int(q.shape[1]),
+                q,
+                f64(self.wrench, "wrench"),
+                f64(self.displacement, "displacement"),
+                rotation=None if self.rotation is None else f64(self.rotation, "rotation"),
+                pose=None if self.pose is None else _pose_list(self.pose),
+                set=None if self.set is None else list(self.set),
             )
         )
 
@@ -116,6 +124,8 @@ def _pose_ids(values: Array) -> npt.NDArray[np.int64]:
 
 def _pose_list(pose: Any) -> List[int]:
     arr = np.asarray(pose)
+    if arr.ndim != 1:
+        raise ShapeError(f"pose must be a one-dimensional sequence of pose ids, got shape {arr.shape}")
     if arr.dtype.kind in "iu":
         return [int(p) for p in arr]
     return [int(p) for p in _pose_ids(f64(arr, "pose"))]
