@@ -23,7 +23,7 @@ import inspect
 import math
 import numbers
 import os
-from typing import Any, Callable, Dict, Optional, Tuple, TypeVar, cast
+from typing import Any, Callable, Dict, List, Optional, Tuple, TypeVar, cast
 
 import numpy as np
 
@@ -146,31 +146,42 @@ def _rule(annotation: Any) -> Tuple[Optional[Callable[[Any, str], Any]], bool]:
 
 def checked(fn: F) -> F:
     """Decorator: check the annotated scalar/path arguments of ``fn`` and turn built-in
-    argument errors into :class:`StiffnessError` subclasses naming the function."""
+    argument errors into :class:`StiffnessError` subclasses naming the function.
+
+    Only the arguments actually passed are checked (defaults are the package's own); this
+    costs a few µs per call, no ``inspect.Signature.bind``."""
     sig = inspect.signature(fn)
-    rules = {}
+    positional: List[Optional[Tuple[str, Callable[[Any, str], Any], bool]]] = []
+    by_name: Dict[str, Tuple[str, Callable[[Any, str], Any], bool]] = {}
     for pname, param in sig.parameters.items():
         check, optional = _rule(param.annotation)
-        if check is not None:
-            rules[pname] = (check, optional)
+        rule = None if check is None else (pname, check, optional)
+        if param.kind in (param.POSITIONAL_ONLY, param.POSITIONAL_OR_KEYWORD):
+            positional.append(rule)
+        if rule is not None and param.kind != param.POSITIONAL_ONLY:
+            by_name[pname] = rule
     where = f"{fn.__qualname__}()"
+
+    def apply(rule: Tuple[str, Callable[[Any, str], Any], bool], value: Any) -> Any:
+        pname, check, optional = rule
+        if value is None and optional:
+            return None
+        try:
+            return check(value, pname)
+        except StiffnessError as e:
+            raise type(e)(f"{where}: {e}") from None
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if any(positional[: len(args)]):
+            args = tuple(
+                apply(rule, a) if rule is not None else a
+                for rule, a in zip(positional, args)
+            ) + args[len(positional):]
+        for key in kwargs.keys() & by_name.keys():
+            kwargs[key] = apply(by_name[key], kwargs[key])
         try:
-            bound = sig.bind(*args, **kwargs)
-        except TypeError as e:
-            raise ArgumentTypeError(f"{where}: {e}") from None
-        for pname, value in bound.arguments.items():
-            rule = rules.get(pname)
-            if rule is None or (value is None and rule[1]):
-                continue
-            try:
-                bound.arguments[pname] = rule[0](value, pname)
-            except StiffnessError as e:
-                raise type(e)(f"{where}: {e}") from None
-        try:
-            return fn(*bound.args, **bound.kwargs)
+            return fn(*args, **kwargs)
         except StiffnessError:
             raise
         except TypeError as e:
