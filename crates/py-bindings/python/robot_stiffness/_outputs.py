@@ -308,6 +308,8 @@ class Outputs:
         self._dirs: List[StagedDirectory] = []
         self._finals: Set[str] = set()
         self._lock = threading.Lock()
+        #: True once :meth:`commit` has put every output in place.
+        self.committed = False
 
     def _claim(self, final: Path, label: str) -> None:
         key = os.path.normcase(os.path.abspath(final))
@@ -372,6 +374,7 @@ class Outputs:
             while self._dirs:
                 self._dirs[0].commit()
                 self._dirs.pop(0)
+            self.committed = True
 
     def discard(self) -> None:
         """Remove every temporary that was not committed (idempotent)."""

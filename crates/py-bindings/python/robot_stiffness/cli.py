@@ -682,10 +682,11 @@ def _outcome(e: BaseException, out: Outputs) -> Tuple[int, Optional[str]]:
     if isinstance(e, BrokenPipeError):
         _quiet_broken_pipe()
         return 0, None
+    written = "the outputs were already written" if out.committed else "no output was written"
     if isinstance(e, KeyboardInterrupt):
-        return 130, f"{PROG}: interrupted; no output was written"
+        return 130, f"{PROG}: interrupted; {written}"
     if isinstance(e, Terminated):
-        return 143, f"{PROG}: terminated; no output was written"
+        return 143, f"{PROG}: terminated; {written}"
     if isinstance(e, (StiffnessError, CliError, Cancelled, OSError)):
         return 1, f"{PROG}: error: {_one_line(e, out)}"
     # A bug: one line, the traceback only on request.
