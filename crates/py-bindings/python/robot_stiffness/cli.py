@@ -731,7 +731,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except BrokenPipeError:  # `robot-stiffness --help | head -1`
         _quiet_broken_pipe()
         return 0
-    code = _run(args)
+    try:
+        code = _run(args)
+    except KeyboardInterrupt:  # a second Ctrl-C while the first one was being handled
+        code = 130
+    except Terminated:
+        code = 143
     if worker_running():
         # Interrupted while the core was still computing in the worker thread: nothing will use
         # its result, and the interpreter cannot finalize around a thread inside native code.
