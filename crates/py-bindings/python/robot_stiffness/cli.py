@@ -37,10 +37,9 @@ from ._interrupt import (
     Terminated,
     cancel,
     flush_std_streams,
-    ignore_signals,
     in_worker,
-    sigterm_raises,
     signals_deferred,
+    signals_raise,
     worker_running,
 )
 from ._outputs import Outputs
@@ -701,13 +700,10 @@ def _outcome(e: BaseException, out: Outputs) -> Tuple[int, Optional[str]]:
 def _run(args: argparse.Namespace) -> int:
     cancel.clear()
     out = Outputs(inputs=[getattr(args, "data", None), getattr(args, "urdf", None)])
-    with sigterm_raises():
+    with signals_raise():
         try:
             return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:
-            if isinstance(e, (KeyboardInterrupt, Terminated)):
-                # Leaving anyway: a second Ctrl-C must not interrupt the cleanup.
-                ignore_signals()
             with signals_deferred():
                 code, line = _outcome(e, out)
                 out.discard()
@@ -737,9 +733,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         code = 130
     except Terminated:
         code = 143
-    if worker_running():
-        # Interrupted while the core was still computing in the worker thread: nothing will use
-        # its result, and the interpreter cannot finalize around a thread inside native code.
+    if worker_running() or code in (130, 143):
+        # Interrupted while the core may still be computing in the worker thread: nothing will
+        # use its result, and the interpreter cannot finalize safely around a thread that is
+        # inside native code and calls back into Python (the progress callback).
         flush_std_streams()
         os._exit(code)
     return code
