@@ -9,6 +9,7 @@ mod kinematics;
 mod lsq;
 mod pinocchio;
 mod prediction;
+mod robustness;
 mod urdf;
 
 mod dataset;
