@@ -9,6 +9,7 @@ mod kinematics;
 mod lsq;
 mod pinocchio;
 mod prediction;
+mod stiffness_model;
 mod urdf;
 
 mod dataset;
