@@ -19,12 +19,14 @@
 mod error;
 mod file;
 mod predict;
+mod robust;
 
 use serde::{Deserialize, Serialize};
 
 pub use error::ModelError;
 pub use file::MODEL_SCHEMA;
 pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
+pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
 use crate::chain::SerialChain;
 use crate::hashing::{kinematics_sha256, sha256_hex};
@@ -134,6 +136,12 @@ pub struct EstimateRecord {
     /// Covariance of x, m×m rows, (rad/(N·m))²: σ²·S⁻¹(A_sᵀA_s)⁺S⁻¹, meaningful on the row
     /// space only; `None` when no noise scale was available (no degrees of freedom).
     pub covariance: Option<Vec<Vec<f64>>>,
+    /// How `covariance` was obtained: `model` — σ²(AᵀA)⁺ of the identification, which assumes
+    /// independent noise of the assumed relative sizes on every equation; `robust` — the
+    /// cluster-robust sandwich over measurements (see
+    /// [`StiffnessModel::with_robust_covariance`]), valid for any noise correlation within a
+    /// measurement (the force sensor's error makes it so).
+    pub covariance_method: String,
     /// Column norms S of the whitened design (‖A e_k‖), the metric of the rank decisions.
     pub column_scale: Vec<f64>,
     /// Null-space basis in parameter units, m − r vectors of m values: N = S⁻¹V₀ with V₀
@@ -293,6 +301,7 @@ impl StiffnessModel {
             covariance: sol
                 .sigma2
                 .map(|_| sol.covariance.chunks(m).map(|r| r.to_vec()).collect()),
+            covariance_method: robust::COVARIANCE_MODEL.to_string(),
             column_scale: sol.column_scale.clone(),
             null_space: sol.null_space.clone(),
             identified_tol: IDENTIFIED_TOL,
@@ -490,6 +499,14 @@ impl StiffnessModel {
             finite(&format!("null_space[{i}]"), v)?;
         }
         finite("noise.noise_sigma", &self.noise.noise_sigma)?;
+        if e.covariance_method != robust::COVARIANCE_MODEL
+            && e.covariance_method != robust::COVARIANCE_ROBUST
+        {
+            return Err(format!(
+                "covariance_method must be `model` or `robust`, got `{}`",
+                e.covariance_method
+            ));
+        }
         if !(e.identified_tol > 0.0 && e.identified_tol < 1.0) {
             return Err(format!(
                 "identified_tol must be in (0, 1), got {}",
