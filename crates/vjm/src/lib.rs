@@ -51,7 +51,7 @@ mod model;
 mod predict;
 mod regressor;
 pub mod stiffness_model;
-pub use so3_stiffness::stats;
+pub use stiffness_core::stats;
 pub mod testbed;
 
 pub use chain::{
