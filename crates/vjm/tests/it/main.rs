@@ -10,6 +10,7 @@ mod lsq;
 mod pinocchio;
 mod prediction;
 mod robustness;
+mod stiffness_model;
 mod urdf;
 
 mod dataset;
