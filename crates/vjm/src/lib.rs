@@ -9,6 +9,8 @@
 //! - [`identify`]: rank-revealing weighted least squares of the compliances from N
 //!   measurements, streaming over threads (TSQR); [`identify_dense`] the dense reference.
 //! - [`predict_deflection`], [`select_configurations`], [`dexterity`].
+//! - [`compensate`]: corrected joint targets so that the loaded tip reaches the nominal pose
+//!   under a [`Load`] (a wrench or a payload).
 //!
 //! Conventions (frames, units, parameter order) are in `docs/conventions.md`; the method
 //! and its deviations from the seed paper in `docs/vjm.md`.
@@ -36,6 +38,7 @@
 #![deny(missing_docs)]
 
 mod chain;
+mod compensate;
 pub mod dataset;
 pub mod design;
 pub mod diagnose;
@@ -43,6 +46,7 @@ mod error;
 mod identify;
 mod kinematics;
 mod lanes;
+mod load;
 pub mod lsq;
 mod model;
 mod predict;
@@ -52,6 +56,10 @@ pub mod testbed;
 
 pub use chain::{
     ActuatedJoint, JointSpec, SerialChain, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP, BUNDLED_URDF,
+};
+pub use compensate::{
+    compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
+    CompensationStatus, CompensationWorkspace,
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
@@ -64,6 +72,7 @@ pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,
     jacobian, jacobian_batch_in_place, jacobian_deflected, jacobian_in_place, Workspace,
 };
+pub use load::{Load, STANDARD_GRAVITY};
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
