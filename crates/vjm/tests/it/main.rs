@@ -3,6 +3,7 @@
 mod strategies;
 
 mod bad_input;
+mod compensation;
 mod design;
 mod identification;
 mod kinematics;
