@@ -13,4 +13,5 @@ mod urdf;
 
 mod dataset;
 mod diagnose;
+mod outside;
 mod testbed;
