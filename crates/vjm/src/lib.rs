@@ -47,7 +47,7 @@ pub mod lsq;
 mod model;
 mod predict;
 mod regressor;
-pub use so3_stiffness::stats;
+pub use stiffness_core::stats;
 pub mod testbed;
 
 pub use chain::{

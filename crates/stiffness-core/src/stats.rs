@@ -3,8 +3,8 @@
 //!
 //! Everything here is self-contained (no statistics dependency) and checked in the tests against
 //! closed forms and published table values. One module serves the whole workspace: the CSJM
-//! identification and diagnosis here, and `vjm` (which re-exports it as `vjm::stats` and
-//! `vjm::diagnose::stats`).
+//! identification and diagnosis (`so3_stiffness::stats`) and `vjm` (`vjm::stats`,
+//! `vjm::diagnose::stats`) re-export it.
 
 use serde::Serialize;
 

@@ -1,0 +1,3 @@
+//! Integration tests of `stiffness-core`.
+
+mod cancel;
