@@ -16,4 +16,5 @@ mod urdf;
 
 mod dataset;
 mod diagnose;
+mod outside;
 mod testbed;
