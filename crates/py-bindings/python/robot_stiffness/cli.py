@@ -31,7 +31,7 @@ from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequ
 
 from . import __version__
 from . import _cli_types as T
-from ._errors import DataFileError, StiffnessError
+from ._errors import DataFileError, StiffnessError, reworded
 from ._interrupt import (
     Cancelled,
     Terminated,
@@ -121,6 +121,10 @@ def _robot(args: argparse.Namespace) -> Any:
     return Robot.from_urdf(args.urdf, args.base, args.tip)
 
 
+#: The Python spelling of an option in a core message → the flag of the command line.
+CLI_NAMES = {"project=True": "--project", "RotationPolicy::Project": "--project"}
+
+
 def _check_input(path: str, what: str) -> None:
     """An input file must be a readable regular file (checked before anything is computed)."""
     p = Path(path)
@@ -137,7 +141,8 @@ def _data_file(path: str) -> Iterator[None]:
     """Name the measurement file in its errors (the core names only line and column)."""
     _check_input(path, "DATA.csv")
     try:
-        yield
+        with reworded(CLI_NAMES):
+            yield
     except DataFileError as e:
         text = " ".join(str(e).split())
         if path in text:
