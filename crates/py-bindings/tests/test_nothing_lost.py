@@ -478,3 +478,37 @@ def test_a_conflict_found_at_commit_leaves_no_output_at_all(tmp_path):
     out.discard()
     assert (tmp_path / "rep" / "report.md").read_text() == "the user's report\n"
     assert not (tmp_path / "d.json").exists() and not leftovers(tmp_path)
+
+
+def test_report_plots_do_not_draw_one_rectangle_per_row(tmp_path, monkeypatch):
+    """A report on a big campaign took minutes: ax.bar drew one rectangle per row and per pose
+    (5 s for the per-pose plot of 1500 poses). Now the drawing cost does not grow per row."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import numpy as np
+    from matplotlib.axes import Axes
+
+    from robot_stiffness import vjm
+    from robot_stiffness.report import render_report
+
+    drawn = {"rectangles": 0}
+    bar, span = Axes.bar, Axes.axvspan
+
+    def counting_bar(self, x, *args, **kwargs):
+        drawn["rectangles"] += int(np.size(x))
+        return bar(self, x, *args, **kwargs)
+
+    def counting_span(self, *args, **kwargs):
+        drawn["rectangles"] += 1
+        return span(self, *args, **kwargs)
+
+    monkeypatch.setattr(Axes, "bar", counting_bar)
+    monkeypatch.setattr(Axes, "axvspan", counting_span)
+    robot = vjm.Robot.bundled()
+    campaign = vjm.simulate(robot, n_poses=600, wrenches_per_pose=2, seed=8)
+    result = vjm.diagnose(robot, campaign.measurements).to_dict()
+    assert len(result["per_pose"]) == 600 and len(result["rows"]) == 1200
+    render_report(result, tmp_path)
+    assert drawn["rectangles"] <= 2 * 60, drawn
+    assert (tmp_path / "errors_per_pose.png").read_bytes()[:4] == b"\x89PNG"
