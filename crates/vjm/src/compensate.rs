@@ -15,7 +15,7 @@
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 use serde::Serialize;
-use so3_stiffness::so3::{exp, log};
+use stiffness_core::so3::{exp, log};
 
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
