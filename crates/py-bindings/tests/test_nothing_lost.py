@@ -243,6 +243,8 @@ def test_input_problems_name_the_input(small, tmp_path):
     (tmp_path / "wrong.csv").write_text("a,b\n1,2\n")
     cases = [
         (["identify", "vjm", "adir"], "DATA.csv adir is a folder"),
+        (["identify", "vjm", "nope.csv"], "DATA.csv nope.csv: no such file"),
+        (["simulate", "vjm", "o.csv", "--urdf", "nope.urdf", "--base", "a", "--tip", "b"], "--urdf nope.urdf: no such"),
         (["simulate", "vjm", "o.csv", "--urdf", "adir", "--base", "a", "--tip", "b"], "--urdf adir is a folder"),
         (["identify", "csjm", "wrong.csv"], "wrong.csv: missing column"),
         (["diagnose", "vjm", "wrong.csv"], "wrong.csv: "),

@@ -130,6 +130,8 @@ def _check_input(path: str, what: str) -> None:
     p = Path(path)
     if not path:
         raise CliError(f"{what}: empty file name")
+    if not p.exists():
+        raise CliError(f"{what} {path}: no such file")
     if p.is_dir():
         raise CliError(f"{what} {path} is a folder, expected a file")
     if p.exists() and not os.access(p, os.R_OK):
