@@ -241,9 +241,11 @@ def test_one_path_for_two_outputs_is_refused(tmp_path):
 def test_input_problems_name_the_input(small, tmp_path):
     (tmp_path / "adir").mkdir()
     (tmp_path / "wrong.csv").write_text("a,b\n1,2\n")
+    (tmp_path / "empty.csv").write_text("")
     cases = [
         (["identify", "vjm", "adir"], "DATA.csv adir is a folder"),
         (["identify", "vjm", "nope.csv"], "DATA.csv nope.csv: no such file"),
+        (["identify", "vjm", "empty.csv"], "DATA.csv empty.csv is empty"),
         (["simulate", "vjm", "o.csv", "--urdf", "nope.urdf", "--base", "a", "--tip", "b"], "--urdf nope.urdf: no such"),
         (["simulate", "vjm", "o.csv", "--urdf", "adir", "--base", "a", "--tip", "b"], "--urdf adir is a folder"),
         (["identify", "csjm", "wrong.csv"], "wrong.csv: missing column"),

@@ -134,8 +134,10 @@ def _check_input(path: str, what: str) -> None:
         raise CliError(f"{what} {path}: no such file")
     if p.is_dir():
         raise CliError(f"{what} {path} is a folder, expected a file")
-    if p.exists() and not os.access(p, os.R_OK):
+    if not os.access(p, os.R_OK):
         raise CliError(f"{what} {path}: permission denied")
+    if p.is_file() and p.stat().st_size == 0:
+        raise CliError(f"{what} {path} is empty")
 
 
 @contextlib.contextmanager
