@@ -82,7 +82,23 @@ pub struct SerialChain {
     limits: Vec<(f64, f64)>,
     /// Pose of the tip frame in the last actuated joint's child frame.
     tip_offset: Isometry3<f64>,
+    /// Where the chain came from (URDF path and content hash), when it came from a URDF.
+    source: Option<UrdfSource>,
 }
+
+/// The URDF a [`SerialChain`] was read from: the path as given and the SHA-256 of its text.
+/// A saved stiffness model records it, and loading the model checks it against the chain.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UrdfSource {
+    /// The path as the caller gave it; `bundled:panda_arm.urdf` for the bundled arm; `None`
+    /// for URDF text given directly.
+    pub path: Option<String>,
+    /// SHA-256 of the URDF text, lowercase hex.
+    pub sha256: String,
+}
+
+/// Name under which the bundled URDF is recorded in a [`UrdfSource`].
+pub const BUNDLED_URDF_PATH: &str = "bundled:panda_arm.urdf";
 
 impl SerialChain {
     /// Loads the chain from `base` to `tip` from a URDF file.
@@ -92,7 +108,11 @@ impl SerialChain {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_urdf_str(&xml, base, tip)
+        let mut chain = Self::from_urdf_str(&xml, base, tip)?;
+        if let Some(source) = chain.source.as_mut() {
+            source.path = Some(path.display().to_string());
+        }
+        Ok(chain)
     }
 
     /// Loads the chain from `base` to `tip` from URDF text.
@@ -100,7 +120,12 @@ impl SerialChain {
         let robot = urdf_rs::read_from_string(xml).map_err(|e| VjmError::Urdf {
             message: e.to_string(),
         })?;
-        Self::from_urdf_robot(&robot, base, tip)
+        let mut chain = Self::from_urdf_robot(&robot, base, tip)?;
+        chain.source = Some(UrdfSource {
+            path: None,
+            sha256: crate::hashing::sha256_hex(xml.as_bytes()),
+        });
+        Ok(chain)
     }
 
     /// Extracts the chain from `base` to `tip` from an already parsed URDF.
@@ -267,6 +292,7 @@ impl SerialChain {
             names,
             limits,
             tip_offset,
+            source: None,
         }
     }
 
@@ -277,7 +303,17 @@ impl SerialChain {
 
     /// The bundled Panda from `panda_link0` to any of its links (e.g. [`BUNDLED_TCP`]).
     pub fn bundled_with_tip(tip: &str) -> Result<Self, VjmError> {
-        Self::from_urdf_str(BUNDLED_URDF, BUNDLED_BASE, tip)
+        let mut chain = Self::from_urdf_str(BUNDLED_URDF, BUNDLED_BASE, tip)?;
+        if let Some(source) = chain.source.as_mut() {
+            source.path = Some(BUNDLED_URDF_PATH.to_string());
+        }
+        Ok(chain)
+    }
+
+    /// The URDF this chain was read from (path as given, SHA-256 of the text); `None` for a
+    /// chain built with [`from_joints`](Self::from_joints) or from an already parsed URDF.
+    pub fn urdf_source(&self) -> Option<&UrdfSource> {
+        self.source.as_ref()
     }
 
     /// Number of actuated joints n.

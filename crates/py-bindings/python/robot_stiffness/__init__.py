@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from . import _core
 from ._errors import (
+    ArgumentTypeError,
     CancelledError,
     ConvergenceError,
     DataFileError,
@@ -26,6 +27,7 @@ from ._errors import (
     InternalError,
     InvalidValueError,
     MissingFileError,
+    OutputPathError,
     RobotModelError,
     ShapeError,
     StiffnessError,
@@ -50,4 +52,6 @@ __all__ = [
     "InternalError",
     "ConvergenceError",
     "CancelledError",
+    "ArgumentTypeError",
+    "OutputPathError",
 ]

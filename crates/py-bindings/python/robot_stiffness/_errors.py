@@ -9,6 +9,9 @@ The Rust core's error enums are mapped onto these classes in one place
 
 from __future__ import annotations
 
+import contextlib
+from typing import Iterator, Mapping
+
 __all__ = [
     "StiffnessError",
     "ShapeError",
@@ -20,6 +23,9 @@ __all__ = [
     "InternalError",
     "ConvergenceError",
     "CancelledError",
+    "ArgumentTypeError",
+    "OutputPathError",
+    "reworded",
 ]
 
 
@@ -55,6 +61,19 @@ class IdentificationError(StiffnessError, ValueError):
     """Identification cannot proceed: too few measurements, a singular problem..."""
 
 
+class ArgumentTypeError(StiffnessError, TypeError):
+    """An argument has the wrong type (a string where a number is expected, a float where an
+    integer is, CSV text where a path is...); the message names the argument."""
+
+
+class OutputPathError(StiffnessError, OSError):
+    """An output cannot be written where asked: its folder is missing or read-only, it is a
+    folder or an input file, or a non-empty folder holds files the tool did not write.
+
+    Nothing is written or removed when this is raised.
+    """
+
+
 class InternalError(StiffnessError, RuntimeError):
     """A bug inside the Rust core (a caught panic). Please report it with the inputs."""
 
@@ -70,3 +89,18 @@ class CancelledError(StiffnessError, RuntimeError):
     Ctrl-C during a long call raises the ordinary ``KeyboardInterrupt`` and an exception raised
     by a ``progress`` callback propagates as itself; this class covers a cancel with neither
     cause."""
+@contextlib.contextmanager
+def reworded(names: Mapping[str, str]) -> Iterator[None]:
+    """Within the block, a :class:`StiffnessError` whose message names a term of another
+    front end (a Rust name such as ``RotationPolicy::Project``) is re-raised, same class,
+    with the caller's term (``project=True`` in Python, ``--project`` on the command line)."""
+    try:
+        yield
+    except StiffnessError as e:
+        text = str(e)
+        better = text
+        for old, new in names.items():
+            better = better.replace(old, new)
+        if better == text:
+            raise
+        raise type(e)(better) from None

@@ -162,6 +162,33 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 }
                 Some(*joint)
             }
+            Effect::MountCompliance {
+                translation,
+                rotation,
+            } => {
+                if !(translation.is_finite()
+                    && *translation >= 0.0
+                    && rotation.is_finite()
+                    && *rotation >= 0.0)
+                {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "mount compliances must be finite and ≥ 0, got {translation} m/N and {rotation} rad/(N·m)"
+                        ),
+                    });
+                }
+                None
+            }
+            Effect::ToolAxialCompliance { compliance } => {
+                if !(compliance.is_finite() && *compliance >= 0.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "tool axial compliance must be finite and ≥ 0, got {compliance} m/N"
+                        ),
+                    });
+                }
+                None
+            }
             Effect::PoseDrift { sigma } => {
                 if !(sigma.is_finite() && *sigma >= 0.0) {
                     return Err(TestbedError::InvalidTruth {

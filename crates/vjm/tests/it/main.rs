@@ -3,6 +3,7 @@
 mod strategies;
 
 mod bad_input;
+mod compensation;
 mod design;
 mod identification;
 mod kinematics;
@@ -10,8 +11,10 @@ mod lsq;
 mod pinocchio;
 mod prediction;
 mod robustness;
+mod stiffness_model;
 mod urdf;
 
 mod dataset;
 mod diagnose;
+mod outside;
 mod testbed;
