@@ -28,6 +28,9 @@ pub enum Kind {
     Identification,
     /// A caught panic or an inconsistent result (`InternalError`, a `RuntimeError`).
     Internal,
+    /// Unusable stiffness model file: edited, stale schema, another robot (`ModelFileError`,
+    /// a `ValueError`).
+    ModelFile,
 }
 
 impl Kind {
@@ -40,6 +43,7 @@ impl Kind {
             Kind::RobotModel => "RobotModelError",
             Kind::Identification => "IdentificationError",
             Kind::Internal => "InternalError",
+            Kind::ModelFile => "ModelFileError",
         }
     }
 }
@@ -227,5 +231,23 @@ impl IntoPyErr for vjm::testbed::TestbedError {
             vjm::testbed::TestbedError::Dataset(d) => d.into_py_err(),
             other => error(Kind::Value, other.to_string()),
         }
+    }
+}
+
+impl IntoPyErr for vjm::ModelError {
+    fn into_py_err(self) -> PyErr {
+        use vjm::ModelError as E;
+        if let E::Vjm(inner) = self {
+            return inner.into_py_err();
+        }
+        let kind = match &self {
+            E::Read { .. } | E::Write { .. } => Kind::MissingFile,
+            E::Format { .. } | E::Schema { .. } | E::Edited { .. } | E::OtherRobot { .. } => {
+                Kind::ModelFile
+            }
+            E::Table { .. } => Kind::DataFile,
+            _ => Kind::Value,
+        };
+        error(kind, self.to_string())
     }
 }

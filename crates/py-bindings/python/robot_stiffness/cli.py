@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
-from . import __version__
+from . import __version__, cli_model
 from ._errors import StiffnessError
 
 PROG = "robot-stiffness"
@@ -246,10 +246,12 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         rotation=data.rotation if args.use_rotations else None,
         nonnegative=args.nonnegative,
         method=args.method,
+        data_file=args.data,
     )
     doc = res.to_dict()
     if args.json:
         out.file(args.json, _json_text(doc))
+    cli_model.stage_model(args, res, out)
     out.commit()
     print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements")
     for label, c, s, ok in zip(res.labels, res.compliance, res.stderr, res.identifiable):
@@ -477,6 +479,7 @@ effects (--effect NAME:key=value,...):
     iv.add_argument("--method", choices=("auto", "normal_equations", "qr"), default="auto",
                     help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")
     iv.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
+    cli_model.add_save_option(iv)
     iv.set_defaults(func=cmd_identify_vjm)
     ic = ide_sub.add_parser(
         "csjm",
@@ -527,6 +530,8 @@ effects (--effect NAME:key=value,...):
     dc.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON")
     dc.add_argument("--report", metavar="DIR", help="write a Markdown report with PNG plots into DIR")
     dc.set_defaults(func=cmd_diagnose_csjm)
+
+    cli_model.add_commands(sub)  # predict
 
     # demo
     demo = sub.add_parser(

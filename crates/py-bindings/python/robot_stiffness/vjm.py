@@ -37,7 +37,7 @@ import numpy.typing as npt
 
 from . import _core
 from ._arrays import f64
-from ._errors import ShapeError
+from ._errors import InvalidValueError, ShapeError
 from ._vjm_data import (
     Campaign,
     Diagnosis,
@@ -47,6 +47,7 @@ from ._vjm_data import (
     seed_study,
     simulate,
 )
+from .model import StiffnessModel
 from ._tables import (
     DISPLACEMENT,
     ROTATION,
@@ -109,7 +110,8 @@ class Identification:
     intervals; ``identifiable`` (bool). ``rank`` is the number of identifiable combinations,
     listed in ``combinations``; ``aliases`` groups parameter labels that alias each other.
     ``method`` is the streaming reduction that produced it (``"normal_equations"`` or ``"qr"``).
-    ``raw`` is the core's full result as a JSON-ready dict.
+    ``raw`` is the core's full result as a JSON-ready dict. ``stiffness_model`` is the
+    :class:`~robot_stiffness.model.StiffnessModel` to predict with (or :meth:`save`).
     """
 
     model: str
@@ -128,9 +130,19 @@ class Identification:
     singular_values: Array
     method: str
     raw: Dict[str, Any] = field(repr=False)
+    stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
+
+    def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
+        """Writes the stiffness model file (``docs/model-file.md``) to ``path``, atomically; read
+        it back with :meth:`robot_stiffness.model.StiffnessModel.load`."""
+        if self.stiffness_model is None:
+            raise InvalidValueError(
+                "this identification carries no stiffness model (it was not made by Robot.identify)"
+            )
+        self.stiffness_model.save(path)
 
     @classmethod
-    def _from_json(cls, text: str) -> "Identification":
+    def _from_json(cls, text: str, model: Optional["StiffnessModel"] = None) -> "Identification":
         raw = json.loads(text)
         params = raw["parameters"]
         labels = [f"J{p['joint']}{p['axis']}" for p in params]
@@ -165,6 +177,7 @@ class Identification:
             singular_values=np.array(raw["singular_values"], dtype=np.float64),
             method=str(raw["method"]),
             raw=raw,
+            stiffness_model=model,
         )
 
     def to_dict(self) -> Dict[str, Any]:
@@ -301,6 +314,7 @@ class Robot:
         nonnegative: bool = False,
         dense: bool = False,
         method: str = "auto",
+        data_file: Optional[Union[str, "os.PathLike[str]"]] = None,
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
@@ -316,7 +330,8 @@ class Robot:
         the streaming one (same answer to ~1e-10). ``method`` picks the streaming reduction:
         ``"auto"`` (normal equations, re-read through QR when the column-scaled design's condition
         number exceeds 1e4), ``"normal_equations"`` or ``"qr"``; ``Identification.method`` says
-        which one produced the result.
+        which one produced the result. ``data_file``: the measurement file the arrays were read
+        from; its path and SHA-256 are recorded in the saved model (``Identification.save``).
 
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
@@ -336,7 +351,8 @@ class Robot:
                 "measurement columns as its first argument"
             )
         q_arr = f64(q, "q")
-        text = self._inner.identify(
+        text, core_model = _core.vjm_identify_model(
+            self._inner,
             q_arr,
             f64(wrench, "wrench"),
             f64(displacement, "displacement"),
@@ -347,8 +363,9 @@ class Robot:
             nonnegative=bool(nonnegative),
             dense=bool(dense),
             method=str(method),
+            data_file=None if data_file is None else os.fspath(data_file),
         )
-        return Identification._from_json(text)
+        return Identification._from_json(text, StiffnessModel(core_model, self))
 
     def predict_deflection(
         self,

@@ -18,6 +18,7 @@
 
 mod error;
 mod file;
+mod pose_table;
 mod predict;
 mod robust;
 
@@ -25,6 +26,7 @@ use serde::{Deserialize, Serialize};
 
 pub use error::ModelError;
 pub use file::MODEL_SCHEMA;
+pub use pose_table::PoseTable;
 pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
 pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
