@@ -6,7 +6,7 @@ use std::sync::Arc;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vjm::{Load, PointMass, SerialChain, StiffnessModel};
+use vjm::{Load, SerialChain, StiffnessModel};
 
 use crate::convert::{batch, to_numpy, to_numpy_bool};
 use crate::errors::{run, value_error, PyResultExt};
@@ -98,7 +98,7 @@ impl PyStiffnessModel {
             .as_ref()
             .map(|w| batch(w, "wrench", &[6]))
             .transpose()?;
-        let load = match (&w, payload) {
+        let loads: Vec<Load> = match (&w, payload) {
             (Some(w), None) => {
                 if w.rows != q.rows {
                     return Err(crate::errors::shape_error(format!(
@@ -106,9 +106,18 @@ impl PyStiffnessModel {
                         w.rows, q.rows
                     )));
                 }
-                Load::Wrench(&w.data)
+                w.data
+                    .chunks_exact(6)
+                    .map(|c| Load::Wrench([c[0], c[1], c[2], c[3], c[4], c[5]]))
+                    .collect()
             }
-            (None, Some((m, cx, cy, cz))) => Load::Payload(PointMass::new(m, [cx, cy, cz]).py()?),
+            (None, Some((mass, cx, cy, cz))) => vec![
+                Load::Payload {
+                    mass,
+                    com: [cx, cy, cz]
+                };
+                q.rows
+            ],
             (Some(_), Some(_)) => {
                 return Err(value_error("give either wrench or payload, not both"))
             }
@@ -119,7 +128,7 @@ impl PyStiffnessModel {
             }
         };
         let (model, chain) = (&self.model, &self.chain);
-        let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
+        let pred = run(py, || model.predict(chain, &q.data, &loads))?.py()?;
         let rows = pred.len();
         let flat = |f: &dyn Fn(&vjm::Prediction) -> [f64; 6]| -> Vec<f64> {
             pred.iter().flat_map(f).collect()

@@ -15,7 +15,7 @@ import pytest
 
 from conftest import listing, run_cli
 from robot_stiffness import InvalidValueError, ModelFileError, StiffnessError
-from robot_stiffness.model import GRAVITY, StiffnessModel
+from robot_stiffness.model import STANDARD_GRAVITY, StiffnessModel
 from robot_stiffness.vjm import Robot, simulate
 
 
@@ -125,7 +125,7 @@ def test_payload_is_gravity_on_a_point_mass(fitted, panda):
     pred = ident.stiffness_model.predict(q, payload=(2.5, *c))
     T = panda.forward_kinematics(q)
     r = T[:3, :3] @ c
-    f = np.array([0.0, 0.0, -2.5 * GRAVITY])
+    f = np.array([0.0, 0.0, -2.5 * STANDARD_GRAVITY])
     np.testing.assert_allclose(pred.wrench[0], np.r_[f, np.cross(r, f)], rtol=0, atol=1e-12)
     by_wrench = ident.stiffness_model.predict(q, wrench=pred.wrench[0])
     np.testing.assert_array_equal(by_wrench.deflection, pred.deflection)
@@ -195,7 +195,7 @@ def test_cli_identify_save_then_predict(saved, panda, tmp_path):
     proc = run_cli(["predict", "vjm", "m.json", "poses.csv", "--payload", "2,0,0,0.1", "--out", "pp.csv"], cwd=saved)
     assert proc.returncode == 0, proc.stderr
     row = (saved / "pp.csv").read_text().splitlines()[1].split(",")
-    assert float(row[col["fz"]]) == -2 * GRAVITY
+    assert float(row[col["fz"]]) == -2 * STANDARD_GRAVITY
 
 
 @pytest.mark.parametrize(

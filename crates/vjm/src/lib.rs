@@ -11,6 +11,8 @@
 //! - [`predict_deflection`], [`select_configurations`], [`dexterity`].
 //! - [`StiffnessModel`]: an identification saved as a versioned, hashed model file, and its
 //!   predictions with standard deviations ([`stiffness_model`]).
+//! - [`compensate`]: corrected joint targets so that the loaded tip reaches the nominal pose
+//!   under a [`Load`] (a wrench or a payload).
 //!
 //! Conventions (frames, units, parameter order) are in `docs/conventions.md`; the method
 //! and its deviations from the seed paper in `docs/vjm.md`.
@@ -38,6 +40,7 @@
 #![deny(missing_docs)]
 
 mod chain;
+mod compensate;
 pub mod dataset;
 pub mod design;
 pub mod diagnose;
@@ -46,6 +49,7 @@ mod hashing;
 mod identify;
 mod kinematics;
 mod lanes;
+mod load;
 pub mod lsq;
 mod model;
 mod predict;
@@ -57,6 +61,10 @@ pub mod testbed;
 pub use chain::{
     ActuatedJoint, JointSpec, SerialChain, UrdfSource, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP,
     BUNDLED_URDF, BUNDLED_URDF_PATH,
+};
+pub use compensate::{
+    compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
+    CompensationStatus, CompensationWorkspace,
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
@@ -70,7 +78,8 @@ pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,
     jacobian, jacobian_batch_in_place, jacobian_deflected, jacobian_in_place, Workspace,
 };
+pub use load::{Load, STANDARD_GRAVITY};
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
-pub use stiffness_model::{DataSource, Load, ModelError, PointMass, Prediction, StiffnessModel};
+pub use stiffness_model::{DataSource, ModelError, Prediction, StiffnessModel};

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 from . import _core
 from ._errors import (
+    ArgumentTypeError,
     DataFileError,
     IdentificationError,
     InternalError,
     InvalidValueError,
     MissingFileError,
     ModelFileError,
+    OutputPathError,
     RobotModelError,
     ShapeError,
     StiffnessError,
@@ -51,4 +53,6 @@ __all__ = [
     "IdentificationError",
     "ModelFileError",
     "InternalError",
+    "ArgumentTypeError",
+    "OutputPathError",
 ]

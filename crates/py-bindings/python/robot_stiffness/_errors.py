@@ -19,6 +19,8 @@ __all__ = [
     "IdentificationError",
     "ModelFileError",
     "InternalError",
+    "ArgumentTypeError",
+    "OutputPathError",
 ]
 
 
@@ -58,6 +60,19 @@ class ModelFileError(StiffnessError, ValueError):
     """A stiffness model file cannot be used: edited after it was saved (content hash), written
     for another schema version, not a model file, or describing another robot (URDF content,
     base, tip, joints). The message names the file and what differs."""
+
+
+class ArgumentTypeError(StiffnessError, TypeError):
+    """An argument has the wrong type (a string where a number is expected, a float where an
+    integer is, CSV text where a path is...); the message names the argument."""
+
+
+class OutputPathError(StiffnessError, OSError):
+    """An output cannot be written where asked: its folder is missing or read-only, it is a
+    folder or an input file, or a non-empty folder holds files the tool did not write.
+
+    Nothing is written or removed when this is raised.
+    """
 
 
 class InternalError(StiffnessError, RuntimeError):

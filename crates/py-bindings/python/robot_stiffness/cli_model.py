@@ -51,10 +51,15 @@ def add_save_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def stage_model(args: argparse.Namespace, result: Any, out: Any) -> None:
-    """Stages the model file of ``result`` (an Identification) when ``--save`` was given."""
-    if getattr(args, "save", None):
-        out.file(args.save, result.stiffness_model.to_json())
+def claim_save(args: argparse.Namespace, out: Any) -> Any:
+    """Reserves the ``--save`` output (before any work, so a bad path fails first); None without."""
+    return out.file(args.save, "--save") if getattr(args, "save", None) is not None else None
+
+
+def write_model(staged: Any, result: Any) -> None:
+    """Fills the reserved ``--save`` output with the model file of ``result`` (an Identification)."""
+    if staged is not None:
+        staged.write_text(result.stiffness_model.to_json())
 
 
 def add_commands(sub: Any) -> None:
@@ -76,8 +81,9 @@ def add_commands(sub: Any) -> None:
         "a payload, from a saved VJM stiffness model.",
         epilog=PREDICT_EPILOG,
     )
-    pv.add_argument("model", metavar="MODEL.json", help="stiffness model file (identify vjm --save)")
-    pv.add_argument("poses", metavar="POSES.csv", help="poses (q1..qn) and optionally fx..mz")
+    # dest model_file / data: the command's inputs, which no output may overwrite (cli._run).
+    pv.add_argument("model_file", metavar="MODEL.json", help="stiffness model file (identify vjm --save)")
+    pv.add_argument("data", metavar="POSES.csv", help="poses (q1..qn) and optionally fx..mz")
     pv.add_argument("--out", required=True, metavar="PRED.csv", help="predictions to write")
     pv.add_argument(
         "--payload",
@@ -127,17 +133,17 @@ def _robot_for(args: argparse.Namespace) -> Any:
         raise InvalidValueError("--base needs --urdf (the bundled arm's base is panda_link0)")
     if args.tip is not None or args.base is not None:
         return Robot.bundled(args.tip)
-    rec = _recorded_robot(args.model)
+    rec = _recorded_robot(args.model_file)
     if rec is None:
         return Robot.bundled()
     urdf, base, tip = rec.get("urdf"), rec.get("base"), rec.get("tip")
     if urdf == BUNDLED_URDF_PATH:
         return Robot.bundled(tip)
     if not urdf:
-        raise InvalidValueError(f"{args.model} records no URDF path: give --urdf, --base and --tip")
+        raise InvalidValueError(f"{args.model_file} records no URDF path: give --urdf, --base and --tip")
     if not Path(urdf).is_file():
         raise InvalidValueError(
-            f"{args.model} was identified on {urdf}, which does not exist here: give --urdf, --base and --tip"
+            f"{args.model_file} was identified on {urdf}, which does not exist here: give --urdf, --base and --tip"
         )
     return Robot.from_urdf(urdf, str(base), str(tip))
 
@@ -166,22 +172,23 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     from . import _core
     from .model import StiffnessModel
 
+    staged = out.file(args.out, "--out")
     payload = None if args.payload is None else _parse_payload(args.payload)
     robot = _robot_for(args)
-    model = StiffnessModel.load(args.model, robot)
-    q, wrench = _core.vjm_read_poses(args.poses, robot._inner)
+    model = StiffnessModel.load(args.model_file, robot)
+    q, wrench = _core.vjm_read_poses(args.data, robot._inner)
     if payload is not None and wrench is not None:
-        raise InvalidValueError(f"{args.poses} has fx..mz columns and --payload was given: use one of them")
+        raise InvalidValueError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
-        raise DataFileError(f"{args.poses}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
+        raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     pred = model.predict(q, wrench=wrench, payload=payload)
-    out.file(args.out, predictions_csv(robot.n_joints, q, pred))
+    staged.write_text(predictions_csv(robot.n_joints, q, pred))
     out.commit()
     n = q.shape[0]
     bad = np.flatnonzero(~pred.identified)
     d = np.linalg.norm(pred.deflection[:, :3], axis=1)
     print(
-        f"wrote {args.out}: {n} rows predicted with {args.model} "
+        f"wrote {args.out}: {n} rows predicted with {args.model_file} "
         f"({len(model.labels)} springs, rank {model.rank}); largest |d| {np.max(d) * 1e3:.3f} mm"
     )
     if not model.has_rotations:
@@ -189,7 +196,7 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     if bad.size:
         print(
             f"warning: {bad.size} of {n} rows excite directions the identification data could not see "
-            f"(first: line {bad[0] + 2} of {args.poses}); they are marked identified=false, their values are "
+            f"(first: line {bad[0] + 2} of {args.data}); they are marked identified=false, their values are "
             "a minimum-norm guess without standard deviations",
             file=sys.stderr,
         )

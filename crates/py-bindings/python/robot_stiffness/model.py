@@ -41,12 +41,12 @@ from ._errors import InvalidValueError
 if TYPE_CHECKING:  # pragma: no cover
     from .vjm import Robot
 
-__all__ = ["StiffnessModel", "Prediction", "GRAVITY", "Payload"]
+__all__ = ["StiffnessModel", "Prediction", "STANDARD_GRAVITY", "Payload"]
 
 Array = npt.NDArray[np.float64]
 
-#: Standard gravity (m/s²) acting along −z of the base frame on a payload.
-GRAVITY = 9.80665
+#: Standard gravity (m/s²) acting along −z of the base frame on a payload (vjm::STANDARD_GRAVITY).
+STANDARD_GRAVITY = 9.80665
 
 #: A payload: a mass in kg (at the tip point), or ``(mass, cx, cy, cz)`` with the centre of
 #: mass in m in the tip frame.

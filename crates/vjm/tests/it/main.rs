@@ -3,15 +3,18 @@
 mod strategies;
 
 mod bad_input;
+mod compensation;
 mod design;
 mod identification;
 mod kinematics;
 mod lsq;
 mod pinocchio;
 mod prediction;
+mod robustness;
 mod stiffness_model;
 mod urdf;
 
 mod dataset;
 mod diagnose;
+mod outside;
 mod testbed;
