@@ -135,7 +135,11 @@ impl StiffnessModel {
                     -h
                 }
             });
-            let eig = nalgebra::SymmetricEigen::new(ih);
+            let eig =
+                stiffness_core::decompose::symmetric_eigen(ih, "eigen-decomposition of I − H_ii")
+                    .map_err(|e| VjmError::Numerical {
+                    message: format!("robust covariance, measurement {i}: {e}"),
+                })?;
             let inv_sqrt = eig
                 .eigenvalues
                 .map(|l| if l > 1e-12 { 1.0 / l.sqrt() } else { 0.0 });
