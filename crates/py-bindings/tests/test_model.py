@@ -232,3 +232,35 @@ def test_cli_predict_bad_input(saved, tmp_path, case, args, pattern):
     assert len(err) == 1, proc.stderr
     assert re.search(pattern, err[0]), (case, err[0])
     assert listing(tmp_path) == before, "nothing written"
+
+
+def test_weird_arguments_raise_only_package_errors(fitted, panda, tmp_path, monkeypatch):
+    """Every argument of the model API, a set of wrong values: only StiffnessError escapes."""
+    from test_api_weird_arguments import WEIRD
+
+    monkeypatch.chdir(tmp_path)
+    m, ident = fitted
+    path = tmp_path / "m.json"
+    ident.save(path)
+    model = ident.stiffness_model
+    cases = [
+        ("StiffnessModel.load", StiffnessModel.load, {"path": str(path), "robot": panda}),
+        ("StiffnessModel.save", model.save, {"path": str(tmp_path / "out.json")}),
+        ("Identification.save", ident.save, {"path": str(tmp_path / "out2.json")}),
+        ("StiffnessModel.predict", model.predict, {"q": m.q[:2], "wrench": m.wrench[:2], "payload": None}),
+        ("StiffnessModel.predict(payload)", model.predict, {"q": m.q[:2], "payload": (1.0, 0.0, 0.0, 0.1)}),
+        ("Robot.identify(data_file)", panda.identify,
+         {"q": m.q, "wrench": m.wrench, "displacement": m.displacement, "data_file": None}),
+    ]
+    escaped = []
+    for name, fn, good in cases:
+        for param in good:
+            for value in WEIRD:
+                kwargs = dict(good, **{param: value})
+                try:
+                    fn(**kwargs)
+                except StiffnessError:
+                    pass
+                except Exception as e:  # noqa: BLE001 - the point of the test
+                    escaped.append(f"{name}({param}={value!r}): {type(e).__name__}: {str(e)[:120]}")
+    assert not escaped, "\n".join(escaped)

@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import checked, real
 from ._arrays import f64
 from ._errors import InvalidValueError
 
@@ -44,6 +45,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["StiffnessModel", "Prediction", "STANDARD_GRAVITY", "Payload"]
 
 Array = npt.NDArray[np.float64]
+PathLike = Union[str, "os.PathLike[str]"]
 
 #: Standard gravity (m/s²) acting along −z of the base frame on a payload (vjm::STANDARD_GRAVITY).
 STANDARD_GRAVITY = 9.80665
@@ -73,23 +75,23 @@ class Prediction:
     excitation: Array
 
 
+_PAYLOAD_NAMES = ("payload mass (kg)", "payload cx (m)", "payload cy (m)", "payload cz (m)")
+
+
 def _payload(payload: Payload) -> tuple:
-    if isinstance(payload, (int, float, np.floating, np.integer)):
-        values = [float(payload), 0.0, 0.0, 0.0]
+    """``(mass, cx, cy, cz)`` from a mass or a sequence of 1 or 4 real numbers."""
+    if isinstance(payload, (str, bytes)) or not hasattr(payload, "__len__"):
+        items = [payload]
     else:
-        try:
-            values = [float(v) for v in payload]
-        except (TypeError, ValueError):
-            raise InvalidValueError(
-                f"payload must be a mass in kg or (mass, cx, cy, cz), got {payload!r}"
-            ) from None
-        if len(values) not in (1, 4):
-            raise InvalidValueError(
-                f"payload must be a mass in kg or (mass, cx, cy, cz), got {len(values)} numbers"
-            )
-        if len(values) == 1:
-            values += [0.0, 0.0, 0.0]
-    return tuple(values)
+        items = list(payload)
+    if len(items) not in (1, 4):
+        raise InvalidValueError(
+            f"payload must be a mass in kg or (mass, cx, cy, cz), got {len(items)} numbers"
+        )
+    values = [real(v, name) for v, name in zip(items, _PAYLOAD_NAMES)]
+    if values[0] < 0:
+        raise InvalidValueError(f"payload mass must be ≥ 0 kg, got {values[0]}")
+    return tuple(values + [0.0] * (4 - len(values)))
 
 
 class StiffnessModel:
@@ -108,7 +110,8 @@ class StiffnessModel:
         self._robot = robot
 
     @classmethod
-    def load(cls, path: Union[str, "os.PathLike[str]"], robot: "Robot") -> "StiffnessModel":
+    @checked
+    def load(cls, path: PathLike, robot: Robot) -> "StiffnessModel":
         """Reads the model file at ``path`` for ``robot``.
 
         Raises :class:`~robot_stiffness.ModelFileError` naming the file when it was edited after
@@ -116,13 +119,10 @@ class StiffnessModel:
         identified on another robot (URDF content, base or tip link, joints);
         :class:`~robot_stiffness.MissingFileError` when it cannot be read.
         """
-        from .vjm import Robot
-
-        if not isinstance(robot, Robot):
-            raise InvalidValueError(f"robot must be a robot_stiffness.vjm.Robot, got {type(robot).__name__}")
         return cls(_core.StiffnessModel.load(os.fspath(path), robot._inner), robot)
 
-    def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
+    @checked
+    def save(self, path: PathLike) -> None:
         """Writes the model file to ``path`` atomically (a failure leaves ``path`` untouched)."""
         self._inner.save(os.fspath(path))
 
@@ -165,6 +165,7 @@ class StiffnessModel:
         model's noise model, σ·noise_sigma; NaN when unknown or not modelled (rotations)."""
         return np.asarray(self._inner.measurement_stddev(), dtype=np.float64)
 
+    @checked
     def predict(
         self,
         q: Any,

@@ -147,7 +147,8 @@ class Identification:
     raw: Dict[str, Any] = field(repr=False)
     stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
 
-    def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
+    @checked
+    def save(self, path: PathLike) -> None:
         """Writes the stiffness model file (``docs/model-file.md``) to ``path``, atomically; read
         it back with :meth:`robot_stiffness.model.StiffnessModel.load`."""
         if self.stiffness_model is None:
@@ -336,7 +337,7 @@ class Robot:
         nonnegative: bool = False,
         dense: bool = False,
         method: str = "auto",
-        data_file: Optional[Union[str, "os.PathLike[str]"]] = None,
+        data_file: Optional[PathLike] = None,
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
