@@ -264,3 +264,28 @@ def test_weird_arguments_raise_only_package_errors(fitted, panda, tmp_path, monk
                 except Exception as e:  # noqa: BLE001 - the point of the test
                     escaped.append(f"{name}({param}={value!r}): {type(e).__name__}: {str(e)[:120]}")
     assert not escaped, "\n".join(escaped)
+
+
+def test_cli_predict_uses_the_robot_recorded_in_the_model(tmp_path):
+    """identify with --urdf, predict without: the model's URDF path, base and tip are used (and
+    checked); --help documents the command."""
+    urdf = ur5_urdf()
+    if urdf is None:
+        pytest.skip("example-robot-data's ur5_robot.urdf not found")
+    robot = ["--urdf", str(urdf), "--base", "base_link", "--tip", "tool0"]
+    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "12", "--seed", "2", *robot], cwd=tmp_path).returncode == 0
+    proc = run_cli(["identify", "vjm", "c.csv", "--model", "extended", "--save", "m.json", *robot], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    rec = json.loads((tmp_path / "m.json").read_text())["model"]["robot"]
+    assert rec["urdf"] == str(urdf) and rec["tip"] == "tool0" and len(rec["urdf_sha256"]) == 64
+    proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "p.csv"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "p.csv").read_text().splitlines()[0].startswith("q1,q2,q3,q4,q5,q6,fx")
+    # The bundled arm is another robot.
+    proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--tip", "panda_link8", "--out", "p2.csv"], cwd=tmp_path)
+    assert proc.returncode == 1 and "another robot" in proc.stderr and not (tmp_path / "p2.csv").exists()
+    # --out must not overwrite an input.
+    proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "m.json"], cwd=tmp_path)
+    assert proc.returncode == 1 and "input" in proc.stderr
+    help_text = run_cli(["predict", "vjm", "--help"], cwd=tmp_path).stdout
+    assert "--payload" in help_text and "true deflection" in help_text
