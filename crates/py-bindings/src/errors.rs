@@ -32,6 +32,9 @@ pub enum Kind {
     Convergence,
     /// Cancelled with no Python exception to re-raise (`CancelledError`, a `RuntimeError`).
     Cancelled,
+    /// Unusable stiffness model file: edited, stale schema, another robot (`ModelFileError`,
+    /// a `ValueError`).
+    ModelFile,
 }
 
 impl Kind {
@@ -46,6 +49,7 @@ impl Kind {
             Kind::Internal => "InternalError",
             Kind::Convergence => "ConvergenceError",
             Kind::Cancelled => "CancelledError",
+            Kind::ModelFile => "ModelFileError",
         }
     }
 }
@@ -241,5 +245,23 @@ impl IntoPyErr for vjm::testbed::TestbedError {
             vjm::testbed::TestbedError::Dataset(d) => d.into_py_err(),
             other => error(Kind::Value, other.to_string()),
         }
+    }
+}
+
+impl IntoPyErr for vjm::ModelError {
+    fn into_py_err(self) -> PyErr {
+        use vjm::ModelError as E;
+        if let E::Vjm(inner) = self {
+            return inner.into_py_err();
+        }
+        let kind = match &self {
+            E::Read { .. } | E::Write { .. } => Kind::MissingFile,
+            E::Format { .. } | E::Schema { .. } | E::Edited { .. } | E::OtherRobot { .. } => {
+                Kind::ModelFile
+            }
+            E::Table { .. } => Kind::DataFile,
+            _ => Kind::Value,
+        };
+        error(kind, self.to_string())
     }
 }

@@ -14,6 +14,7 @@ pub mod diagnose;
 pub mod errors;
 pub mod interrupt;
 pub mod so3;
+pub mod stiffness_model;
 pub mod vjm;
 pub mod vjm_data;
 
@@ -28,5 +29,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     diagnose::register(m)?;
     vjm::register(m)?;
     vjm_data::register(m)?;
+    stiffness_model::register(m)?;
     Ok(())
 }

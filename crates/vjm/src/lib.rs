@@ -82,4 +82,4 @@ pub use load::{Load, STANDARD_GRAVITY};
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
-pub use stiffness_model::{DataSource, ModelError, PointMass, Prediction, StiffnessModel};
+pub use stiffness_model::{DataSource, ModelError, Prediction, StiffnessModel};

@@ -20,6 +20,7 @@ __all__ = [
     "MissingFileError",
     "RobotModelError",
     "IdentificationError",
+    "ModelFileError",
     "InternalError",
     "ConvergenceError",
     "CancelledError",
@@ -59,6 +60,12 @@ class RobotModelError(StiffnessError, ValueError):
 
 class IdentificationError(StiffnessError, ValueError):
     """Identification cannot proceed: too few measurements, a singular problem..."""
+
+
+class ModelFileError(StiffnessError, ValueError):
+    """A stiffness model file cannot be used: edited after it was saved (content hash), written
+    for another schema version, not a model file, or describing another robot (URDF content,
+    base, tip, joints). The message names the file and what differs."""
 
 
 class ArgumentTypeError(StiffnessError, TypeError):

@@ -9,10 +9,10 @@ use std::path::{Path, PathBuf};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use vjm::dataset::{Dataset, SetLabel};
-use vjm::stiffness_model::{Load, IDENTIFIED_TOL};
+use vjm::stiffness_model::IDENTIFIED_TOL;
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
 use vjm::{
-    identify, DataSource, IdentifyOptions, ModelError, PointMass, SerialChain, StiffnessModel,
+    identify, DataSource, IdentifyOptions, Load, ModelError, SerialChain, StiffnessModel,
     VirtualJointModel,
 };
 
@@ -129,7 +129,7 @@ fn ur5_noise_free_predictions_are_exact_although_springs_alias() {
         .iter()
         .flat_map(|&i| campaign.applied_wrench[i])
         .collect();
-    let pred = sm.predict(&chain, &q, Load::Wrench(&w)).unwrap();
+    let pred = sm.predict(&chain, &q, &wrenches(&w)).unwrap();
     let mut worst = 0.0f64;
     for (p, &i) in pred.iter().zip(&test) {
         let t = campaign.true_displacement[i];
@@ -199,7 +199,7 @@ fn a_pose_outside_what_the_data_saw_is_flagged() {
     let load = [10.0, -20.0, 30.0, 0.0, 0.0, 0.0];
     let both: Vec<f64> = q0.iter().chain(&q1).copied().collect();
     let p = sm
-        .predict(&chain, &both, Load::Wrench(&[load, load].concat()))
+        .predict(&chain, &both, &wrenches(&[load, load].concat()))
         .unwrap();
     // Same pose, new load: identified and exact.
     assert!(p[0].identified, "excitation {:e}", p[0].excitation);
@@ -219,11 +219,11 @@ fn a_pose_outside_what_the_data_saw_is_flagged() {
 
 #[test]
 fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
-    let chain = SerialChain::bundled();
+    let (chain, sm, _) = panda_model();
     let q = [0.3, -0.2, 0.1, -1.9, 0.4, 1.5, 0.7];
     let c = [0.05, -0.02, 0.1];
-    let p = PointMass::new(2.5, c).unwrap();
-    let w = p.wrench(&chain, &q).unwrap();
+    let payload = Load::Payload { mass: 2.5, com: c };
+    let p = sm.predict(&chain, &q, &[payload]).unwrap()[0];
     // Independently: the mass's base-frame position from the tip pose, moment r × F.
     let tip = chain.forward_kinematics(&q).unwrap();
     let at = tip.transform_point(&nalgebra::Point3::from(c)) - tip.translation.vector;
@@ -236,20 +236,46 @@ fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
     let want = [f[0], f[1], f[2], m[0], m[1], m[2]];
     for k in 0..6 {
         assert!(
-            (w[k] - want[k]).abs() < 1e-12,
+            (p.wrench[k] - want[k]).abs() < 1e-12,
             "component {k}: {} vs {}",
-            w[k],
+            p.wrench[k],
             want[k]
         );
     }
-    for bad in [f64::NAN, -1.0, f64::INFINITY] {
-        assert!(matches!(
-            PointMass::new(bad, c),
-            Err(ModelError::Payload { .. })
-        ));
+    // The payload's prediction is the prediction under its wrench.
+    let by_wrench = sm.predict(&chain, &q, &[Load::Wrench(p.wrench)]).unwrap()[0];
+    assert_eq!(by_wrench.deflection[..3], p.deflection[..3]);
+    for (bad, what) in [
+        (
+            Load::Payload {
+                mass: f64::NAN,
+                com: c,
+            },
+            "payload mass at row 0",
+        ),
+        (Load::Payload { mass: -1.0, com: c }, "must be ≥ 0 kg"),
+        (
+            Load::Payload {
+                mass: 1.0,
+                com: [0.0, f64::INFINITY, 0.0],
+            },
+            "payload centre of mass at row 0, column 1",
+        ),
+    ] {
+        let err = sm.predict(&chain, &q, &[bad]).unwrap_err();
+        assert!(err.to_string().contains(what), "{err}");
     }
-    let err = PointMass::new(1.0, [0.0, f64::NAN, 0.0]).unwrap_err();
-    assert!(err.to_string().contains("cy"), "{err}");
+}
+
+/// One [`Load::Wrench`] per row of an N×6 row-major array.
+fn wrenches(w: &[f64]) -> Vec<Load> {
+    w.chunks(6)
+        .map(|c| {
+            Load::Wrench(std::array::from_fn(|k| {
+                c.get(k).copied().unwrap_or(f64::NAN)
+            }))
+        })
+        .collect()
 }
 
 /// A small identified Panda model (noise-free campaign, extended model, aliases).
@@ -279,9 +305,15 @@ fn save_load_predict_is_bitwise_identical() {
     let back = StiffnessModel::load(&path, &chain).unwrap();
     assert_eq!(back, sm);
     let q = data.q_flat();
-    let payload = PointMass::new(3.0, [0.0, 0.05, 0.08]).unwrap();
-    let a = sm.predict(&chain, q, Load::Payload(payload)).unwrap();
-    let b = back.predict(&chain, q, Load::Payload(payload)).unwrap();
+    let payload = vec![
+        Load::Payload {
+            mass: 3.0,
+            com: [0.0, 0.05, 0.08]
+        };
+        q.len() / 7
+    ];
+    let a = sm.predict(&chain, q, &payload).unwrap();
+    let b = back.predict(&chain, q, &payload).unwrap();
     for (x, y) in a.iter().zip(&b) {
         for k in 0..6 {
             assert_eq!(x.deflection[k].to_bits(), y.deflection[k].to_bits());
@@ -417,7 +449,7 @@ fn edited_stale_and_foreign_model_files_are_refused() {
     assert!(err.to_string().contains("kinematics"), "{err}");
     // Predicting with another robot is refused too.
     let err = sm
-        .predict(&tcp, &[0.0; 7], Load::Wrench(&[0.0; 6]))
+        .predict(&tcp, &[0.0; 7], &wrenches(&[0.0; 6]))
         .unwrap_err();
     assert!(matches!(err, ModelError::OtherRobot { .. }), "{err}");
     // A failed save leaves nothing behind and names the file.
@@ -431,19 +463,17 @@ fn bad_prediction_inputs_name_the_row() {
     let (chain, sm, _) = panda_model();
     let mut q = vec![0.2; 14];
     q[9] = f64::NAN;
-    let err = sm
-        .predict(&chain, &q, Load::Wrench(&[1.0; 12]))
-        .unwrap_err();
+    let err = sm.predict(&chain, &q, &wrenches(&[1.0; 12])).unwrap_err();
     assert!(err.to_string().contains("row 1"), "{err}");
     let err = sm
-        .predict(&chain, &[0.2; 13], Load::Wrench(&[1.0; 12]))
+        .predict(&chain, &[0.2; 13], &wrenches(&[1.0; 12]))
         .unwrap_err();
     assert!(
         matches!(err, ModelError::Vjm(vjm::VjmError::ShapeMismatch { .. })),
         "{err}"
     );
     let err = sm
-        .predict(&chain, &[0.2; 14], Load::Wrench(&[1.0; 6]))
+        .predict(&chain, &[0.2; 14], &wrenches(&[1.0; 6]))
         .unwrap_err();
     assert!(
         matches!(err, ModelError::Vjm(vjm::VjmError::ShapeMismatch { .. })),
@@ -451,9 +481,7 @@ fn bad_prediction_inputs_name_the_row() {
     );
     let mut w = vec![1.0; 12];
     w[10] = f64::INFINITY;
-    let err = sm
-        .predict(&chain, &[0.2; 14], Load::Wrench(&w))
-        .unwrap_err();
+    let err = sm.predict(&chain, &[0.2; 14], &wrenches(&w)).unwrap_err();
     assert!(
         err.to_string().contains("wrench at row 1, column 4"),
         "{err}"
@@ -502,7 +530,7 @@ fn standard_deviations_cover_the_true_deflection() {
             .collect();
         for (c, sm) in count.iter_mut().zip([&robust, &plain]) {
             for (p, &i) in sm
-                .predict(&chain, &q, Load::Wrench(&w))
+                .predict(&chain, &q, &wrenches(&w))
                 .unwrap()
                 .iter()
                 .zip(&test)
