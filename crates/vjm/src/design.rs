@@ -1,5 +1,8 @@
 //! Experiment design (item 6): scoring configurations by conditioning and picking a
-//! well-conditioned subset from a pool.
+//! well-conditioned subset from a pool; [`plan`] plans poses and wrenches against the
+//! predicted standard errors.
+
+pub mod plan;
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use serde::Serialize;
