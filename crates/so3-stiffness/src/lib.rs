@@ -39,7 +39,7 @@ pub mod error;
 mod fast_math;
 pub mod identification;
 pub mod so3;
-pub mod stats;
+pub use stiffness_core::stats;
 
 pub use csjm::{CsjmGeometry, CsjmSimulator, Stiffness};
 pub use error::{CsjmError, So3Error};

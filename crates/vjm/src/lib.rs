@@ -9,6 +9,8 @@
 //! - [`identify`]: rank-revealing weighted least squares of the compliances from N
 //!   measurements, streaming over threads (TSQR); [`identify_dense`] the dense reference.
 //! - [`predict_deflection`], [`select_configurations`], [`dexterity`].
+//! - [`StiffnessModel`]: an identification saved as a versioned, hashed model file, and its
+//!   predictions with standard deviations ([`stiffness_model`]).
 //! - [`compensate`]: corrected joint targets so that the loaded tip reaches the nominal pose
 //!   under a [`Load`] (a wrench or a payload).
 //!
@@ -43,6 +45,7 @@ pub mod dataset;
 pub mod design;
 pub mod diagnose;
 mod error;
+mod hashing;
 mod identify;
 mod kinematics;
 mod lanes;
@@ -51,11 +54,13 @@ pub mod lsq;
 mod model;
 mod predict;
 mod regressor;
-pub use so3_stiffness::stats;
+pub mod stiffness_model;
+pub use stiffness_core::stats;
 pub mod testbed;
 
 pub use chain::{
-    ActuatedJoint, JointSpec, SerialChain, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP, BUNDLED_URDF,
+    ActuatedJoint, JointSpec, SerialChain, UrdfSource, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP,
+    BUNDLED_URDF, BUNDLED_URDF_PATH,
 };
 pub use compensate::{
     compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
@@ -66,6 +71,7 @@ pub use design::plan::{
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
+pub use hashing::{kinematics_sha256, sha256_hex};
 pub use identify::{
     accumulate, build_design, identify, identify_dense, identify_from_factor, Combination,
     CombinationTerm, Identification, IdentifyOptions, ParameterEstimate, SolveMethod,
@@ -79,3 +85,4 @@ pub use load::{Load, STANDARD_GRAVITY};
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
+pub use stiffness_model::{DataSource, Load, ModelError, PointMass, Prediction, StiffnessModel};

@@ -18,6 +18,8 @@ __all__ = [
     "RobotModelError",
     "IdentificationError",
     "InternalError",
+    "ArgumentTypeError",
+    "OutputPathError",
 ]
 
 
@@ -51,6 +53,19 @@ class RobotModelError(StiffnessError, ValueError):
 
 class IdentificationError(StiffnessError, ValueError):
     """Identification cannot proceed: too few measurements, a singular problem..."""
+
+
+class ArgumentTypeError(StiffnessError, TypeError):
+    """An argument has the wrong type (a string where a number is expected, a float where an
+    integer is, CSV text where a path is...); the message names the argument."""
+
+
+class OutputPathError(StiffnessError, OSError):
+    """An output cannot be written where asked: its folder is missing or read-only, it is a
+    folder or an input file, or a non-empty folder holds files the tool did not write.
+
+    Nothing is written or removed when this is raised.
+    """
 
 
 class InternalError(StiffnessError, RuntimeError):

@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import check_path, checked
 from ._arrays import f64
 from ._errors import DataFileError, ShapeError
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
@@ -135,6 +136,7 @@ def _table_arrays(table: Any) -> Tuple[Array, Array, int]:
     return r9.reshape(-1, 3, 3), tau, int(hits[0])
 
 
+@checked
 def identify(
     R: Any,
     tau: Any = None,
@@ -173,6 +175,7 @@ def identify(
     return StiffnessFit._from_core(d)
 
 
+@checked
 def read_measurements(path: PathLike, *, project: bool = False) -> Tuple[Array, Array, int]:
     """Read a CSJM measurement file: returns ``(R (N, 3, 3), tau (N, 3) in N·m, ref index)``.
 
@@ -180,14 +183,15 @@ def read_measurements(path: PathLike, *, project: bool = False) -> Tuple[Array, 
     exactly one row). Errors name the row and column; a missing file raises
     :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``).
     """
-    R, tau, ref = _core.csjm_read_csv(os.fspath(path), project=bool(project))
+    R, tau, ref = _core.csjm_read_csv(path, project=project)
     return R, tau, int(ref)
 
 
+@checked
 def identify_csv(path: PathLike, *, order: int = 1, project: bool = False) -> StiffnessFit:
     """Read a CSJM measurement file and identify K (see :func:`identify`)."""
     return StiffnessFit._from_core(
-        _core.csjm_identify_csv(os.fspath(path), order=int(order), project=bool(project))
+        _core.csjm_identify_csv(path, order=order, project=project)
     )
 
 
@@ -203,6 +207,7 @@ class Campaign:
     true_R0: Array
 
 
+@checked
 def simulate(
     effects: Sequence[Dict[str, Any]] = (),
     *,
@@ -230,6 +235,7 @@ def simulate(
     return Campaign(csv=d["csv"], true_K=d["true_K"], true_K_D=d["true_K_D"], true_R0=d["true_R0"])
 
 
+@checked
 def diagnose(
     data: Any,
     tau: Any = None,
@@ -255,7 +261,7 @@ def diagnose(
         data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
         text = _core.csjm_diagnose_csv(
-            os.fspath(data), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed, project=bool(project)
+            check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed, project=bool(project)
         )
     elif tau is not None and ref is not None:
         text = _core.csjm_diagnose(

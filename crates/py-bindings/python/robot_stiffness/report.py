@@ -9,22 +9,30 @@ holding ``report.md`` and three plots:
 * ``effects.png`` — the evidence for every candidate effect (first-step F-test p-values), with
   the named effects highlighted.
 
-The directory is built under a temporary name next to ``out_dir`` and renamed at the end, so a
-failure never leaves a half-written report.
+The report is built under a temporary name and moved into ``out_dir`` at the end, so a failure
+never leaves a half-written report, and a file the package did not write is never replaced
+(see :func:`write_report`).
 """
 
 from __future__ import annotations
 
 import math
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-__all__ = ["write_report", "story", "percent", "atomic_directory"]
+from ._arguments import checked
+from ._errors import ArgumentTypeError, InvalidValueError
+from ._outputs import Outputs
+
+__all__ = ["write_report", "story", "percent", "atomic_directory", "REPORT_FILES", "CSJM_REPORT_FILES"]
+
+#: The files of a VJM report (relative to its folder).
+REPORT_FILES = ("report.md", "residuals.png", "errors_per_pose.png", "effects.png")
+#: The files of a CSJM report.
+CSJM_REPORT_FILES = ("report.md", "residuals.png", "effects.png")
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -343,38 +351,26 @@ def _markdown(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
 
 
 class atomic_directory:
-    """Context manager: yields a temporary directory next to ``path`` and renames it to
-    ``path`` on success (replacing an existing directory); on failure it is removed."""
+    """Context manager: yields a temporary folder to fill; on success its files are moved into
+    ``path`` under the rules of :mod:`robot_stiffness._outputs` (a missing folder is created, an
+    empty one filled, a non-empty one refused unless ``force``, and then only the files this
+    package wrote there earlier are replaced); on failure the temporary folder is removed and
+    nothing else is touched."""
 
-    def __init__(self, path: PathLike) -> None:
+    def __init__(self, path: PathLike, *, force: bool = False, expected: Sequence[str] = ()) -> None:
+        self._outputs = Outputs()
+        self._staged = self._outputs.directory(path, force=force, expected=expected)
         self.path = Path(path)
-        self.tmp: Optional[Path] = None
 
     def __enter__(self) -> Path:
-        if self.path.exists() and not self.path.is_dir():
-            raise FileExistsError(f"{self.path} exists and is not a directory")
-        parent = self.path.parent if str(self.path.parent) else Path(".")
-        parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.tmp-", dir=parent))
-        return self.tmp
+        return self._staged.path
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
-        assert self.tmp is not None
-        if exc_type is not None:
-            shutil.rmtree(self.tmp, ignore_errors=True)
-            return
-        self.commit()
-
-    def commit(self) -> None:
-        assert self.tmp is not None
-        old = None
-        if self.path.exists():
-            old = self.path.with_name(f".{self.path.name}.old-{os.getpid()}")
-            os.replace(self.path, old)
-        os.chmod(self.tmp, 0o755)
-        os.replace(self.tmp, self.path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        try:
+            if exc_type is None:
+                self._outputs.commit()
+        finally:
+            self._outputs.discard()
 
 
 def _plot_csjm_residuals(result: Dict[str, Any], path: Path) -> None:
@@ -492,11 +488,27 @@ def render_report(result: Dict[str, Any], directory: PathLike, *, title: str = "
     return md
 
 
+@checked
 def write_report(result: Any, out_dir: PathLike, *, title: str = "Stiffness diagnosis",
-                 source: Optional[str] = None) -> Path:
+                 source: Optional[str] = None, force: bool = False) -> Path:
     """Write the report of a diagnosis (a :class:`~robot_stiffness.vjm.Diagnosis` or its dict)
-    into ``out_dir`` atomically; returns the path of ``report.md``."""
-    data = result.to_dict() if hasattr(result, "to_dict") else dict(result)
-    with atomic_directory(out_dir) as tmp:
-        render_report(data, tmp, title=title, source=source)
+    into ``out_dir``; returns the path of ``report.md``.
+
+    ``out_dir`` is created if missing and filled if empty. A non-empty folder raises
+    :class:`~robot_stiffness.OutputPathError` unless ``force``; then only the files an earlier
+    report wrote there (listed in its ``.robot-stiffness-manifest.json``, unchanged since) are
+    replaced or removed, and every other file is left alone. Nothing is written unless the
+    whole report was rendered."""
+    data = result.to_dict() if hasattr(result, "to_dict") else result
+    if not isinstance(data, dict) or not {"baseline", "findings", "extended"} <= set(data):
+        raise ArgumentTypeError(
+            "result must be a diagnosis: the value returned by vjm.diagnose / csjm.diagnose or its to_dict(), "
+            f"got {type(result).__name__}"
+        )
+    files = CSJM_REPORT_FILES if is_csjm(data) else REPORT_FILES
+    with atomic_directory(out_dir, force=force, expected=files) as tmp:
+        try:
+            render_report(data, tmp, title=title, source=source)
+        except (KeyError, IndexError, TypeError) as e:
+            raise InvalidValueError(f"result is not a complete diagnosis ({type(e).__name__}: {e})") from None
     return Path(out_dir) / "report.md"

@@ -34,7 +34,7 @@ pub mod candidates;
 mod engine;
 pub mod linalg;
 pub mod report;
-pub use so3_stiffness::stats;
+pub use stiffness_core::stats;
 pub mod structure;
 
 use serde::Serialize;
@@ -150,16 +150,8 @@ pub enum DiagnoseError {
     },
 }
 
-/// Progress of a long diagnosis.
-#[derive(Debug, Clone, Copy)]
-pub struct Progress {
-    /// What is being done.
-    pub stage: &'static str,
-    /// Steps done.
-    pub done: usize,
-    /// Steps in this stage (an upper bound for forward selection).
-    pub total: usize,
-}
+/// Progress of a long diagnosis (the workspace-wide record).
+pub use stiffness_core::Progress;
 
 /// Diagnoses `data` measured on `chain`; see the module docs.
 pub fn diagnose(

@@ -139,6 +139,33 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 }
                 Some(*joint)
             }
+            Effect::MountCompliance {
+                translation,
+                rotation,
+            } => {
+                if !(translation.is_finite()
+                    && *translation >= 0.0
+                    && rotation.is_finite()
+                    && *rotation >= 0.0)
+                {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "mount compliances must be finite and ≥ 0, got {translation} m/N and {rotation} rad/(N·m)"
+                        ),
+                    });
+                }
+                None
+            }
+            Effect::ToolAxialCompliance { compliance } => {
+                if !(compliance.is_finite() && *compliance >= 0.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "tool axial compliance must be finite and ≥ 0, got {compliance} m/N"
+                        ),
+                    });
+                }
+                None
+            }
             Effect::PoseDrift { sigma } => {
                 if !(sigma.is_finite() && *sigma >= 0.0) {
                     return Err(TestbedError::InvalidTruth {
@@ -172,7 +199,13 @@ pub fn inverse_condition(chain: &SerialChain, q: &[f64]) -> f64 {
             0.5 * v
         }
     });
-    let s = j.singular_values();
+    // A pose whose Jacobian cannot be decomposed (non-finite) is unusable: condition 0, so the
+    // sampler rejects it and ends with `NoPose` after its attempt cap.
+    let Ok(svd) = stiffness_core::decompose::svd(j, false, false, "SVD of the pose Jacobian")
+    else {
+        return 0.0;
+    };
+    let s = svd.singular_values;
     let smax = s.iter().cloned().fold(0.0, f64::max);
     let smin = s.iter().cloned().fold(f64::INFINITY, f64::min);
     if smax > 0.0 {

@@ -129,6 +129,18 @@ impl Default for TrackerNoise {
 }
 
 impl TrackerNoise {
+    /// A tracker whose displacement noise is plain isotropic Gaussian with per-axis standard
+    /// deviation `sigma` (m) everywhere: no distance term (`mpe_per_m = 0`) and the constant
+    /// part set so that `displacement_sigma` returns `sigma` (to rounding; `mpe_const = √2·σ`).
+    /// Used by studies that sweep the instrument noise; the default stays the MPE model.
+    pub fn isotropic(sigma: f64) -> Self {
+        TrackerNoise {
+            mpe_const: std::f64::consts::SQRT_2 * sigma,
+            mpe_per_m: 0.0,
+            ..Default::default()
+        }
+    }
+
     /// Per-axis standard deviation (m) of a displacement measured at tip point `p` (base frame).
     pub fn displacement_sigma(&self, p: [f64; 3]) -> f64 {
         let l = ((p[0] - self.position[0]).powi(2)

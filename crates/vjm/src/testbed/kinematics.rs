@@ -59,6 +59,12 @@ pub fn deflected_pose(chain: &SerialChain, q: &[f64], theta: &[f64]) -> Deflecte
 
 /// Tip point only (cheaper), same conventions as [`deflected_pose`].
 pub fn deflected_tip(chain: &SerialChain, q: &[f64], theta: &[f64]) -> Vector3<f64> {
+    deflected_tip_frame(chain, q, theta).translation.vector
+}
+
+/// The tip frame (pose of the tip link in the base frame) of the deflected chain, same
+/// conventions as [`deflected_pose`].
+pub fn deflected_tip_frame(chain: &SerialChain, q: &[f64], theta: &[f64]) -> Isometry3<f64> {
     let mut t = Isometry3::identity();
     for (j, joint) in chain.joints().iter().enumerate() {
         t = t * joint.origin() * rot(joint.axis(), q[j]);
@@ -66,5 +72,5 @@ pub fn deflected_tip(chain: &SerialChain, q: &[f64], theta: &[f64]) -> Vector3<f
             t *= rot(w, theta[3 * j + k]);
         }
     }
-    (t * chain.tip_offset()).translation.vector
+    t * chain.tip_offset()
 }

@@ -3,7 +3,8 @@
 //!
 //! - [`TrueModel`]: linear virtual springs (3 per joint) plus [`Effect`]s: tilting compliance,
 //!   harmonic-drive torsion, backlash, wrench bias, frame misalignment, geometric
-//!   non-linearity (K_C), and a pose drift that no candidate explains.
+//!   non-linearity (K_C); and effects no candidate explains ([`outside`]): pose drift, a
+//!   compliant mount, a tool compliant along its axis.
 //! - [`simulate`]: seeded poses within the joint limits and away from singularities, several
 //!   wrenches per pose, the true response, instrument noise; returns a [`Campaign`] whose
 //!   [`Dataset`](crate::dataset::Dataset) can be written as the measurement file.
@@ -14,6 +15,7 @@
 mod campaign;
 pub mod effects;
 pub mod kinematics;
+pub mod outside;
 mod seed_study;
 mod truth;
 

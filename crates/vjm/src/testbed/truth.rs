@@ -5,7 +5,8 @@ use nalgebra::{DVector, Vector3};
 use serde::Serialize;
 
 use super::effects::{backlash_deflection, rotate, HarmonicDriveSpring};
-use super::kinematics::deflected_pose;
+use super::kinematics::{deflected_pose, deflected_tip_frame};
+use super::outside::{mount_motion, moved_by_mount, tool_axial_displacement};
 use crate::chain::SerialChain;
 use crate::model::SpringAxis;
 
@@ -62,6 +63,23 @@ pub enum Effect {
     PoseDrift {
         /// Per-axis standard deviation, m.
         sigma: f64,
+    },
+    /// Not in the diagnosis catalogue: a compliant mount. The whole arm translates by
+    /// `translation·f` and rotates by `rotation·(m + p × f)` about the base origin (the
+    /// reaction of the applied wrench `[f; m]` at the tip point p); see
+    /// [`super::outside::mount_motion`].
+    MountCompliance {
+        /// Translational compliance c_t = 1/k, m/N.
+        translation: f64,
+        /// Rotational compliance c_r = 1/k_rot, rad/(N·m).
+        rotation: f64,
+    },
+    /// Not in the diagnosis catalogue: a tool compliant along its own axis (the tip frame's z
+    /// axis in the unloaded configuration): the tool tip moves by `compliance·(f·z)·z` on top
+    /// of the arm's deflection; see [`super::outside::tool_axial_displacement`].
+    ToolAxialCompliance {
+        /// Axial compliance 1/k_tool, m/N.
+        compliance: f64,
     },
 }
 
@@ -157,7 +175,41 @@ impl TrueModel {
     /// `θ = response(J(q, θ)ᵀ W)` is solved by fixed-point iteration in the deflected
     /// configuration and the displacement is the exact tip motion; otherwise `d = J_t θ` with
     /// `θ = response(J(q)ᵀ W)`.
+    ///
+    /// The out-of-catalogue effects act on top, exactly: a [`Effect::ToolAxialCompliance`]
+    /// adds `c·(f·z)·z` (z from the unloaded tip frame), then a [`Effect::MountCompliance`]
+    /// moves the loaded tip point rigidly with the mount, `d = t + exp(hat φ)(p₀ + d_arm) − p₀`.
     pub fn displacement(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        wrench: &[f64; 6],
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (mut d, tip) = self.arm_displacement(chain, q, wrench);
+        let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
+        for e in &self.effects {
+            if let Effect::ToolAxialCompliance { compliance } = e {
+                let frame = deflected_tip_frame(chain, q, &vec![0.0; self.compliance.len()]);
+                let z = frame.rotation * Vector3::z();
+                d += tool_axial_displacement(*compliance, &z, &f);
+            }
+        }
+        for e in &self.effects {
+            if let Effect::MountCompliance {
+                translation,
+                rotation,
+            } = e
+            {
+                let (t, phi) = mount_motion(*translation, *rotation, wrench, &tip);
+                d = moved_by_mount(&t, &phi, &(tip + d)) - tip;
+            }
+        }
+        (d, tip)
+    }
+
+    /// The arm's own response (springs, tilts, harmonic drives, backlash, K_C), before the
+    /// out-of-catalogue effects; see [`TrueModel::displacement`].
+    fn arm_displacement(
         &self,
         chain: &SerialChain,
         q: &[f64],

@@ -11,8 +11,11 @@ mod lsq;
 mod pinocchio;
 mod planning;
 mod prediction;
+mod robustness;
+mod stiffness_model;
 mod urdf;
 
 mod dataset;
 mod diagnose;
+mod outside;
 mod testbed;

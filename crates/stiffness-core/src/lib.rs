@@ -1,0 +1,38 @@
+//! Robot-free foundations shared by every crate of the robot-stiffness workspace.
+//!
+//! - [`stats`]: distribution tails, nested F tests, Benjamini–Hochberg, ANOVA, rank
+//!   correlation, cluster-robust Wald tests (used by both diagnoses and the identification).
+//! - [`cancel`]: one cooperative cancellation and progress mechanism for every long loop: a
+//!   cheap [`Cancel`] token polled per chunk / candidate / step, a [`Progress`] record, and the
+//!   [`Monitor`] that bundles both for a computation.
+//! - [`decompose`]: SVD and symmetric eigen-decomposition with an iteration cap (nalgebra's
+//!   own loop forever on NaN) and a named [`NotConverged`] error.
+//!
+//! This crate knows nothing about robots, URDF or SO(3); the model crates (`so3-stiffness`,
+//! `vjm`) depend on it, never the other way round.
+//!
+//! ```
+//! use stiffness_core::{Cancel, Cancelled, Monitor, Progress};
+//! // A long loop polls the monitor once per chunk and reports its progress.
+//! fn long_job(monitor: &Monitor<'_>) -> Result<u64, Cancelled> {
+//!     let mut sum = 0u64;
+//!     for chunk in 0..100u64 {
+//!         monitor.check()?;
+//!         sum += chunk;
+//!         monitor.report(Progress { stage: "sum", done: chunk as usize + 1, total: 100 })?;
+//!     }
+//!     Ok(sum)
+//! }
+//! let cancel = Cancel::new();
+//! assert_eq!(long_job(&Monitor::new(cancel.clone())), Ok(4950));
+//! cancel.cancel(); // e.g. from a Ctrl-C handler on another thread
+//! assert_eq!(long_job(&Monitor::new(cancel)), Err(Cancelled));
+//! ```
+#![deny(missing_docs)]
+
+pub mod cancel;
+pub mod decompose;
+pub mod stats;
+
+pub use cancel::{Cancel, Cancelled, Monitor, Progress};
+pub use decompose::NotConverged;

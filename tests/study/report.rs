@@ -1,0 +1,113 @@
+//! Markdown tables of the study's results.
+
+use std::fmt::Write;
+
+use super::run::{CellResult, CsjmResult};
+
+fn pct(x: f64) -> String {
+    format!("{:.1} %", 100.0 * x)
+}
+
+fn verdicts(r: &CellResult, k: usize) -> String {
+    let v = r.top_verdicts(k);
+    if v.is_empty() {
+        return "—".into();
+    }
+    v.iter()
+        .map(|(l, n)| format!("{l} {n}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The false-alarm table: one row per robot × tracker noise × noise mode.
+pub fn false_alarm_table(cells: &[CellResult], fdr: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| robot | tracker σ | noise given | runs | any finding | unexplained | false-alarm rate | 95 % CI | stated FDR | verdicts (runs) |"
+    );
+    let _ = writeln!(s, "|---|---:|---|---:|---:|---:|---:|---|---:|---|");
+    for r in cells {
+        let (lo, hi) = r.alarm_ci();
+        let _ = writeln!(
+            s,
+            "| {} | {} µm | {} | {} | {} | {} | {} | [{}, {}] | {} | {} |",
+            r.robot,
+            r.tracker_sigma_um,
+            if r.noise_given { "yes" } else { "no (21 µm)" },
+            r.runs,
+            r.any_finding,
+            r.unexplained,
+            pct(r.alarm as f64 / r.runs.max(1) as f64),
+            pct(lo),
+            pct(hi),
+            fdr,
+            verdicts(r, 3)
+        );
+    }
+    s
+}
+
+/// The power table: one row per robot × effect × magnitude × noise mode.
+pub fn power_table(cells: &[CellResult]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| robot | effect | magnitude | noise given | runs | detected | 95 % CI | any finding | unexplained | mean gain | verdicts (runs) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---:|---:|---|---:|---:|---:|---|");
+    for r in cells {
+        let (lo, hi) = r.detected_ci();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | [{}, {}] | {} | {} | {:.2} | {} |",
+            r.robot,
+            r.effect,
+            r.magnitude,
+            if r.noise_given { "yes" } else { "no" },
+            r.runs,
+            pct(r.detected as f64 / r.runs.max(1) as f64),
+            pct(lo),
+            pct(hi),
+            r.any_finding,
+            r.unexplained,
+            r.mean_gain,
+            verdicts(r, 3)
+        );
+    }
+    s
+}
+
+/// The CSJM false-alarm line.
+pub fn csjm_table(r: &CsjmResult) -> String {
+    let (lo, hi) = super::stats::clopper_pearson(r.alarm, r.runs, 0.05);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| model | runs | defect finding | unexplained | false-alarm rate | 95 % CI | stated FDR | connection_term named | verdicts (runs) |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|---:|---|");
+    let v = if r.verdicts.is_empty() {
+        "—".to_string()
+    } else {
+        r.verdicts
+            .iter()
+            .map(|(l, n)| format!("{l} {n}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let _ = writeln!(
+        s,
+        "| CSJM prototype (seed campaign) | {} | {} | {} | {} | [{}, {}] | {} | {} | {} |",
+        r.runs,
+        r.defect_finding,
+        r.unexplained,
+        pct(r.alarm as f64 / r.runs.max(1) as f64),
+        pct(lo),
+        pct(hi),
+        r.fdr,
+        r.connection_term,
+        v
+    );
+    s
+}

@@ -1,0 +1,280 @@
+//! Running the study: one cell = one robot × one hidden effect × one tracker noise level, over
+//! a range of campaign seeds, each campaign diagnosed twice (noise level given to diagnose, and
+//! the default noise assumption).
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use serde::Serialize;
+use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
+use vjm::diagnose::report::Diagnosis;
+use vjm::diagnose::{diagnose, DiagnoseOptions};
+use vjm::testbed::{simulate, CampaignSpec, TrackerNoise, TrueModel};
+
+use super::effects::{rms_torque, Hidden, EFFECT_JOINT};
+use super::robots::StudyRobot;
+use super::stats::clopper_pearson;
+
+/// Why a study run failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StudyError {
+    /// Simulating a campaign failed.
+    #[error("{robot}, seed {seed}: simulation failed: {message}")]
+    Simulate {
+        /// Robot.
+        robot: String,
+        /// Campaign seed.
+        seed: u64,
+        /// The testbed's message.
+        message: String,
+    },
+    /// Diagnosing a campaign failed.
+    #[error("{robot}, seed {seed}: diagnose failed: {message}")]
+    Diagnose {
+        /// Robot.
+        robot: String,
+        /// Campaign seed.
+        seed: u64,
+        /// Diagnose's message.
+        message: String,
+    },
+}
+
+/// The outcome of one cell under one noise mode.
+#[derive(Debug, Clone, Serialize)]
+pub struct CellResult {
+    /// Robot name.
+    pub robot: String,
+    /// Effect family (see [`Hidden::family`]).
+    pub effect: String,
+    /// Magnitude with unit.
+    pub magnitude: String,
+    /// Whether the effect is outside the catalogue.
+    pub outside: bool,
+    /// Per-axis tracker noise of the campaigns, µm.
+    pub tracker_sigma_um: f64,
+    /// Whether diagnose was given the tracker noise (else the default assumption, ≈ 21 µm).
+    pub noise_given: bool,
+    /// Campaign seeds `first_seed .. first_seed + runs`.
+    pub first_seed: u64,
+    /// Runs.
+    pub runs: usize,
+    /// Runs where the hidden effect was detected (for `clean`: no finding and not unexplained).
+    pub detected: usize,
+    /// Runs with at least one finding.
+    pub any_finding: usize,
+    /// Runs with `unexplained: true`.
+    pub unexplained: usize,
+    /// Runs with a finding or `unexplained` (the false-alarm count on clean data).
+    pub alarm: usize,
+    /// Verdict labels (`effect(Jja)`, `unexplained`) and how many runs carried each.
+    pub verdicts: BTreeMap<String, usize>,
+    /// Mean held-out gain of the extension.
+    pub mean_gain: f64,
+    /// Wall time of the cell (both modes share simulation), s.
+    pub seconds: f64,
+}
+
+impl CellResult {
+    /// 95 % Clopper–Pearson interval of the detection rate.
+    pub fn detected_ci(&self) -> (f64, f64) {
+        clopper_pearson(self.detected, self.runs, 0.05)
+    }
+
+    /// 95 % Clopper–Pearson interval of the alarm rate.
+    pub fn alarm_ci(&self) -> (f64, f64) {
+        clopper_pearson(self.alarm, self.runs, 0.05)
+    }
+
+    /// The `k` most frequent verdict labels with their counts, most frequent first.
+    pub fn top_verdicts(&self, k: usize) -> Vec<(String, usize)> {
+        let mut v: Vec<(String, usize)> =
+            self.verdicts.iter().map(|(a, b)| (a.clone(), *b)).collect();
+        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        v.truncate(k);
+        v
+    }
+}
+
+fn labels(d: &Diagnosis) -> Vec<String> {
+    let mut out: Vec<String> = d
+        .findings
+        .iter()
+        .map(|f| match (f.joint, &f.axis) {
+            (Some(j), Some(a)) => format!("{}(J{j}{a})", f.effect),
+            (Some(j), None) => format!("{}(J{j})", f.effect),
+            _ => f.effect.to_string(),
+        })
+        .collect();
+    if d.unexplained {
+        out.push("unexplained".into());
+    }
+    out
+}
+
+/// Runs one cell: `runs` campaigns (seeds `first_seed..`) of `robot` carrying `hidden`, with
+/// isotropic tracker noise `sigma` (m) per axis and the testbed's default force sensor; each
+/// campaign is diagnosed with the tracker noise given and with the default assumption.
+/// Returns `[not given, given]`. `progress` is called after each seed.
+pub fn run_cell(
+    robot: &StudyRobot,
+    hidden: &Hidden,
+    sigma: f64,
+    first_seed: u64,
+    runs: usize,
+    progress: &mut dyn FnMut(usize),
+) -> Result<[CellResult; 2], StudyError> {
+    let start = Instant::now();
+    let empty = |given: bool| CellResult {
+        robot: robot.name.into(),
+        effect: hidden.family(),
+        magnitude: hidden.magnitude(),
+        outside: hidden.outside(),
+        tracker_sigma_um: sigma * 1e6,
+        noise_given: given,
+        first_seed,
+        runs: 0,
+        detected: 0,
+        any_finding: 0,
+        unexplained: 0,
+        alarm: 0,
+        verdicts: BTreeMap::new(),
+        mean_gain: 0.0,
+        seconds: 0.0,
+    };
+    let mut out = [empty(false), empty(true)];
+    let chain = &robot.chain;
+    let needs_rms = format!("{hidden:?}").contains("TorsionNonlinear");
+    for (done, seed) in (first_seed..first_seed + runs as u64).enumerate() {
+        let sim_err = |e: vjm::testbed::TestbedError| StudyError::Simulate {
+            robot: robot.name.into(),
+            seed,
+            message: e.to_string(),
+        };
+        let base = CampaignSpec {
+            tracker: TrackerNoise::isotropic(sigma),
+            seed,
+            ..Default::default()
+        };
+        let spec = hidden.spec(&base);
+        let rms = if needs_rms {
+            // The same seed gives the same poses and loads without noise.
+            let quiet = CampaignSpec {
+                noise: false,
+                ..spec.clone()
+            };
+            let c = simulate(chain, &TrueModel::torsion_only(&robot.torsion), &quiet)
+                .map_err(sim_err)?;
+            let q: Vec<Vec<f64>> = (0..c.dataset.len())
+                .map(|i| c.dataset.q(i).to_vec())
+                .collect();
+            rms_torque(chain, &q, &c.applied_wrench, EFFECT_JOINT)
+        } else {
+            0.0
+        };
+        let truth = hidden.truth(&robot.torsion, rms);
+        let campaign = simulate(chain, &truth, &spec).map_err(sim_err)?;
+        for (k, given) in [false, true].into_iter().enumerate() {
+            let mut opts = DiagnoseOptions::default();
+            if given {
+                opts.noise.displacement_sigma = sigma;
+            }
+            let d =
+                diagnose(chain, &campaign.dataset, &opts).map_err(|e| StudyError::Diagnose {
+                    robot: robot.name.into(),
+                    seed,
+                    message: e.to_string(),
+                })?;
+            let r = &mut out[k];
+            r.runs += 1;
+            r.detected += hidden.detected(&d) as usize;
+            r.any_finding += (!d.findings.is_empty()) as usize;
+            r.unexplained += d.unexplained as usize;
+            r.alarm += (!d.findings.is_empty() || d.unexplained) as usize;
+            r.mean_gain += if d.gain.is_finite() { d.gain } else { 0.0 };
+            for l in labels(&d) {
+                *r.verdicts.entry(l).or_insert(0) += 1;
+            }
+        }
+        progress(done + 1);
+    }
+    let secs = start.elapsed().as_secs_f64();
+    for r in out.iter_mut() {
+        r.mean_gain /= r.runs.max(1) as f64;
+        r.seconds = secs;
+    }
+    Ok(out)
+}
+
+/// The CSJM false-alarm cell: clean campaigns (`CsjmEffects::none()`, the seed's campaign) with
+/// CSJM diagnose's default options (FDR 0.05).
+#[derive(Debug, Clone, Serialize)]
+pub struct CsjmResult {
+    /// Campaign seeds `first_seed .. first_seed + runs`.
+    pub first_seed: u64,
+    /// Runs.
+    pub runs: usize,
+    /// Runs with a defect finding (anything but `connection_term`, which is physically present
+    /// under the pre-load).
+    pub defect_finding: usize,
+    /// Runs with `unexplained: true`.
+    pub unexplained: usize,
+    /// Runs with a defect finding or `unexplained`.
+    pub alarm: usize,
+    /// Runs naming `connection_term` (expected in almost every run).
+    pub connection_term: usize,
+    /// Defect labels and counts.
+    pub verdicts: BTreeMap<String, usize>,
+    /// The FDR CSJM diagnose states (its default).
+    pub fdr: f64,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// Runs the CSJM false-alarm cell.
+pub fn run_csjm(first_seed: u64, runs: usize) -> Result<CsjmResult, StudyError> {
+    use so3_stiffness::diagnose::{diagnose as csjm_diagnose, DiagnoseOptions as CsjmOptions};
+    let start = Instant::now();
+    let opts = CsjmOptions::default();
+    let mut r = CsjmResult {
+        first_seed,
+        runs: 0,
+        defect_finding: 0,
+        unexplained: 0,
+        alarm: 0,
+        connection_term: 0,
+        verdicts: BTreeMap::new(),
+        fdr: opts.fdr,
+        seconds: 0.0,
+    };
+    for seed in first_seed..first_seed + runs as u64 {
+        let c =
+            simulate_campaign(&CsjmCampaignSpec::new(CsjmEffects::none(), seed)).map_err(|e| {
+                StudyError::Simulate {
+                    robot: "csjm prototype".into(),
+                    seed,
+                    message: e.to_string(),
+                }
+            })?;
+        let d = csjm_diagnose(&c.dataset, &opts).map_err(|e| StudyError::Diagnose {
+            robot: "csjm prototype".into(),
+            seed,
+            message: e.to_string(),
+        })?;
+        let defects = d.defect_effects();
+        r.runs += 1;
+        r.defect_finding += (!defects.is_empty()) as usize;
+        r.unexplained += d.unexplained as usize;
+        r.alarm += (!defects.is_empty() || d.unexplained) as usize;
+        r.connection_term += d.names(so3_stiffness::diagnose::CONNECTION_TERM) as usize;
+        for l in defects {
+            *r.verdicts.entry(l.to_string()).or_insert(0) += 1;
+        }
+        if d.unexplained {
+            *r.verdicts.entry("unexplained".into()).or_insert(0) += 1;
+        }
+    }
+    r.seconds = start.elapsed().as_secs_f64();
+    Ok(r)
+}
