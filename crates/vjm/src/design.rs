@@ -243,7 +243,7 @@ pub fn select_configurations(
 }
 
 /// Capped symmetric eigen-decomposition (nalgebra's own loops forever on NaN).
-fn symmetric_eigen(
+pub(crate) fn symmetric_eigen(
     m: DMatrix<f64>,
     what: &'static str,
 ) -> Result<SymmetricEigen<f64, Dyn>, VjmError> {

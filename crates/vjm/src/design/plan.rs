@@ -243,7 +243,7 @@ pub fn predicted_stderr(
 /// estimable functionals come out as with any other), computed on the scaled matrix.
 fn generalised_inverse(info: &DMatrix<f64>, rank: usize) -> Result<DMatrix<f64>, VjmError> {
     let m = info.nrows();
-    let (scale, eig) = scaled_eigen(info);
+    let (scale, eig) = scaled_eigen(info)?;
     if rank == 0 || rank > m {
         return Err(VjmError::Numerical {
             message: format!("the design has rank {rank} of {m} parameters"),
@@ -262,7 +262,9 @@ fn generalised_inverse(info: &DMatrix<f64>, rank: usize) -> Result<DMatrix<f64>,
 
 /// Column scaling (zero for columns of pure rounding, as in `lsq`) and the eigen-decomposition
 /// of the scaled matrix.
-fn scaled_eigen(info: &DMatrix<f64>) -> (Vec<f64>, SymmetricEigen<f64, nalgebra::Dyn>) {
+fn scaled_eigen(
+    info: &DMatrix<f64>,
+) -> Result<(Vec<f64>, SymmetricEigen<f64, nalgebra::Dyn>), VjmError> {
     let m = info.nrows();
     let norms: Vec<f64> = (0..m).map(|k| info[(k, k)].max(0.0).sqrt()).collect();
     let nmax = norms.iter().copied().fold(0.0, f64::max);
@@ -277,7 +279,8 @@ fn scaled_eigen(info: &DMatrix<f64>) -> (Vec<f64>, SymmetricEigen<f64, nalgebra:
         })
         .collect();
     let scaled = DMatrix::from_fn(m, m, |a, b| info[(a, b)] * scale[a] * scale[b]);
-    (scale, SymmetricEigen::new(scaled))
+    let eig = super::symmetric_eigen(scaled, "eigen-decomposition of the scaled information")?;
+    Ok((scale, eig))
 }
 
 fn descending(values: &DVector<f64>) -> Vec<usize> {
@@ -451,7 +454,7 @@ pub fn plan_measurements(
             pool_info += a.transpose() * &a;
         }
     }
-    let (scale, eig) = scaled_eigen(&pool_info);
+    let (scale, eig) = scaled_eigen(&pool_info)?;
     let order = descending(&eig.eigenvalues);
     let basis = DMatrix::from_fn(m, rank, |i, j| eig.eigenvectors[(i, order[j])] * scale[i]);
     // Functionals of the combinations in the reduced coordinates z (c = D B z).
@@ -474,7 +477,13 @@ pub fn plan_measurements(
     let mut rows_p = Vec::new();
     for pose in 0..spec.n_poses {
         let state = State::new(&info, &funcs)?;
-        let covered = info.symmetric_eigenvalues().min() > 1e3 * ridge;
+        let covered = super::symmetric_eigen(
+            info.clone(),
+            "eigen-decomposition of the planned information",
+        )?
+        .eigenvalues
+        .min()
+            > 1e3 * ridge;
         let score = |vars: &[f64]| -> f64 {
             if covered {
                 vars.iter().copied().fold(0.0, f64::max)
