@@ -13,6 +13,7 @@ pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
 pub mod so3;
+pub mod use_model;
 pub mod vjm;
 pub mod vjm_data;
 
@@ -27,5 +28,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     diagnose::register(m)?;
     vjm::register(m)?;
     vjm_data::register(m)?;
+    use_model::register(m)?;
     Ok(())
 }

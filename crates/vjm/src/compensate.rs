@@ -674,3 +674,28 @@ fn compensate_row(
     };
     Ok(report)
 }
+
+impl crate::stiffness_model::StiffnessModel {
+    /// [`compensate`] with this model's springs and compliance vector (any member of the
+    /// family that reproduces the identifiable combinations: the compensation, like a
+    /// prediction, depends on the aliased springs only through those combinations when the
+    /// rows lie in the identified row space). The robot is checked against the model first.
+    pub fn compensate(
+        &self,
+        chain: &SerialChain,
+        q_nominal: &[f64],
+        load: Load<'_>,
+        opts: &CompensateOptions,
+    ) -> Result<Compensation, crate::stiffness_model::ModelError> {
+        self.check_robot(chain, "<model>")?;
+        let model = self.spring_model()?;
+        Ok(compensate(
+            chain,
+            &model,
+            &self.estimate().compliance,
+            q_nominal,
+            load,
+            opts,
+        )?)
+    }
+}
