@@ -49,6 +49,14 @@ from ._vjm_data import (
     seed_study,
     simulate,
 )
+from ._use_model import (  # planning and compensation (docs/use-the-model.md)
+    Compensation,
+    Plan,
+    PlannedCombination,
+    compensate,
+    compensate_with_model_file,
+    design,
+)
 from ._tables import (
     DISPLACEMENT,
     ROTATION,
@@ -72,6 +80,12 @@ __all__ = [
     "simulate",
     "diagnose",
     "seed_study",
+    "design",
+    "Plan",
+    "PlannedCombination",
+    "compensate",
+    "compensate_with_model_file",
+    "Compensation",
 ]
 
 #: ``"traditional"``, ``"extended"`` or a sequence of spring labels like ``["J1z", "J2x"]``.

@@ -495,3 +495,65 @@ fn bad_input_names_the_cause() {
     );
     assert!(r.is_err());
 }
+
+/// Through a saved model file: the same targets as with the identification's compliance vector,
+/// and a model file is refused for another robot (the flange vs the TCP tip).
+#[test]
+fn model_file_compensation() {
+    use vjm::stiffness_model::{DataSource, StiffnessModel};
+    let chain = SerialChain::bundled();
+    let truth = extended_truth();
+    let campaign = simulate(&chain, &truth, &noise_free(12, 15)).unwrap();
+    let ds = &campaign.dataset;
+    let model = VirtualJointModel::extended(7);
+    let opts = IdentifyOptions::default();
+    let id = identify(
+        &chain,
+        &model,
+        ds.q_flat(),
+        ds.wrench_flat(),
+        ds.displacement_flat(),
+        None,
+        &opts,
+    )
+    .unwrap();
+    let sm = StiffnessModel::from_identification(
+        &id,
+        &chain,
+        &model,
+        &opts,
+        DataSource::in_memory(ds.len()),
+    )
+    .unwrap();
+    let dir = std::env::temp_dir().join(format!("hE-compensate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("model.json");
+    sm.save(&path).unwrap();
+    let loaded = StiffnessModel::load(&path, &chain).unwrap();
+    let rows: Vec<usize> = (0..6).collect();
+    let (q, w) = rows_of(&campaign, &rows);
+    let opts = CompensateOptions::default();
+    let a = loaded
+        .compensate(&chain, &q, Load::Wrench(&w), &opts)
+        .unwrap();
+    let b = compensate(
+        &chain,
+        &model,
+        &id.solution.solution,
+        &q,
+        Load::Wrench(&w),
+        &opts,
+    )
+    .unwrap();
+    assert_eq!(a, b);
+    // Noise-free data: the identified combinations are the truth's, so is the compensation.
+    let ratios = true_ratios(&chain, &truth, &campaign, &rows, &a.q);
+    assert!(max(&ratios) <= 0.02, "{ratios:?}");
+    let tcp = SerialChain::bundled_with_tip(vjm::BUNDLED_TCP).unwrap();
+    let e = loaded
+        .compensate(&tcp, &q, Load::Wrench(&w), &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("another robot") && e.contains("tip"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
