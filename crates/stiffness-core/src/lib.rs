@@ -32,7 +32,11 @@
 
 pub mod cancel;
 pub mod decompose;
+mod fast_math;
+pub mod so3;
+mod so3_error;
 pub mod stats;
 
 pub use cancel::{Cancel, Cancelled, Monitor, Progress};
 pub use decompose::NotConverged;
+pub use so3_error::So3Error;

@@ -13,8 +13,9 @@
 //! contracts the residual by about that factor per step (4–6 steps from a 1 mm deflection to
 //! 1e-9 m) instead of quadratically, at a fraction of the cost of differentiating δ.
 
-use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 use serde::Serialize;
+use stiffness_core::so3::{exp, log};
 
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
@@ -316,11 +317,10 @@ fn loaded_tip(
 
 /// Orientation error `log(exp(φ) R R*ᵀ)`, rad, base frame.
 fn rotation_residual(t: &LoadedTip, target: &Matrix3<f64>) -> Vector3<f64> {
-    // Through the quaternion (atan2 of its parts): nalgebra's Rotation3 angle takes the acos
-    // of the trace, which is NaN when rounding puts the trace just above 3.
-    let loaded = Rotation3::new(t.phi) * Rotation3::from_matrix_unchecked(t.r);
-    let error = loaded * Rotation3::from_matrix_unchecked(target.transpose());
-    UnitQuaternion::from_rotation_matrix(&error).scaled_axis()
+    // so3::log is accurate down to θ = 0 (nalgebra's Rotation3 angle takes the acos of the
+    // trace, which is NaN when rounding puts the trace just above 3).
+    let loaded = exp(&t.phi) * Rotation3::from_matrix_unchecked(t.r);
+    log(&(loaded * Rotation3::from_matrix_unchecked(target.transpose())))
 }
 
 /// The rows of the task Jacobian used for a position-only or a full-pose task.

@@ -9,11 +9,11 @@ use std::path::{Path, PathBuf};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use vjm::dataset::{Dataset, SetLabel};
-use vjm::stiffness_model::IDENTIFIED_TOL;
+use vjm::stiffness_model::{Load, IDENTIFIED_TOL};
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
 use vjm::{
-    identify, DataSource, IdentifyOptions, Load, ModelError, PointMass, SerialChain,
-    StiffnessModel, VirtualJointModel,
+    identify, DataSource, IdentifyOptions, ModelError, PointMass, SerialChain, StiffnessModel,
+    VirtualJointModel,
 };
 
 /// example-robot-data's `ur5_robot.urdf` (the `example-robot-data` wheel installs it under a
