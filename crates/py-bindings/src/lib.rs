@@ -15,6 +15,7 @@ pub mod errors;
 pub mod interrupt;
 pub mod so3;
 pub mod stiffness_model;
+pub mod use_model;
 pub mod vjm;
 pub mod vjm_data;
 
@@ -30,5 +31,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     vjm::register(m)?;
     vjm_data::register(m)?;
     stiffness_model::register(m)?;
+    use_model::register(m)?;
     Ok(())
 }

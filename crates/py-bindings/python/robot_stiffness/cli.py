@@ -663,6 +663,9 @@ effects (--effect NAME:key=value,...):
     demo.add_argument("--seed", type=T.seed, default=1, help="campaign seed (default 1)")
     demo.add_argument("--quiet", action="store_true", help="no progress display")
     demo.set_defaults(func=cmd_demo, baseline=None, fdr=None, split_seed=None)
+    from .cli_use import register as register_use_commands  # design, compensate
+
+    register_use_commands(sub, _add_robot_args, FORCE_HELP)
     return p
 
 
