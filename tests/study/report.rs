@@ -24,14 +24,17 @@ pub fn false_alarm_table(cells: &[CellResult], fdr: f64) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| robot | tracker σ | F/T accuracy | noise given | runs | any finding | unexplained | false-alarm rate | 95 % CI | stated FDR | verdicts (runs) |"
+        "| robot | tracker σ | F/T accuracy | noise given | runs | any finding | unexplained | false-alarm rate | 95 % CI | stated FDR | median scaled RMS | verdicts (runs) |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---|---:|---:|---:|---:|---|---:|---|");
+    let _ = writeln!(
+        s,
+        "|---|---:|---:|---|---:|---:|---:|---:|---|---:|---:|---|"
+    );
     for r in cells {
         let (lo, hi) = r.alarm_ci();
         let _ = writeln!(
             s,
-            "| {} | {} µm | {} % | {} | {} | {} | {} | {} | [{}, {}] | {} | {} |",
+            "| {} | {} µm | {} % | {} | {} | {} | {} | {} | [{}, {}] | {} | {:.2} | {} |",
             r.robot,
             r.tracker_sigma_um,
             100.0 * r.ft_accuracy,
@@ -43,6 +46,7 @@ pub fn false_alarm_table(cells: &[CellResult], fdr: f64) -> String {
             pct(lo),
             pct(hi),
             fdr,
+            r.median_scaled_rms,
             verdicts(r, 3)
         );
     }
@@ -54,14 +58,14 @@ pub fn power_table(cells: &[CellResult]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| robot | effect | magnitude | noise given | runs | detected | 95 % CI | any finding | unexplained | mean gain | verdicts (runs) |"
+        "| robot | effect | magnitude | noise given | runs | detected | 95 % CI | any finding | unexplained | mean gain | median scaled RMS | verdicts (runs) |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---:|---:|---|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---|");
     for r in cells {
         let (lo, hi) = r.detected_ci();
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | [{}, {}] | {} | {} | {:.2} | {} |",
+            "| {} | {} | {} | {} | {} | {} | [{}, {}] | {} | {} | {:.2} | {:.2} | {} |",
             r.robot,
             r.effect,
             r.magnitude,
@@ -73,6 +77,7 @@ pub fn power_table(cells: &[CellResult]) -> String {
             r.any_finding,
             r.unexplained,
             r.mean_gain,
+            r.median_scaled_rms,
             verdicts(r, 3)
         );
     }
@@ -114,7 +119,8 @@ pub fn csjm_table(r: &CsjmResult) -> String {
 }
 
 /// The power summary: one row per effect × magnitude, one column per robot, each cell
-/// "detection rate without / with the noise given".
+/// "detection rate without / with the noise given (median scaled RMS of the extended model
+/// with the noise given)".
 pub fn power_summary(cells: &[CellResult]) -> String {
     let mut robots: Vec<&str> = Vec::new();
     let mut rows: Vec<(&str, &str)> = Vec::new();
@@ -152,7 +158,17 @@ pub fn power_summary(cells: &[CellResult]) -> String {
                     .map(|c| format!("{:.0}", 100.0 * c.detected as f64 / c.runs.max(1) as f64))
                     .unwrap_or_else(|| "–".into())
             };
-            let _ = write!(s, " {} / {} |", rate(false), rate(true));
+            let rms = cells
+                .iter()
+                .find(|c| {
+                    c.robot == *robot
+                        && c.effect == effect
+                        && c.magnitude == magnitude
+                        && c.noise_given
+                })
+                .map(|c| format!("{:.1}", c.median_scaled_rms))
+                .unwrap_or_else(|| "–".into());
+            let _ = write!(s, " {} / {} ({rms}) |", rate(false), rate(true));
         }
         let _ = writeln!(s);
     }

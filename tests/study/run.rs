@@ -75,6 +75,9 @@ pub struct CellResult {
     pub verdicts: BTreeMap<String, usize>,
     /// Mean held-out gain of the extension.
     pub mean_gain: f64,
+    /// Median over runs of the extended model's `scaled_rms` (RMS of the residuals in units of
+    /// the assumed noise, ≈ 1 when only noise of the assumed size remains).
+    pub median_scaled_rms: f64,
     /// Wall time of the cell (both modes share simulation), s.
     pub seconds: f64,
 }
@@ -147,9 +150,11 @@ pub fn run_cell(
         alarm: 0,
         verdicts: BTreeMap::new(),
         mean_gain: 0.0,
+        median_scaled_rms: 0.0,
         seconds: 0.0,
     };
     let mut out = [empty(false), empty(true)];
+    let mut scaled_rms: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let chain = &robot.chain;
     let needs_rms = format!("{hidden:?}").contains("TorsionNonlinear");
     let force_sensor = ForceSensorNoise {
@@ -205,6 +210,7 @@ pub fn run_cell(
             r.unexplained += d.unexplained as usize;
             r.alarm += (!d.findings.is_empty() || d.unexplained) as usize;
             r.mean_gain += if d.gain.is_finite() { d.gain } else { 0.0 };
+            scaled_rms[k].push(d.residuals.extended.scaled_rms);
             for l in labels(&d) {
                 *r.verdicts.entry(l).or_insert(0) += 1;
             }
@@ -212,8 +218,14 @@ pub fn run_cell(
         progress(done + 1);
     }
     let secs = start.elapsed().as_secs_f64();
-    for r in out.iter_mut() {
+    for (r, v) in out.iter_mut().zip(scaled_rms.iter_mut()) {
         r.mean_gain /= r.runs.max(1) as f64;
+        v.sort_by(f64::total_cmp);
+        r.median_scaled_rms = match v.len() {
+            0 => f64::NAN,
+            n if n % 2 == 1 => v[n / 2],
+            n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+        };
         r.seconds = secs;
     }
     Ok(out)
