@@ -146,6 +146,7 @@ impl IntoPyErr for vjm::VjmError {
             | E::MimicJoint { .. }
             | E::UnsupportedJoint { .. }
             | E::InvalidAxis { .. }
+            | E::InvalidJointValue { .. }
             | E::NoActuatedJoints { .. } => Kind::RobotModel,
             E::ShapeMismatch { .. } => Kind::Shape,
             E::TooFewMeasurements { .. } | E::Numerical { .. } => Kind::Identification,

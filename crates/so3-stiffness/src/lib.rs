@@ -36,10 +36,10 @@
 pub mod csjm;
 pub mod diagnose;
 pub mod error;
-mod fast_math;
 pub mod identification;
-pub mod so3;
+pub use stiffness_core::so3;
 pub use stiffness_core::stats;
 
 pub use csjm::{CsjmGeometry, CsjmSimulator, Stiffness};
-pub use error::{CsjmError, So3Error};
+pub use error::CsjmError;
+pub use stiffness_core::So3Error;

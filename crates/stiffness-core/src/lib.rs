@@ -5,6 +5,8 @@
 //! - [`cancel`]: one cooperative cancellation and progress mechanism for every long loop: a
 //!   cheap [`Cancel`] token polled per chunk / candidate / step, a [`Progress`] record, and the
 //!   [`Monitor`] that bundles both for a computation.
+//! - [`decompose`]: SVD and symmetric eigen-decomposition with an iteration cap (nalgebra's
+//!   own loop forever on NaN) and a named [`NotConverged`] error.
 //!
 //! This crate knows nothing about robots, URDF or SO(3); the model crates (`so3-stiffness`,
 //! `vjm`) depend on it, never the other way round.
@@ -29,6 +31,12 @@
 #![deny(missing_docs)]
 
 pub mod cancel;
+pub mod decompose;
+mod fast_math;
+pub mod so3;
+mod so3_error;
 pub mod stats;
 
 pub use cancel::{Cancel, Cancelled, Monitor, Progress};
+pub use decompose::NotConverged;
+pub use so3_error::So3Error;

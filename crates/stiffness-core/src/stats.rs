@@ -381,11 +381,18 @@ pub fn cluster_robust_wald(
     for s in &sums {
         meat += s * s.transpose();
     }
-    let bread = (x.transpose() * x).pseudo_inverse(1e-12).ok()?;
+    // Capped SVDs (nalgebra's `pseudo_inverse` loops forever on NaN).
+    let pinv = |m: nalgebra::DMatrix<f64>, eps: f64| {
+        crate::decompose::svd(m, true, true, "SVD of the cluster-robust covariance")
+            .ok()?
+            .pseudo_inverse(eps)
+            .ok()
+    };
+    let bread = pinv(x.transpose() * x, 1e-12)?;
     let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
     let vcc = v.view((p - k, p - k), (k, k)).into_owned();
     let bc = beta.rows(p - k, k).into_owned();
-    let vinv = vcc.pseudo_inverse(1e-300).ok()?;
+    let vinv = pinv(vcc, 1e-300)?;
     let w = (bc.transpose() * vinv * &bc)[(0, 0)];
     let f = w / k as f64;
     let d2 = (g - 1) as f64;

@@ -82,7 +82,23 @@ pub struct SerialChain {
     limits: Vec<(f64, f64)>,
     /// Pose of the tip frame in the last actuated joint's child frame.
     tip_offset: Isometry3<f64>,
+    /// Where the chain came from (URDF path and content hash), when it came from a URDF.
+    source: Option<UrdfSource>,
 }
+
+/// The URDF a [`SerialChain`] was read from: the path as given and the SHA-256 of its text.
+/// A saved stiffness model records it, and loading the model checks it against the chain.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UrdfSource {
+    /// The path as the caller gave it; `bundled:panda_arm.urdf` for the bundled arm; `None`
+    /// for URDF text given directly.
+    pub path: Option<String>,
+    /// SHA-256 of the URDF text, lowercase hex.
+    pub sha256: String,
+}
+
+/// Name under which the bundled URDF is recorded in a [`UrdfSource`].
+pub const BUNDLED_URDF_PATH: &str = "bundled:panda_arm.urdf";
 
 impl SerialChain {
     /// Loads the chain from `base` to `tip` from a URDF file.
@@ -92,7 +108,11 @@ impl SerialChain {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_urdf_str(&xml, base, tip)
+        let mut chain = Self::from_urdf_str(&xml, base, tip)?;
+        if let Some(source) = chain.source.as_mut() {
+            source.path = Some(path.display().to_string());
+        }
+        Ok(chain)
     }
 
     /// Loads the chain from `base` to `tip` from URDF text.
@@ -100,7 +120,12 @@ impl SerialChain {
         let robot = urdf_rs::read_from_string(xml).map_err(|e| VjmError::Urdf {
             message: e.to_string(),
         })?;
-        Self::from_urdf_robot(&robot, base, tip)
+        let mut chain = Self::from_urdf_robot(&robot, base, tip)?;
+        chain.source = Some(UrdfSource {
+            path: None,
+            sha256: crate::hashing::sha256_hex(xml.as_bytes()),
+        });
+        Ok(chain)
     }
 
     /// Extracts the chain from `base` to `tip` from an already parsed URDF.
@@ -163,6 +188,7 @@ impl SerialChain {
         let mut pending = Isometry3::identity();
         for &ji in &path {
             let j = &robot.joints[ji];
+            check_joint_numbers(j)?;
             let origin = pose_to_isometry(&j.origin);
             match j.joint_type {
                 urdf_rs::JointType::Fixed => {
@@ -234,6 +260,11 @@ impl SerialChain {
         }
         let mut out = Vec::with_capacity(joints.len());
         for (name, origin, axis, limits) in joints {
+            let t = origin.translation.vector;
+            check_finite_attribute(&name, "origin translation", &[t.x, t.y, t.z])?;
+            let r = origin.rotation.coords;
+            check_finite_attribute(&name, "origin rotation", &[r.x, r.y, r.z, r.w])?;
+            check_limits(&name, limits.0, limits.1, true)?;
             let norm = axis.norm();
             if !norm.is_finite() || norm < 1e-12 {
                 return Err(VjmError::InvalidAxis {
@@ -261,6 +292,7 @@ impl SerialChain {
             names,
             limits,
             tip_offset,
+            source: None,
         }
     }
 
@@ -271,7 +303,17 @@ impl SerialChain {
 
     /// The bundled Panda from `panda_link0` to any of its links (e.g. [`BUNDLED_TCP`]).
     pub fn bundled_with_tip(tip: &str) -> Result<Self, VjmError> {
-        Self::from_urdf_str(BUNDLED_URDF, BUNDLED_BASE, tip)
+        let mut chain = Self::from_urdf_str(BUNDLED_URDF, BUNDLED_BASE, tip)?;
+        if let Some(source) = chain.source.as_mut() {
+            source.path = Some(BUNDLED_URDF_PATH.to_string());
+        }
+        Ok(chain)
+    }
+
+    /// The URDF this chain was read from (path as given, SHA-256 of the text); `None` for a
+    /// chain built with [`from_joints`](Self::from_joints) or from an already parsed URDF.
+    pub fn urdf_source(&self) -> Option<&UrdfSource> {
+        self.source.as_ref()
     }
 
     /// Number of actuated joints n.
@@ -360,6 +402,57 @@ pub(crate) fn rotation_about(axis: &Vector3<f64>, angle: f64) -> Isometry3<f64> 
         Translation3::identity(),
         UnitQuaternion::from_scaled_axis(axis * angle),
     )
+}
+
+/// Refuses a joint of the URDF whose numbers cannot describe a robot: a non-finite origin
+/// (`xyz`, `rpy`), axis, or (revolute joints) limit, or an empty limit range. Checked for every
+/// joint on the chain, fixed ones included, before anything is computed from them: a single NaN
+/// would otherwise turn every Jacobian into NaN (and hang the SVD of the pose sampler).
+fn check_joint_numbers(j: &urdf_rs::Joint) -> Result<(), VjmError> {
+    check_finite_attribute(&j.name, "origin xyz", &j.origin.xyz.0)?;
+    check_finite_attribute(&j.name, "origin rpy", &j.origin.rpy.0)?;
+    if j.joint_type == urdf_rs::JointType::Fixed {
+        return Ok(());
+    }
+    check_finite_attribute(&j.name, "axis xyz", &j.axis.xyz.0)?;
+    if j.joint_type == urdf_rs::JointType::Revolute {
+        check_limits(&j.name, j.limit.lower, j.limit.upper, false)?;
+    }
+    Ok(())
+}
+
+fn check_finite_attribute(joint: &str, attribute: &'static str, v: &[f64]) -> Result<(), VjmError> {
+    if v.iter().all(|x| x.is_finite()) {
+        return Ok(());
+    }
+    let shown: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+    Err(VjmError::InvalidJointValue {
+        joint: joint.to_string(),
+        attribute,
+        message: format!("= \"{}\" is not finite", shown.join(" ")),
+    })
+}
+
+/// Limits must be numbers with `lower <= upper`; `±inf` only where `infinite_ok` (the
+/// programmatic constructor, where `(-inf, inf)` means a continuous joint).
+fn check_limits(joint: &str, lower: f64, upper: f64, infinite_ok: bool) -> Result<(), VjmError> {
+    for (attribute, v) in [("limit lower", lower), ("limit upper", upper)] {
+        if v.is_nan() || (!infinite_ok && v.is_infinite()) {
+            return Err(VjmError::InvalidJointValue {
+                joint: joint.to_string(),
+                attribute,
+                message: format!("= {v} is not finite"),
+            });
+        }
+    }
+    if lower > upper {
+        return Err(VjmError::InvalidJointValue {
+            joint: joint.to_string(),
+            attribute: "limit",
+            message: format!("range is empty: lower {lower} > upper {upper} rad"),
+        });
+    }
+    Ok(())
 }
 
 fn pose_to_isometry(p: &urdf_rs::Pose) -> Isometry3<f64> {

@@ -1,7 +1,7 @@
 //! Experiment design (item 6): scoring configurations by conditioning and picking a
 //! well-conditioned subset from a pool.
 
-use nalgebra::{DMatrix, SymmetricEigen};
+use nalgebra::{DMatrix, Dyn, SymmetricEigen};
 use serde::Serialize;
 
 use crate::chain::SerialChain;
@@ -30,7 +30,7 @@ pub fn dexterity(chain: &SerialChain, q: &[f64], length: f64) -> Result<f64, Vjm
         }
     }
     let jjt = &j * j.transpose();
-    let eig = SymmetricEigen::new(jjt.clone());
+    let eig = symmetric_eigen(jjt, "eigen-decomposition of J Jᵀ")?;
     let lmax = eig.eigenvalues.max();
     let lmin = eig.eigenvalues.min();
     if lmin <= 1e-12 * lmax.max(f64::MIN_POSITIVE) {
@@ -157,7 +157,10 @@ pub fn select_configurations(
         })
         .collect();
     let scaled = |a: &DMatrix<f64>| DMatrix::from_fn(m, m, |i, j| a[(i, j)] * scale[i] * scale[j]);
-    let eig = SymmetricEigen::new(scaled(&total));
+    let eig = symmetric_eigen(
+        scaled(&total),
+        "eigen-decomposition of the pooled information",
+    )?;
     let lmax = eig.eigenvalues.max();
     // Eigenvalues of the Gram matrix carry rounding of order 1e-16·λ_max in structurally
     // null directions (the squaring that identification avoids with TSQR), so the cut-off
@@ -172,7 +175,14 @@ pub fn select_configurations(
         .map(|a| basis.transpose() * scaled(a) * &basis)
         .collect();
     let cond = |a: &DMatrix<f64>| {
-        let e = SymmetricEigen::new(a.clone()).eigenvalues;
+        let Ok(eig) = symmetric_eigen(
+            a.clone(),
+            "eigen-decomposition of a candidate's information",
+        ) else {
+            // Not a usable candidate (non-finite information): never the best.
+            return f64::INFINITY;
+        };
+        let e = eig.eigenvalues;
         let (hi, lo) = (e.max(), e.min());
         if lo <= 1e-12 * hi.max(f64::MIN_POSITIVE) {
             f64::INFINITY
@@ -226,5 +236,15 @@ pub fn select_configurations(
         condition_numbers,
         pool_condition_number: cond(&pool_reduced),
         rank: r,
+    })
+}
+
+/// Capped symmetric eigen-decomposition (nalgebra's own loops forever on NaN).
+fn symmetric_eigen(
+    m: DMatrix<f64>,
+    what: &'static str,
+) -> Result<SymmetricEigen<f64, Dyn>, VjmError> {
+    stiffness_core::decompose::symmetric_eigen(m, what).map_err(|e| VjmError::Numerical {
+        message: e.to_string(),
     })
 }

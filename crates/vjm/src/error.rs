@@ -74,6 +74,17 @@ pub enum VjmError {
         /// The axis as written in the URDF.
         axis: [f64; 3],
     },
+    /// A number of a joint in the robot description is not finite (origin `xyz`/`rpy`,
+    /// limits), or a joint's limit range is empty.
+    #[error("joint `{joint}`: {attribute} {message}")]
+    InvalidJointValue {
+        /// The joint name.
+        joint: String,
+        /// The attribute as written in the URDF (`origin xyz`, `origin rpy`, `limit lower`...).
+        attribute: &'static str,
+        /// What is wrong, with the value.
+        message: String,
+    },
     /// The chain between base and tip has no actuated joint.
     #[error("the chain from `{base}` to `{tip}` has no revolute or continuous joint")]
     NoActuatedJoints {

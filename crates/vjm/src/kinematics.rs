@@ -132,6 +132,12 @@ impl Workspace {
         }
     }
 
+    /// Rotation (base ← tip) of the tip frame at the last evaluation.
+    #[inline]
+    pub(crate) fn tip_rotation(&self, chain: &SerialChain) -> Matrix3<f64> {
+        self.rot[self.n_joints - 1] * chain.tip_offset().rotation.to_rotation_matrix().matrix()
+    }
+
     /// Writes the 6×m Jacobian of the last evaluation into `out`, column-major.
     #[inline]
     pub(crate) fn write_jacobian(&self, out: &mut [f64]) {

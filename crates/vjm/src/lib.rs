@@ -9,6 +9,10 @@
 //! - [`identify`]: rank-revealing weighted least squares of the compliances from N
 //!   measurements, streaming over threads (TSQR); [`identify_dense`] the dense reference.
 //! - [`predict_deflection`], [`select_configurations`], [`dexterity`].
+//! - [`StiffnessModel`]: an identification saved as a versioned, hashed model file, and its
+//!   predictions with standard deviations ([`stiffness_model`]).
+//! - [`compensate`]: corrected joint targets so that the loaded tip reaches the nominal pose
+//!   under a [`Load`] (a wrench or a payload).
 //!
 //! Conventions (frames, units, parameter order) are in `docs/conventions.md`; the method
 //! and its deviations from the seed paper in `docs/vjm.md`.
@@ -36,25 +40,35 @@
 #![deny(missing_docs)]
 
 mod chain;
+mod compensate;
 pub mod dataset;
 pub mod design;
 pub mod diagnose;
 mod error;
+mod hashing;
 mod identify;
 mod kinematics;
 mod lanes;
+mod load;
 pub mod lsq;
 mod model;
 mod predict;
 mod regressor;
+pub mod stiffness_model;
 pub use stiffness_core::stats;
 pub mod testbed;
 
 pub use chain::{
-    ActuatedJoint, JointSpec, SerialChain, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP, BUNDLED_URDF,
+    ActuatedJoint, JointSpec, SerialChain, UrdfSource, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_TCP,
+    BUNDLED_URDF, BUNDLED_URDF_PATH,
+};
+pub use compensate::{
+    compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
+    CompensationStatus, CompensationWorkspace,
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
+pub use hashing::{kinematics_sha256, sha256_hex};
 pub use identify::{
     accumulate, build_design, identify, identify_dense, identify_from_factor, Combination,
     CombinationTerm, Identification, IdentifyOptions, ParameterEstimate, SolveMethod,
@@ -64,6 +78,8 @@ pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,
     jacobian, jacobian_batch_in_place, jacobian_deflected, jacobian_in_place, Workspace,
 };
+pub use load::{Load, STANDARD_GRAVITY};
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
+pub use stiffness_model::{DataSource, ModelError, PointMass, Prediction, StiffnessModel};

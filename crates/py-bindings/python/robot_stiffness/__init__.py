@@ -19,11 +19,13 @@ from __future__ import annotations
 
 from . import _core
 from ._errors import (
+    ArgumentTypeError,
     DataFileError,
     IdentificationError,
     InternalError,
     InvalidValueError,
     MissingFileError,
+    OutputPathError,
     RobotModelError,
     ShapeError,
     StiffnessError,
@@ -46,4 +48,6 @@ __all__ = [
     "RobotModelError",
     "IdentificationError",
     "InternalError",
+    "ArgumentTypeError",
+    "OutputPathError",
 ]

@@ -9,6 +9,9 @@ The Rust core's error enums are mapped onto these classes in one place
 
 from __future__ import annotations
 
+import contextlib
+from typing import Iterator, Mapping
+
 __all__ = [
     "StiffnessError",
     "ShapeError",
@@ -18,6 +21,9 @@ __all__ = [
     "RobotModelError",
     "IdentificationError",
     "InternalError",
+    "ArgumentTypeError",
+    "OutputPathError",
+    "reworded",
 ]
 
 
@@ -53,5 +59,35 @@ class IdentificationError(StiffnessError, ValueError):
     """Identification cannot proceed: too few measurements, a singular problem..."""
 
 
+class ArgumentTypeError(StiffnessError, TypeError):
+    """An argument has the wrong type (a string where a number is expected, a float where an
+    integer is, CSV text where a path is...); the message names the argument."""
+
+
+class OutputPathError(StiffnessError, OSError):
+    """An output cannot be written where asked: its folder is missing or read-only, it is a
+    folder or an input file, or a non-empty folder holds files the tool did not write.
+
+    Nothing is written or removed when this is raised.
+    """
+
+
 class InternalError(StiffnessError, RuntimeError):
     """A bug inside the Rust core (a caught panic). Please report it with the inputs."""
+
+
+@contextlib.contextmanager
+def reworded(names: Mapping[str, str]) -> Iterator[None]:
+    """Within the block, a :class:`StiffnessError` whose message names a term of another
+    front end (a Rust name such as ``RotationPolicy::Project``) is re-raised, same class,
+    with the caller's term (``project=True`` in Python, ``--project`` on the command line)."""
+    try:
+        yield
+    except StiffnessError as e:
+        text = str(e)
+        better = text
+        for old, new in names.items():
+            better = better.replace(old, new)
+        if better == text:
+            raise
+        raise type(e)(better) from None

@@ -7,12 +7,15 @@ CSJM: ``r11..r33``, ``tx,ty,tz``, ``ref``.
 
 from __future__ import annotations
 
-from typing import Any, List, Optional, Sequence
+import contextlib
+import re
+from typing import Any, Iterator, List, Optional, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
-from ._errors import DataFileError
+from ._arrays import f64
+from ._errors import DataFileError, InvalidValueError, StiffnessError
 
 
 def is_table(x: Any) -> bool:
@@ -41,9 +44,15 @@ def columns(table: Any, names: Sequence[str], what: str) -> npt.NDArray[np.float
                 f"missing column '{name}' for {what} (table columns: {', '.join(available)})"
             )
         try:
-            cols.append(np.asarray(table[lower[name]], dtype=np.float64))
-        except (TypeError, ValueError) as e:
-            raise DataFileError(f"column '{name}' is not numeric: {e}") from None
+            col = f64(table[lower[name]], f"column '{lower[name]}'")
+        except InvalidValueError as e:
+            raise DataFileError(str(e)) from None
+        if col.ndim != 1:
+            raise DataFileError(f"column '{lower[name]}' must be one-dimensional, got shape {col.shape}")
+        cols.append(col)
+    lengths = {len(c) for c in cols}
+    if len(lengths) > 1:
+        raise DataFileError(f"the columns for {what} have different lengths {sorted(lengths)}")
     return np.ascontiguousarray(np.column_stack(cols))
 
 
@@ -69,3 +78,43 @@ DISPLACEMENT = ["dx", "dy", "dz"]
 ROTATION = ["rx", "ry", "rz"]
 ROTATION_MATRIX = ["r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33"]
 MOMENT = ["tx", "ty", "tz"]
+
+
+_LINE = re.compile(r"\bline (\d+), column '")
+_ARRAY_CELL = re.compile(r"\bin (q|wrench|displacement|rotation) at row (\d+), column (\d+)")
+
+
+def _array_column(array: str, k: int) -> Optional[str]:
+    names = {"wrench": WRENCH, "displacement": DISPLACEMENT, "rotation": ROTATION}.get(array)
+    if array == "q":
+        return f"q{k + 1}"
+    return names[k] if names is not None and k < len(names) else None
+
+
+def rows_not_lines(message: str) -> str:
+    """The core reports a measurement *file*'s cells by line (header = line 1); for a table or
+    arrays given in Python that is wrong blame. Rewrite ``line N, column 'c'`` as
+    ``row N-2 (counting from 0), column 'c'`` and ``in wrench at row r, column k`` as
+    ``in column 'fy', row r``."""
+    message = _LINE.sub(lambda m: f"row {int(m.group(1)) - 2} (counting from 0), column '", message)
+
+    def cell(m: "re.Match[str]") -> str:
+        name = _array_column(m.group(1), int(m.group(3)))
+        if name is None:
+            return m.group(0)
+        return f"in column '{name}' ({m.group(1)}), row {m.group(2)} (counting from 0)"
+
+    return _ARRAY_CELL.sub(cell, message)
+
+
+@contextlib.contextmanager
+def blame_rows() -> Iterator[None]:
+    """Within the block, core errors about data given in Python name rows, not file lines."""
+    try:
+        yield
+    except StiffnessError as e:
+        text = str(e)
+        better = rows_not_lines(text)
+        if better == text:
+            raise
+        raise type(e)(better) from None

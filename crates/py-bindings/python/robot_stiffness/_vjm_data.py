@@ -2,17 +2,23 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, List, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import check_path, checked
 from ._arrays import f64
-from ._tables import DISPLACEMENT, ROTATION, WRENCH, column_names, columns, is_table, joint_columns, optional_columns
+from ._errors import ArgumentTypeError, DataFileError, ShapeError
+from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
+
+if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
+    from .vjm import Robot
 
 Array = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -49,17 +55,25 @@ class Measurements:
     def __len__(self) -> int:
         return int(self.q.shape[0])
 
+    @checked
     def to_csv_text(self) -> str:
         """The table in the measurement-file format (validated, full float precision)."""
+        q = f64(self.q, "q")
+        if q.ndim != 2:
+            raise ShapeError(f"q must be (N, n) joint angles, got shape {q.shape}")
+        if self.set is not None and (
+            isinstance(self.set, str) or not all(isinstance(v, str) for v in self.set)
+        ):
+            raise ArgumentTypeError("set must be a list of 'train'/'test' strings")
         return str(
             _core.vjm_to_csv(
-                int(self.q.shape[1]),
-                self.q,
-                self.wrench,
-                self.displacement,
-                rotation=self.rotation,
-                pose=None if self.pose is None else [int(p) for p in self.pose],
-                set=self.set,
+                int(q.shape[1]),
+                q,
+                f64(self.wrench, "wrench"),
+                f64(self.displacement, "displacement"),
+                rotation=None if self.rotation is None else f64(self.rotation, "rotation"),
+                pose=None if self.pose is None else _pose_list(self.pose),
+                set=None if self.set is None else list(self.set),
             )
         )
 
@@ -85,6 +99,7 @@ class Measurements:
         return pd.DataFrame(data)
 
 
+@checked
 def read_measurements(path: PathLike, n_joints: int) -> Measurements:
     """Read and validate a VJM measurement file for a robot with ``n_joints`` actuated joints.
 
@@ -93,7 +108,27 @@ def read_measurements(path: PathLike, n_joints: int) -> Measurements:
     ``set``. Errors name the line and column (missing column, NaN, a displacement in mm…);
     a missing file raises :class:`~robot_stiffness.MissingFileError`.
     """
-    return Measurements._from_core(_core.vjm_read_csv(os.fspath(path), int(n_joints)))
+    return Measurements._from_core(_core.vjm_read_csv(path, n_joints))
+
+
+def _pose_ids(values: Array) -> npt.NDArray[np.int64]:
+    """Pose ids must be whole numbers: 1.7 is refused (naming the row), never truncated."""
+    bad = ~np.isfinite(values) | (values != np.round(values)) | (np.abs(values) > 2**53)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise DataFileError(
+            f"column 'pose', row {row} (counting from 0): pose ids must be whole numbers, got {float(values[row])!r}"
+        )
+    return values.astype(np.int64)
+
+
+def _pose_list(pose: Any) -> List[int]:
+    arr = np.asarray(pose)
+    if arr.ndim != 1:
+        raise ShapeError(f"pose must be a one-dimensional sequence of pose ids, got shape {arr.shape}")
+    if arr.dtype.kind in "iu":
+        return [int(p) for p in arr]
+    return [int(p) for p in _pose_ids(f64(arr, "pose"))]
 
 
 def as_measurements(data: Any, n_joints: int) -> Measurements:
@@ -101,12 +136,12 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
     if isinstance(data, Measurements):
         return data
     if isinstance(data, (str, os.PathLike)):
-        return read_measurements(data, n_joints)
+        return read_measurements(check_path(data, "data"), n_joints)
     if is_table(data):
         names = {c.lower() for c in column_names(data)}
         pose = None
         if "pose" in names:
-            pose = columns(data, ["pose"], "pose")[:, 0].astype(np.int64)
+            pose = _pose_ids(columns(data, ["pose"], "pose")[:, 0])
         sets = None
         if "set" in names:
             key = next(c for c in column_names(data) if c.lower() == "set")
@@ -119,7 +154,7 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
             pose=pose,
             set=sets,
         )
-    raise TypeError(
+    raise ArgumentTypeError(
         "data must be a path to a measurement file, a pandas DataFrame / dict of columns, "
         "or a Measurements object"
     )
@@ -140,8 +175,9 @@ class Campaign:
     spec: Dict[str, Any]
 
 
+@checked
 def simulate(
-    robot: Any,
+    robot: Robot,
     effects: Sequence[Dict[str, Any]] = (),
     *,
     n_poses: int = 40,
@@ -173,10 +209,10 @@ def simulate(
     d = _core.vjm_simulate(
         robot._inner,
         [dict(e) for e in effects],
-        n_poses=int(n_poses),
-        wrenches_per_pose=int(wrenches_per_pose),
-        seed=int(seed),
-        noise=bool(noise),
+        n_poses=n_poses,
+        wrenches_per_pose=wrenches_per_pose,
+        seed=seed,
+        noise=noise,
         torsion=None if torsion is None else f64(torsion, "torsion"),
         force_max=force_max,
         moment_max=moment_max,
@@ -213,8 +249,9 @@ class Diagnosis:
         return self.raw
 
 
+@checked
 def diagnose(
-    robot: Any,
+    robot: Robot,
     data: Any,
     *,
     baseline: Any = None,
@@ -233,22 +270,12 @@ def diagnose(
     poses (the ``set`` column, or ``test_fraction`` of the poses drawn with ``split_seed``).
     ``progress(stage, done, total)`` is called during long runs.
     """
+    if progress is not None and not callable(progress):
+        raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     m = as_measurements(data, robot.n_joints)
-    text = _core.vjm_diagnose(
-        robot._inner,
-        f64(m.q, "q"),
-        f64(m.wrench, "wrench"),
-        f64(m.displacement, "displacement"),
-        rotation=None if m.rotation is None else f64(m.rotation, "rotation"),
-        pose=None if m.pose is None else [int(p) for p in m.pose],
-        set=m.set,
-        baseline=None if baseline is None else (baseline if isinstance(baseline, str) else list(baseline)),
-        fdr=fdr,
-        test_fraction=test_fraction,
-        split_seed=split_seed,
-        max_findings=max_findings,
-        progress=progress,
-    )
+    blame = contextlib.nullcontext() if isinstance(data, (str, os.PathLike)) else blame_rows()
+    with blame:
+        text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress)
     raw = json.loads(text)
     return Diagnosis(
         baseline=raw["baseline"],
@@ -260,9 +287,29 @@ def diagnose(
     )
 
 
-def seed_study(robot: Any, *, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> Dict[str, Any]:
+def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
+                   split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback]) -> str:
+    return str(_core.vjm_diagnose(
+        robot._inner,
+        f64(m.q, "q"),
+        f64(m.wrench, "wrench"),
+        f64(m.displacement, "displacement"),
+        rotation=None if m.rotation is None else f64(m.rotation, "rotation"),
+        pose=None if m.pose is None else _pose_list(m.pose),
+        set=m.set,
+        baseline=None if baseline is None else (baseline if isinstance(baseline, str) else list(baseline)),
+        fdr=fdr,
+        test_fraction=test_fraction,
+        split_seed=split_seed,
+        max_findings=max_findings,
+        progress=progress,
+    ))
+
+
+@checked
+def seed_study(robot: Robot, *, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> Dict[str, Any]:
     """The seed paper's study on ``robot`` (7 joints): Table I configurations clipped to the
     joint limits, two wrenches each, a true model with tilting springs of ``tilt_ratio`` × the
     torsional compliance. Returns the mean relative errors of the traditional and extended
     models (the seed reports 7.75 % → 3.74 %) and the clipped angles."""
-    return dict(json.loads(_core.vjm_seed_study(robot._inner, float(tilt_ratio), bool(noise), int(seed))))
+    return dict(json.loads(_core.vjm_seed_study(robot._inner, tilt_ratio, noise, seed)))

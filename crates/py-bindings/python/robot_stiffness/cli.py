@@ -8,25 +8,41 @@ Subcommands (``robot-stiffness COMMAND --help`` for each):
 * ``diagnose vjm DATA.csv`` — what the baseline model gets wrong, the cause, the gain;
 * ``demo`` — simulate → diagnose → report on the bundled arm, in under a minute.
 
-Outputs are written atomically (temporary file, then rename) and only once everything has
-succeeded. Any bad input gives one line on stderr and exit status 1.
+Every output path is checked before the computation starts; outputs are staged under
+temporary names and renamed into place only once everything has succeeded, and an output
+folder never loses a file the tool did not write (see :mod:`robot_stiffness._outputs`).
+Any bad input gives one line on stderr and exit status 1 (2 for a bad flag); Ctrl-C exits
+with 130 and SIGTERM with 143, removing every temporary.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
-import shutil
+import re
 import sys
-import tempfile
 import time
+import traceback
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequence, Tuple
 
 from . import __version__
-from ._errors import StiffnessError
+from . import _cli_types as T
+from ._errors import DataFileError, StiffnessError, reworded
+from ._interrupt import (
+    Cancelled,
+    Terminated,
+    cancel,
+    flush_std_streams,
+    in_worker,
+    signals_deferred,
+    signals_raise,
+    worker_running,
+)
+from ._outputs import Outputs
 
 PROG = "robot-stiffness"
 
@@ -46,6 +62,12 @@ Examples:
   robot-stiffness identify csjm csjm.csv --json k.json
   robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
   robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
+
+Outputs: every output path is checked before the run. A --report/--out folder is created if
+missing; an existing non-empty one needs --force, and then only the files robot-stiffness wrote
+there earlier (its .robot-stiffness-manifest.json) are replaced — nothing else is touched.
+Exit status: 0 done, 1 error (one line on stderr), 2 bad flag, 130 Ctrl-C, 143 SIGTERM.
+ROBOT_STIFFNESS_DEBUG=1 shows the traceback of an internal error.
 """
 
 
@@ -53,68 +75,12 @@ class CliError(Exception):
     """A usage problem found after parsing (reported like a data error)."""
 
 
-# ----------------------------------------------------------------------------- outputs
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``robot-stiffness: error: argument --poses: …``."""
 
-
-class Outputs:
-    """Stages output files and directories under temporary names; :meth:`commit` renames them
-    into place at the very end, so a failure leaves nothing behind."""
-
-    def __init__(self) -> None:
-        self._staged: List[Tuple[Path, Path]] = []
-
-    def _tmp_for(self, final: Path, directory: bool) -> Path:
-        parent = final.parent if str(final.parent) else Path(".")
-        if not parent.is_dir():
-            raise CliError(f"output directory {parent} does not exist")
-        if directory:
-            if final.exists() and not final.is_dir():
-                raise CliError(f"{final} exists and is not a directory")
-            tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=parent))
-        else:
-            if final.is_dir():
-                raise CliError(f"{final} is a directory, expected a file name")
-            fd, name = tempfile.mkstemp(prefix=f".{final.name}.tmp-", dir=parent)
-            os.close(fd)
-            tmp = Path(name)
-        self._staged.append((tmp, final))
-        return tmp
-
-    def file(self, final: str, text: str) -> None:
-        """Stage ``text`` for the file ``final``."""
-        tmp = self._tmp_for(Path(final), directory=False)
-        tmp.write_text(text, encoding="utf-8")
-
-    def directory(self, final: str) -> Path:
-        """A temporary directory to fill, renamed to ``final`` on commit."""
-        return self._tmp_for(Path(final), directory=True)
-
-    def commit(self) -> None:
-        for tmp, final in self._staged:
-            if tmp.is_dir():
-                old = None
-                if final.exists():
-                    old = final.with_name(f".{final.name}.old-{os.getpid()}")
-                    os.replace(final, old)
-                os.chmod(tmp, 0o755)
-                os.replace(tmp, final)
-                if old is not None:
-                    shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.chmod(tmp, 0o644)
-                os.replace(tmp, final)
-        self._staged.clear()
-
-    def discard(self) -> None:
-        for tmp, _ in self._staged:
-            if tmp.is_dir():
-                shutil.rmtree(tmp, ignore_errors=True)
-            else:
-                try:
-                    tmp.unlink()
-                except OSError:
-                    pass
-        self._staged.clear()
+    def error(self, message: str) -> NoReturn:
+        hint = f" (see {self.prog} --help)"
+        self.exit(2, f"{PROG}: error: {' '.join(message.split())}{hint}\n")
 
 
 def _json_text(obj: Any) -> str:
@@ -151,7 +117,41 @@ def _robot(args: argparse.Namespace) -> Any:
         return Robot.bundled(args.tip)
     if not args.base or not args.tip:
         raise CliError("--urdf needs both --base LINK and --tip LINK")
+    _check_input(args.urdf, "--urdf")
     return Robot.from_urdf(args.urdf, args.base, args.tip)
+
+
+#: The Python spelling of an option in a core message → the flag of the command line.
+CLI_NAMES = {"project=True": "--project", "RotationPolicy::Project": "--project"}
+
+
+def _check_input(path: str, what: str) -> None:
+    """An input file must be a readable regular file (checked before anything is computed)."""
+    p = Path(path)
+    if not path:
+        raise CliError(f"{what}: empty file name")
+    if not p.exists():
+        raise CliError(f"{what} {path}: no such file")
+    if p.is_dir():
+        raise CliError(f"{what} {path} is a folder, expected a file")
+    if not os.access(p, os.R_OK):
+        raise CliError(f"{what} {path}: permission denied")
+    if p.is_file() and p.stat().st_size == 0:
+        raise CliError(f"{what} {path} is empty")
+
+
+@contextlib.contextmanager
+def _data_file(path: str) -> Iterator[None]:
+    """Name the measurement file in its errors (the core names only line and column)."""
+    _check_input(path, "DATA.csv")
+    try:
+        with reworded(CLI_NAMES):
+            yield
+    except DataFileError as e:
+        text = " ".join(str(e).split())
+        if path in text:
+            raise
+        raise CliError(f"{path}: {text}") from None
 
 
 def _model_spec(text: str) -> Any:
@@ -163,52 +163,111 @@ def _model_spec(text: str) -> Any:
 # ----------------------------------------------------------------------------- simulate
 
 
-def _parse_value(key: str, text: str) -> Any:
-    if key == "axis" or key == "effect":
+def _parse_value(spec: str, key: str, text: str) -> Any:
+    if key == "axis":
         return text
+    if not text:
+        raise CliError(f"--effect {spec!r}: {key}= has no value")
     if key == "joint":
         try:
-            return int(text)
+            return int(text, 10)
         except ValueError:
-            raise CliError(f"effect parameter joint={text!r} must be an integer (1-based)") from None
+            raise CliError(f"--effect {spec!r}: joint={text!r} must be an integer (1-based)") from None
     parts = text.replace(";", "/").split("/")
     try:
         values = [float(v) for v in parts]
     except ValueError:
-        raise CliError(f"effect parameter {key}={text!r} must be a number or numbers separated by '/'") from None
+        raise CliError(
+            f"--effect {spec!r}: {key}={text!r} must be a number or numbers separated by '/'"
+        ) from None
+    if not all(math.isfinite(v) for v in values):
+        raise CliError(f"--effect {spec!r}: {key}={text!r} must be finite")
     return values if len(values) > 1 or key in ("bias", "rotation") else values[0]
 
 
 def parse_effect(spec: str) -> Dict[str, Any]:
-    """``"joint_tilt:joint=3,axis=x,compliance=5e-5"`` → ``{"effect": "joint_tilt", ...}``."""
+    """``"joint_tilt:joint=3,axis=x,compliance=5e-5"`` → ``{"effect": "joint_tilt", ...}``.
+
+    Malformed text is a :class:`CliError` naming the ``--effect`` argument; the names and
+    ranges of the parameters are checked by the core (its messages are re-attributed to the
+    ``--effect`` argument by :func:`_effect_errors`)."""
     name, _, rest = spec.partition(":")
-    effect: Dict[str, Any] = {"effect": name.strip()}
-    for item in filter(None, (s.strip() for s in rest.split(","))):
+    name = name.strip()
+    if not name or not all(c.isalnum() or c == "_" for c in name):
+        raise CliError(f"--effect {spec!r}: expected NAME:key=value,... (e.g. joint_tilt:joint=3,axis=x,compliance=5e-5)")
+    effect: Dict[str, Any] = {"effect": name}
+    for item in (s.strip() for s in rest.split(",")):
+        if not item:
+            if rest.strip():
+                raise CliError(f"--effect {spec!r}: empty key=value item")
+            continue
         key, eq, value = item.partition("=")
+        key = key.strip()
         if not eq:
             raise CliError(f"--effect {spec!r}: expected key=value, got {item!r}")
-        effect[key.strip()] = _parse_value(key.strip(), value.strip())
+        if not key or key == "effect":
+            raise CliError(f"--effect {spec!r}: bad key in {item!r}")
+        if key in effect:
+            raise CliError(f"--effect {spec!r}: {key} is given twice")
+        effect[key] = _parse_value(spec, key, value.strip())
     return effect
+
+
+_FILE_CELL = re.compile(r"\bline \d+, column '(\w+)'")
+_EFFECT_INDEX = re.compile(r"effects\[(\d+)\](?:\[`?(\w+)`?\])?:?\s*")
+
+
+@contextlib.contextmanager
+def _effect_errors(specs: Sequence[str]) -> Iterator[None]:
+    """Re-attribute the core's ``effects[i] …`` messages to the user's ``--effect`` text."""
+    try:
+        yield
+    except DataFileError as e:
+        # The simulated campaign failed the measurement checks: no file of the user's is
+        # involved, so a "line N, column 'dx'" would be wrong blame; name the cause instead.
+        detail = _FILE_CELL.sub(r"simulated \1", " ".join(str(e).split()))
+        detail = detail.split("; looks like")[0]
+        culprit = f"--effect {specs[0]!r}" if len(specs) == 1 else "the --effect values"
+        raise CliError(
+            f"the simulated measurements are implausible ({detail}); check {culprit} and the load and "
+            "size flags"
+        ) from None
+    except StiffnessError as e:
+        text = str(e)
+        m = _EFFECT_INDEX.search(text)
+        if m is None or int(m.group(1)) >= len(specs):
+            raise
+        rest = (text[: m.start()] + (f"{m.group(2)} " if m.group(2) else "") + text[m.end():]).strip()
+        raise CliError(f"--effect {specs[int(m.group(1))]!r}: {rest}") from None
 
 
 def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
     from .vjm import simulate
 
+    rows = args.poses * args.wrenches_per_pose
+    if rows > T.MAX_ROWS:
+        raise CliError(f"--poses {args.poses} × --wrenches-per-pose {args.wrenches_per_pose} = {rows} rows; "
+                       f"at most {T.MAX_ROWS} rows are simulated at once")
+    csv_out = out.file(args.out)
+    truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
     robot = _robot(args)
-    effects = [parse_effect(e) for e in args.effect or []]
-    c = simulate(
-        robot,
-        effects,
-        n_poses=args.poses,
-        wrenches_per_pose=args.wrenches_per_pose,
-        seed=args.seed,
-        noise=not args.no_noise,
-        force_max=args.force_max,
-        moment_max=args.moment_max,
-    )
-    out.file(args.out, c.csv)
-    if args.truth:
-        out.file(args.truth, _json_text({"truth": c.truth, "spec": c.spec}))
+    specs = list(args.effect or [])
+    effects = [parse_effect(e) for e in specs]
+    with _effect_errors(specs):
+        c = in_worker(
+            simulate,
+            robot,
+            effects,
+            n_poses=args.poses,
+            wrenches_per_pose=args.wrenches_per_pose,
+            seed=args.seed,
+            noise=not args.no_noise,
+            force_max=args.force_max,
+            moment_max=args.moment_max,
+        )
+    csv_out.write_text(c.csv)
+    if truth_out is not None:
+        truth_out.write_text(_json_text({"truth": c.truth, "spec": c.spec}))
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none (torsional springs only)"
     print(f"wrote {args.out}: {len(c.measurements)} rows ({args.poses} poses × {args.wrenches_per_pose} wrenches), "
@@ -219,11 +278,16 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
 def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import simulate as simulate_csjm
 
-    effects = [parse_effect(e) for e in args.effect or []]
-    c = simulate_csjm(effects, seed=args.seed, increments=args.increments, max_increment=args.max_increment)
-    out.file(args.out, c.csv)
-    if args.truth:
-        out.file(args.truth, _json_text({"K": c.true_K, "K_D": c.true_K_D, "R0": c.true_R0, "effects": effects}))
+    csv_out = out.file(args.out)
+    truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
+    specs = list(args.effect or [])
+    effects = [parse_effect(e) for e in specs]
+    with _effect_errors(specs):
+        c = in_worker(simulate_csjm, effects, seed=args.seed, increments=args.increments,
+                      max_increment=args.max_increment)
+    csv_out.write_text(c.csv)
+    if truth_out is not None:
+        truth_out.write_text(_json_text({"K": c.true_K, "K_D": c.true_K_D, "R0": c.true_R0, "effects": effects}))
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none"
     print(f"wrote {args.out}: CSJM campaign, seed {args.seed}, hidden effects: {names}")
@@ -236,9 +300,12 @@ def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
 def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from .vjm import read_measurements
 
+    json_out = out.file(args.json, "--json") if args.json is not None else None
     robot = _robot(args)
-    data = read_measurements(args.data, robot.n_joints)
-    res = robot.identify(
+    with _data_file(args.data):
+        data = in_worker(read_measurements, args.data, robot.n_joints)
+    res = in_worker(
+        robot.identify,
         data.q,
         data.wrench,
         data.displacement,
@@ -248,8 +315,8 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         method=args.method,
     )
     doc = res.to_dict()
-    if args.json:
-        out.file(args.json, _json_text(doc))
+    if json_out is not None:
+        json_out.write_text(_json_text(doc))
     out.commit()
     print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements")
     for label, c, s, ok in zip(res.labels, res.compliance, res.stderr, res.identifiable):
@@ -267,10 +334,12 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
 def cmd_identify_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import identify_csv
 
-    fit = identify_csv(args.data, order=args.order, project=args.project)
+    json_out = out.file(args.json, "--json") if args.json is not None else None
+    with _data_file(args.data):
+        fit = in_worker(identify_csv, args.data, order=args.order, project=args.project)
     doc = fit.to_dict()
-    if args.json:
-        out.file(args.json, _json_text(doc))
+    if json_out is not None:
+        json_out.write_text(_json_text(doc))
     out.commit()
     print(f"K (N·m/rad, platform frame A at R0), order {fit.order}, {fit.n} load increments:")
     for row, err in zip(fit.K, fit.K_stderr):
@@ -281,14 +350,17 @@ def cmd_identify_csjm(args: argparse.Namespace, out: Outputs) -> int:
 # ----------------------------------------------------------------------------- diagnose
 
 
-def _progress_printer(enabled: bool) -> Optional[Callable[[str, int, int], None]]:
-    if not enabled:
-        return None
+def _progress(enabled: bool) -> Callable[[str, int, int], None]:
+    """The progress callback of the core: shows progress on a terminal when ``enabled`` and
+    stops the computation (raises :class:`Cancelled`) once the command was interrupted."""
     start = time.monotonic()
 
     def report(stage: str, done: int, total: int) -> None:
-        sys.stderr.write(f"\r  diagnose: {stage} {done}/{total} ({time.monotonic() - start:.1f} s)\x1b[K")
-        sys.stderr.flush()
+        if cancel.is_set():
+            raise Cancelled("interrupted")
+        if enabled:
+            sys.stderr.write(f"\r  diagnose: {stage} {done}/{total} ({time.monotonic() - start:.1f} s)\x1b[K")
+            sys.stderr.flush()
 
     return report
 
@@ -298,13 +370,14 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
 
     show = sys.stderr.isatty() and not getattr(args, "quiet", False)
     try:
-        return diagnose(
+        return in_worker(
+            diagnose,
             robot,
             data,
             baseline=None if args.baseline is None else _model_spec(args.baseline),
             fdr=args.fdr,
             split_seed=args.split_seed,
-            progress=_progress_printer(show),
+            progress=_progress(show),
         )
     finally:
         if show:
@@ -312,17 +385,26 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             sys.stderr.flush()
 
 
+def _report_dir(out: Outputs, args: argparse.Namespace, files: Sequence[str]) -> Optional[Path]:
+    if args.report is None:
+        return None
+    return out.directory(args.report, force=args.force, flag="--report", expected=files).path
+
+
 def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
-    from .report import render_report, story
+    from .report import REPORT_FILES, render_report, story
     from .vjm import read_measurements
 
+    json_out = out.file(args.json, "--json") if args.json is not None else None
+    report_dir = _report_dir(out, args, REPORT_FILES)
     robot = _robot(args)
-    data = read_measurements(args.data, robot.n_joints)
+    with _data_file(args.data):
+        data = in_worker(read_measurements, args.data, robot.n_joints)
     result = _diagnose(robot, data, args).to_dict()
-    if args.json:
-        out.file(args.json, _json_text(result))
-    if args.report:
-        render_report(result, out.directory(args.report), source=str(args.data))
+    if json_out is not None:
+        json_out.write_text(_json_text(result))
+    if report_dir is not None:
+        render_report(result, report_dir, source=str(args.data))
     out.commit()
     for line in story(result):
         print(line)
@@ -333,13 +415,19 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
 
 def cmd_diagnose_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import diagnose as diagnose_csjm
-    from .report import render_report, story
+    from .report import CSJM_REPORT_FILES, render_report, story
 
-    result = diagnose_csjm(args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project).to_dict()
-    if args.json:
-        out.file(args.json, _json_text(result))
-    if args.report:
-        render_report(result, out.directory(args.report), title="CSJM stiffness diagnosis", source=str(args.data))
+    json_out = out.file(args.json, "--json") if args.json is not None else None
+    report_dir = _report_dir(out, args, CSJM_REPORT_FILES)
+    with _data_file(args.data):
+        diagnosis = in_worker(
+            diagnose_csjm, args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project
+        )
+    result = diagnosis.to_dict()
+    if json_out is not None:
+        json_out.write_text(_json_text(result))
+    if report_dir is not None:
+        render_report(result, report_dir, title="CSJM stiffness diagnosis", source=str(args.data))
     out.commit()
     for line in story(result):
         print(line)
@@ -356,16 +444,17 @@ DEMO_EFFECTS: List[Dict[str, Any]] = [
 
 
 def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
-    from .report import render_report, story
+    from .report import REPORT_FILES, render_report, story
     from .vjm import Robot, seed_study, simulate
 
     t0 = time.monotonic()
-    robot = Robot.bundled()
-    campaign = simulate(robot, DEMO_EFFECTS, n_poses=40, wrenches_per_pose=4, seed=args.seed)
-    result = _diagnose(robot, campaign.measurements, args).to_dict()
-    study = seed_study(robot, seed=args.seed)
     directory = Path(args.out)
-    staged = out.directory(str(directory))
+    files = ["campaign.csv", "truth.json", "diagnosis.json"] + [f"report/{f}" for f in REPORT_FILES]
+    staged = out.directory(directory, force=args.force, flag="--out", expected=files).path
+    robot = Robot.bundled()
+    campaign = in_worker(simulate, robot, DEMO_EFFECTS, n_poses=40, wrenches_per_pose=4, seed=args.seed)
+    result = _diagnose(robot, campaign.measurements, args).to_dict()
+    study = in_worker(seed_study, robot, seed=args.seed)
     (staged / "campaign.csv").write_text(campaign.csv, encoding="utf-8")
     (staged / "truth.json").write_text(_json_text({"truth": campaign.truth, "spec": campaign.spec}), encoding="utf-8")
     (staged / "diagnosis.json").write_text(_json_text(result), encoding="utf-8")
@@ -391,8 +480,18 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
 # ----------------------------------------------------------------------------- parser
 
 
+REPORT_HELP = (
+    "write a Markdown report with PNG plots into DIR (created if missing; an existing non-empty "
+    "folder needs --force)"
+)
+FORCE_HELP = (
+    "write into a non-empty output folder: replace only the files robot-stiffness wrote there "
+    "earlier (listed in its .robot-stiffness-manifest.json); every other file is left alone"
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog=PROG,
         description="Model, identify and diagnose the stiffness of robots: virtual-joint models (VJM) "
         "of serial arms from URDF and cable-driven spherical joints (CSJM).",
@@ -428,11 +527,17 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
     sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")
     _add_robot_args(sv)
     sv.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect in the truth (repeatable)")
-    sv.add_argument("--poses", type=int, default=40, help="number of configurations (default 40)")
-    sv.add_argument("--wrenches-per-pose", type=int, default=4, help="wrenches per configuration (default 4)")
-    sv.add_argument("--force-max", type=float, default=None, help="largest force magnitude, N (default 80)")
-    sv.add_argument("--moment-max", type=float, default=None, help="largest moment magnitude, N·m (default 3)")
-    sv.add_argument("--seed", type=int, default=0, help="random seed; same seed, same file (default 0)")
+    sv.add_argument("--poses", type=T.count(2, T.MAX_POSES), default=40,
+                    help=f"number of configurations, 2..{T.MAX_POSES} (default 40)")
+    sv.add_argument("--wrenches-per-pose", type=T.count(1, T.MAX_WRENCHES_PER_POSE), default=4,
+                    help=f"wrenches per configuration, 1..{T.MAX_WRENCHES_PER_POSE}; poses × wrenches ≤ "
+                    f"{T.MAX_ROWS} (default 4)")
+    sv.add_argument("--force-max", type=T.positive_float(T.MAX_FORCE, "N"), default=None,
+                    help=f"largest force magnitude, N, at most {T.MAX_FORCE:g} (default 80)")
+    sv.add_argument("--moment-max", type=T.positive_float(T.MAX_MOMENT, "N·m"), default=None,
+                    help=f"largest moment magnitude, N·m, at most {T.MAX_MOMENT:g} (default 3)")
+    sv.add_argument("--seed", type=T.seed, default=0,
+                    help="random seed, 0..2**64-1; same seed, same file (default 0)")
     sv.add_argument("--no-noise", action="store_true", help="no instrument noise")
     sv.add_argument("--truth", metavar="TRUTH.json", help="also write the hidden true model as JSON")
     sv.set_defaults(func=cmd_simulate)
@@ -451,9 +556,11 @@ effects (--effect NAME:key=value,...):
     )
     sc.add_argument("out", metavar="OUT.csv", help="measurement file to write")
     sc.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect (repeatable)")
-    sc.add_argument("--increments", type=int, default=None, help="load increments (default 85, as the seed)")
-    sc.add_argument("--max-increment", type=float, default=None, help="largest load increment, N·m (default 1)")
-    sc.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    sc.add_argument("--increments", type=T.count(3, T.MAX_INCREMENTS), default=None,
+                    help=f"load increments, 3..{T.MAX_INCREMENTS} (default 85, as the seed)")
+    sc.add_argument("--max-increment", type=T.positive_float(T.MAX_CSJM_INCREMENT, "N·m"), default=None,
+                    help=f"largest load increment, N·m, at most {T.MAX_CSJM_INCREMENT:g} (default 1)")
+    sc.add_argument("--seed", type=T.seed, default=0, help="random seed, 0..2**64-1 (default 0)")
     sc.add_argument("--truth", metavar="TRUTH.json", help="also write the true stiffness as JSON")
     sc.set_defaults(func=cmd_simulate_csjm)
 
@@ -506,11 +613,13 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("data", metavar="DATA.csv", help="VJM measurement file")
     _add_robot_args(dv)
     dv.add_argument("--baseline", default=None, help="baseline model (default traditional)")
-    dv.add_argument("--fdr", type=float, default=None, help="false discovery rate (default 0.01)")
-    dv.add_argument("--split-seed", type=int, default=None,
+    dv.add_argument("--fdr", type=T.probability, default=None,
+                    help="false discovery rate, between 0 and 1 (default 0.01)")
+    dv.add_argument("--split-seed", type=T.seed, default=None,
                     help="seed of the held-out poses when the file has no set column (default 0)")
     dv.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON")
-    dv.add_argument("--report", metavar="DIR", help="write a Markdown report with PNG plots into DIR")
+    dv.add_argument("--report", metavar="DIR", help=REPORT_HELP)
+    dv.add_argument("--force", action="store_true", help=FORCE_HELP)
     dv.add_argument("--quiet", action="store_true", help="no progress display")
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
@@ -521,11 +630,13 @@ effects (--effect NAME:key=value,...):
         "the model and measure the gain on held-out rows.",
     )
     dc.add_argument("data", metavar="DATA.csv", help="CSJM measurement file")
-    dc.add_argument("--fdr", type=float, default=None, help="false discovery rate (default 0.05)")
-    dc.add_argument("--split-seed", type=int, default=None, help="seed of the held-out rows")
+    dc.add_argument("--fdr", type=T.probability, default=None,
+                    help="false discovery rate, between 0 and 1 (default 0.05)")
+    dc.add_argument("--split-seed", type=T.seed, default=None, help="seed of the held-out rows")
     dc.add_argument("--project", action="store_true", help="project orientation matrices onto SO(3)")
     dc.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON")
-    dc.add_argument("--report", metavar="DIR", help="write a Markdown report with PNG plots into DIR")
+    dc.add_argument("--report", metavar="DIR", help=REPORT_HELP)
+    dc.add_argument("--force", action="store_true", help=FORCE_HELP)
     dc.set_defaults(func=cmd_diagnose_csjm)
 
     # demo
@@ -536,39 +647,108 @@ effects (--effect NAME:key=value,...):
         "it, write a report, and print the story.",
     )
     demo.add_argument("--out", default="robot-stiffness-demo", metavar="DIR",
-                      help="output directory (default ./robot-stiffness-demo)")
-    demo.add_argument("--seed", type=int, default=1, help="campaign seed (default 1)")
+                      help="output folder (default ./robot-stiffness-demo); created if missing, an "
+                      "existing non-empty folder needs --force")
+    demo.add_argument("--force", action="store_true", help=FORCE_HELP)
+    demo.add_argument("--seed", type=T.seed, default=1, help="campaign seed (default 1)")
     demo.add_argument("--quiet", action="store_true", help="no progress display")
     demo.set_defaults(func=cmd_demo, baseline=None, fdr=None, split_seed=None)
     return p
 
 
-def _one_line(e: BaseException) -> str:
+def _user_path(name: str, out: Outputs) -> str:
+    """A path in an OS error with any temporary prefix replaced by the user's own output path."""
+    for tmp, final in out.staged():
+        if name == str(tmp) or name.startswith(str(tmp) + os.sep):
+            return str(final) + name[len(str(tmp)):]
+    return name
+
+
+def _one_line(e: BaseException, out: Outputs) -> str:
     text = " ".join(str(e).split())
     if isinstance(e, StiffnessError):
         return text or type(e).__name__
-    if isinstance(e, FileNotFoundError) and e.filename:
-        return f"file not found: {e.filename}"
+    if isinstance(e, OSError) and e.filename:
+        reason = "file not found" if isinstance(e, FileNotFoundError) else (e.strerror or type(e).__name__).lower()
+        return f"{reason}: {_user_path(str(e.filename), out)}"
     return text or type(e).__name__
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    """Entry point of the ``robot-stiffness`` console script; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    out = Outputs()
+def _quiet_broken_pipe() -> None:
+    """stdout's reader went away (``| head``): point stdout at /dev/null so that the final
+    flush at exit does not complain (the recipe of the Python docs, signal/SIGPIPE note)."""
     try:
-        return int(args.func(args, out))
-    except (StiffnessError, CliError, OSError, ValueError) as e:
-        out.discard()
-        print(f"{PROG}: error: {_one_line(e)}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        out.discard()
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
-    finally:
-        out.discard()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
+
+
+def _outcome(e: BaseException, out: Outputs) -> Tuple[int, Optional[str]]:
+    """Exit status and stderr line for an exception that ended a command."""
+    if isinstance(e, BrokenPipeError):
+        _quiet_broken_pipe()
+        return 0, None
+    written = "the outputs were already written" if out.committed else "no output was written"
+    if isinstance(e, KeyboardInterrupt):
+        return 130, f"{PROG}: interrupted; {written}"
+    if isinstance(e, Terminated):
+        return 143, f"{PROG}: terminated; {written}"
+    if isinstance(e, (StiffnessError, CliError, Cancelled, OSError)):
+        return 1, f"{PROG}: error: {_one_line(e, out)}"
+    # A bug: one line, the traceback only on request.
+    if os.environ.get("ROBOT_STIFFNESS_DEBUG"):
+        traceback.print_exception(type(e), e, e.__traceback__)
+    return 1, (
+        f"{PROG}: internal error ({type(e).__name__}: {_one_line(e, out)}); please report it with the "
+        "command line and inputs (ROBOT_STIFFNESS_DEBUG=1 shows the traceback)"
+    )
+
+
+def _run(args: argparse.Namespace) -> int:
+    cancel.clear()
+    out = Outputs(inputs=[getattr(args, "data", None), getattr(args, "urdf", None)])
+    with signals_raise():
+        try:
+            return int(args.func(args, out))
+        except (Exception, KeyboardInterrupt, Terminated) as e:
+            with signals_deferred():
+                code, line = _outcome(e, out)
+                out.discard()
+            if line is not None:
+                print(line, file=sys.stderr)
+            return code
+        finally:
+            with signals_deferred():
+                out.discard()
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of the ``robot-stiffness`` console script; returns the exit status.
+
+    Exit status: 0 success, 1 a bad input or an error (one line on stderr), 2 a bad flag,
+    130 Ctrl-C, 143 SIGTERM. Every temporary file is removed in all of these cases.
+    """
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except BrokenPipeError:  # `robot-stiffness --help | head -1`
+        _quiet_broken_pipe()
+        return 0
+    try:
+        code = _run(args)
+    except KeyboardInterrupt:  # a second Ctrl-C while the first one was being handled
+        code = 130
+    except Terminated:
+        code = 143
+    if worker_running() or code in (130, 143):
+        # Interrupted while the core may still be computing in the worker thread: nothing will
+        # use its result, and the interpreter cannot finalize safely around a thread that is
+        # inside native code and calls back into Python (the progress callback).
+        flush_std_streams()
+        os._exit(code)
+    return code
 
 
 if __name__ == "__main__":

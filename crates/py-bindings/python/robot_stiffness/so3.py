@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import checked
 from ._arrays import f64
 
 __all__ = [
@@ -45,6 +46,7 @@ DEFAULT_TOL = 1e-9
 Array = npt.NDArray[np.float64]
 
 
+@checked
 def hat(w: Any) -> Array:
     """Skew-symmetric matrix of ``w`` (rad or any unit): ``hat(w) @ v == w × v``.
 
@@ -53,6 +55,7 @@ def hat(w: Any) -> Array:
     return _core.so3_hat(f64(w, "w"))
 
 
+@checked
 def vee(m: Any) -> Array:
     """Inverse of :func:`hat`, applied to the skew part ``(m − mᵀ)/2``.
 
@@ -61,6 +64,7 @@ def vee(m: Any) -> Array:
     return _core.so3_vee(f64(m, "m"))
 
 
+@checked
 def exp(w: Any) -> Array:
     """Exponential map (Rodrigues): the rotation by ‖w‖ rad about ``w/‖w‖``.
 
@@ -71,6 +75,7 @@ def exp(w: Any) -> Array:
     return _core.so3_exp(f64(w, "w"))
 
 
+@checked
 def log(R: Any, tol: float = DEFAULT_TOL) -> Array:
     """Logarithm map: the rotation vector ω (rad) with ``exp(ω) == R`` and ‖ω‖ ∈ [0, π].
 
@@ -81,6 +86,7 @@ def log(R: Any, tol: float = DEFAULT_TOL) -> Array:
     return _core.so3_log(f64(R, "R"), float(tol))
 
 
+@checked
 def adjoint(R: Any, tol: float = DEFAULT_TOL) -> Array:
     """Adjoint of SO(3), which is ``R`` itself: ``R @ hat(w) @ R.T == hat(R @ w)``.
 
@@ -90,6 +96,7 @@ def adjoint(R: Any, tol: float = DEFAULT_TOL) -> Array:
     return _core.so3_adjoint(f64(R, "R"), float(tol))
 
 
+@checked
 def left_jacobian(w: Any) -> Array:
     """Left Jacobian J_l(w): ``exp(w + d) ≈ exp(J_l(w) @ d) @ exp(w)`` (w, d in rad).
 
@@ -98,6 +105,7 @@ def left_jacobian(w: Any) -> Array:
     return _core.so3_left_jacobian(f64(w, "w"))
 
 
+@checked
 def right_jacobian(w: Any) -> Array:
     """Right Jacobian J_r(w): ``exp(w + d) ≈ exp(w) @ exp(J_r(w) @ d)`` (w, d in rad).
 
@@ -106,6 +114,7 @@ def right_jacobian(w: Any) -> Array:
     return _core.so3_right_jacobian(f64(w, "w"))
 
 
+@checked
 def left_jacobian_inverse(w: Any) -> Array:
     """Inverse of :func:`left_jacobian`, closed form; singular at ‖w‖ = 2πk, k ≥ 1 (rad).
 
@@ -114,6 +123,7 @@ def left_jacobian_inverse(w: Any) -> Array:
     return _core.so3_left_jacobian_inverse(f64(w, "w"))
 
 
+@checked
 def right_jacobian_inverse(w: Any) -> Array:
     """Inverse of :func:`right_jacobian`, closed form; singular at ‖w‖ = 2πk, k ≥ 1 (rad).
 
@@ -122,6 +132,7 @@ def right_jacobian_inverse(w: Any) -> Array:
     return _core.so3_right_jacobian_inverse(f64(w, "w"))
 
 
+@checked
 def distance(a: Any, b: Any, tol: float = DEFAULT_TOL) -> Union[float, Array]:
     """Geodesic distance ``‖log(aᵀ b)‖`` in rad, in [0, π] (bi-invariant metric).
 
@@ -132,6 +143,7 @@ def distance(a: Any, b: Any, tol: float = DEFAULT_TOL) -> Union[float, Array]:
     return float(out) if out.ndim == 0 else out
 
 
+@checked
 def project_to_rotation(m: Any) -> Array:
     """The rotation nearest to ``m`` in the Frobenius norm (orthogonal polar factor, by SVD).
 
@@ -142,6 +154,7 @@ def project_to_rotation(m: Any) -> Array:
     return _core.so3_project_to_rotation(f64(m, "m"))
 
 
+@checked
 def orthogonality_error(m: Any) -> Union[float, Array]:
     """``‖mᵀ m − I‖_F`` (dimensionless) of a (3, 3) matrix or of each of (N, 3, 3) matrices."""
     out = _core.so3_orthogonality_error(f64(m, "m"))

@@ -27,6 +27,7 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -36,8 +37,9 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._arguments import checked
 from ._arrays import f64
-from ._errors import ShapeError
+from ._errors import ArgumentTypeError, ShapeError
 from ._vjm_data import (
     Campaign,
     Diagnosis,
@@ -51,6 +53,7 @@ from ._tables import (
     DISPLACEMENT,
     ROTATION,
     WRENCH,
+    blame_rows,
     columns,
     is_table,
     joint_columns,
@@ -75,10 +78,22 @@ __all__ = [
 ModelSpec = Union[str, Sequence[str]]
 
 Array = npt.NDArray[np.float64]
+PathLike = Union[str, "os.PathLike[str]"]
 
 
 def _model(model: ModelSpec) -> Union[str, List[str]]:
-    return model if isinstance(model, str) else [str(s) for s in model]
+    if isinstance(model, str):
+        return model
+    try:
+        labels = list(model)
+    except TypeError:
+        labels = None
+    if labels is not None and all(isinstance(s, str) for s in labels):
+        return [str(s) for s in labels]
+    raise ArgumentTypeError(
+        f"model must be 'traditional', 'extended' or a list of spring labels like ['J1z', 'J2x'], "
+        f"got {type(model).__name__} {repr(model)[:40]}"
+    )
 
 
 def _nan(values: Sequence[Optional[float]]) -> Array:
@@ -210,26 +225,29 @@ class Robot:
     def __init__(self, inner: Any) -> None:
         """Wraps a ``robot_stiffness._core.Robot``; use the class methods instead."""
         if not isinstance(inner, _core.Robot):
-            raise TypeError("use Robot.bundled(), Robot.from_urdf() or Robot.from_urdf_string()")
+            raise ArgumentTypeError("use Robot.bundled(), Robot.from_urdf() or Robot.from_urdf_string()")
         self._inner = inner
 
     @classmethod
+    @checked
     def bundled(cls, tip: Optional[str] = None) -> "Robot":
         """The bundled 7-DoF Franka Emika Panda arm, base ``panda_link0``, tip the flange
         ``panda_link8`` unless another link of the bundled URDF (e.g. ``panda_hand_tcp``) is named."""
         return cls(_core.Robot.bundled(tip))
 
     @classmethod
-    def from_urdf(cls, path: Union[str, "os.PathLike[str]"], base: str, tip: str) -> "Robot":
+    @checked
+    def from_urdf(cls, path: PathLike, base: str, tip: str) -> "Robot":
         """The chain ``base`` → ``tip`` of the URDF file at ``path``.
 
         Raises :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``) if the file
         does not exist and :class:`~robot_stiffness.RobotModelError` naming the link or joint
         when the chain cannot be built (unknown link, base not an ancestor of tip, mimic joint…).
         """
-        return cls(_core.Robot.from_urdf(os.fspath(path), base, tip))
+        return cls(_core.Robot.from_urdf(path, base, tip))
 
     @classmethod
+    @checked
     def from_urdf_string(cls, xml: str, base: str, tip: str) -> "Robot":
         """The chain ``base`` → ``tip`` of a URDF document given as text."""
         return cls(_core.Robot.from_urdf_string(xml, base, tip))
@@ -259,6 +277,7 @@ class Robot:
         """Name of the tip link; the tip point is its origin."""
         return str(self._inner.tip_link)
 
+    @checked
     def labels(self, model: ModelSpec = "extended") -> List[str]:
         """Parameter labels of ``model`` in parameter order, e.g. ``["J1z", "J1x", "J1y", ...]``."""
         return list(self._inner.model_labels(_model(model)))
@@ -269,6 +288,7 @@ class Robot:
             return arr.reshape(1, -1), True
         return arr, False
 
+    @checked
     def forward_kinematics(self, q: Any) -> Array:
         """Tip poses: homogeneous transforms of the tip frame in the base frame (m).
 
@@ -278,6 +298,7 @@ class Robot:
         out = self._inner.forward_kinematics(arr)
         return out[0] if single else out
 
+    @checked
     def jacobian(self, q: Any, model: ModelSpec = "extended") -> Array:
         """Virtual-joint Jacobians at the tip point, base frame, rows ``[linear; angular]``.
 
@@ -288,6 +309,7 @@ class Robot:
         out = self._inner.jacobian(arr, _model(model))
         return out[0] if single else out
 
+    @checked
     def identify(
         self,
         q: Any,
@@ -323,7 +345,8 @@ class Robot:
         naming the array and dimension, :class:`~robot_stiffness.InvalidValueError` for NaN,
         :class:`~robot_stiffness.IdentificationError` for too few measurements.
         """
-        if is_table(q) and wrench is None and displacement is None:
+        from_table = is_table(q) and wrench is None and displacement is None
+        if from_table:
             table = q
             q = columns(table, joint_columns(self.n_joints), "joint angles")
             wrench = columns(table, WRENCH, "the wrench")
@@ -336,7 +359,15 @@ class Robot:
                 "measurement columns as its first argument"
             )
         q_arr = f64(q, "q")
-        text = self._inner.identify(
+        # A table's cells are named by column and row; arrays keep the core's array/row/column.
+        with blame_rows() if from_table else contextlib.nullcontext():
+            text = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
+                                  noise_scale_known, nonnegative, dense, method)
+        return Identification._from_json(text)
+
+    def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
+                  noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str) -> str:
+        return str(self._inner.identify(
             q_arr,
             f64(wrench, "wrench"),
             f64(displacement, "displacement"),
@@ -347,9 +378,9 @@ class Robot:
             nonnegative=bool(nonnegative),
             dense=bool(dense),
             method=str(method),
-        )
-        return Identification._from_json(text)
+        ))
 
+    @checked
     def predict_deflection(
         self,
         compliance: Any,

@@ -1,3 +1,4 @@
 //! Integration tests of `stiffness-core`.
 
 mod cancel;
+mod decompose;

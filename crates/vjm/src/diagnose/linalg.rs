@@ -175,7 +175,16 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
             0.0
         }
     });
-    let svd = x.svd(true, true);
+    let Ok(svd) = stiffness_core::decompose::svd(x, true, true, "SVD of the candidate columns")
+    else {
+        // Only non-finite columns fail to converge (the data are finite-checked on entry):
+        // nothing is identifiable from them.
+        return ColumnSolution {
+            beta: vec![0.0; p],
+            rank: 0,
+            in_data,
+        };
+    };
     let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
     let tol = RANK_TOL * smax.max(f64::MIN_POSITIVE);
     let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();

@@ -199,7 +199,13 @@ pub fn inverse_condition(chain: &SerialChain, q: &[f64]) -> f64 {
             0.5 * v
         }
     });
-    let s = j.singular_values();
+    // A pose whose Jacobian cannot be decomposed (non-finite) is unusable: condition 0, so the
+    // sampler rejects it and ends with `NoPose` after its attempt cap.
+    let Ok(svd) = stiffness_core::decompose::svd(j, false, false, "SVD of the pose Jacobian")
+    else {
+        return 0.0;
+    };
+    let s = svd.singular_values;
     let smax = s.iter().cloned().fold(0.0, f64::max);
     let smin = s.iter().cloned().fold(f64::INFINITY, f64::min);
     if smax > 0.0 {

@@ -3,12 +3,15 @@
 mod strategies;
 
 mod bad_input;
+mod compensation;
 mod design;
 mod identification;
 mod kinematics;
 mod lsq;
 mod pinocchio;
 mod prediction;
+mod robustness;
+mod stiffness_model;
 mod urdf;
 
 mod dataset;

@@ -21,8 +21,8 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::error::So3Error;
 use crate::fast_math;
+use crate::so3_error::So3Error;
 
 /// Below this angle the Jacobian coefficients use their Taylor series: the closed forms
 /// subtract nearly equal numbers (θ − sin θ, 1/θ² − cot(θ/2)/(2θ)) and lose digits.

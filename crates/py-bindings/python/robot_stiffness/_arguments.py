@@ -1,0 +1,192 @@
+"""Scalar and path arguments of the public functions: one decorator, :func:`checked`.
+
+It checks every parameter annotated ``int``, ``float``, ``bool``, ``str`` or ``PathLike``
+(optionally ``Optional[...]``) before the call, so that the Rust core never sees a value that
+pyo3 would reject with a bare ``TypeError``/``OverflowError``, and turns whatever built-in
+``TypeError``/``ValueError``/``OverflowError`` still escapes into the package's classes, with
+the function named. The rules:
+
+* ``int``: an integer (Python, numpy) or an integral float (``40.0``), never ``bool``; ≥ 0 and
+  < 2**64 (every integer parameter of the package is a count, an index or a seed);
+* ``float``: a finite real number (not ``bool``, not complex, not a string);
+* ``bool``: ``True``/``False`` (numpy booleans and the integers 0/1 too);
+* ``str``: a string;
+* ``PathLike``: a ``str`` or ``os.PathLike`` that does not look like file *contents* (CSV or
+  XML text passed where a path is expected is refused, quoting at most 40 characters);
+* ``Robot``: a :class:`robot_stiffness.vjm.Robot`.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import numbers
+import os
+from typing import Any, Callable, Dict, List, Optional, Tuple, TypeVar, cast
+
+import numpy as np
+
+from ._errors import ArgumentTypeError, InvalidValueError, StiffnessError
+
+__all__ = ["checked", "check_path", "integer", "real", "flag", "quote"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_U64 = 2**64
+
+
+def quote(value: Any, limit: int = 40) -> str:
+    """``repr`` of ``value`` cut to ``limit`` characters (with the full length when cut)."""
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    size = f", {len(value)} characters" if isinstance(value, (str, bytes)) else ""
+    return f"{text[:limit]}…{size}"
+
+
+def _type_name(value: Any) -> str:
+    return type(value).__name__
+
+
+def integer(value: Any, name: str) -> int:
+    """``value`` as a non-negative integer < 2**64 (see the module docstring)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ArgumentTypeError(f"{name} must be an integer, got a bool ({value})")
+    if isinstance(value, numbers.Integral):
+        out = int(value)
+    elif isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral):
+        f = float(value)
+        if not math.isfinite(f) or not f.is_integer():
+            raise InvalidValueError(f"{name} must be an integer, got {quote(value)}")
+        out = int(f)
+    else:
+        raise ArgumentTypeError(f"{name} must be an integer, got {_type_name(value)} {quote(value)}")
+    if out < 0:
+        raise InvalidValueError(f"{name} must be ≥ 0, got {out}")
+    if out >= _U64:
+        raise InvalidValueError(f"{name} is too large ({out}; at most 2**64 - 1)")
+    return out
+
+
+def real(value: Any, name: str) -> float:
+    """``value`` as a finite float."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ArgumentTypeError(f"{name} must be a real number, got {_type_name(value)} {quote(value)}")
+    f = float(value)
+    if not math.isfinite(f):
+        raise InvalidValueError(f"{name} must be finite, got {f}")
+    return f
+
+
+def flag(value: Any, name: str) -> bool:
+    """``value`` as a bool (bool, numpy bool, 0 or 1)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, numbers.Integral) and int(value) in (0, 1):
+        return bool(value)
+    raise ArgumentTypeError(f"{name} must be True or False, got {_type_name(value)} {quote(value)}")
+
+
+def check_path(value: Any, name: str) -> str:
+    """``value`` as a path string; refuses file contents passed where a path is expected."""
+    if isinstance(value, bytes):
+        raise ArgumentTypeError(f"{name} must be a path (str or os.PathLike), got bytes {quote(value)}")
+    if not isinstance(value, (str, os.PathLike)):
+        raise ArgumentTypeError(f"{name} must be a path (str or os.PathLike), got {_type_name(value)} {quote(value)}")
+    path = os.fspath(value)
+    if not isinstance(path, str):
+        raise ArgumentTypeError(f"{name} must be a text path, got {_type_name(path)} {quote(path)}")
+    if "\n" in path or "\r" in path or "\x00" in path:
+        what = "XML text" if path.lstrip().startswith("<") else "CSV text" if "," in path else "text"
+        raise InvalidValueError(
+            f"{name} looks like {what} rather than a file path ({quote(path)}); pass the name of a file"
+            + (" (or use Robot.from_urdf_string for URDF text)" if what == "XML text" else "")
+        )
+    return path
+
+
+def _check_str(value: Any, name: str) -> str:
+    if not isinstance(value, str):
+        raise ArgumentTypeError(f"{name} must be a string, got {_type_name(value)} {quote(value)}")
+    return value
+
+
+def _robot(value: Any, name: str) -> Any:
+    from .vjm import Robot
+
+    if not isinstance(value, Robot):
+        raise ArgumentTypeError(
+            f"{name} must be a robot_stiffness.vjm.Robot (Robot.bundled(), Robot.from_urdf(...)), "
+            f"got {_type_name(value)} {quote(value)}"
+        )
+    return value
+
+
+_CHECKS: Dict[str, Callable[[Any, str], Any]] = {
+    "int": integer,
+    "float": real,
+    "bool": flag,
+    "str": _check_str,
+    "PathLike": check_path,
+    "Robot": _robot,
+}
+
+
+def _rule(annotation: Any) -> Tuple[Optional[Callable[[Any, str], Any]], bool]:
+    """(check, optional) for an annotation string such as ``"Optional[int]"``."""
+    if not isinstance(annotation, str):
+        return None, False
+    text = annotation.replace(" ", "")
+    optional = False
+    if text.startswith("Optional[") and text.endswith("]"):
+        text, optional = text[len("Optional["):-1], True
+    return _CHECKS.get(text), optional
+
+
+def checked(fn: F) -> F:
+    """Decorator: check the annotated scalar/path arguments of ``fn`` and turn built-in
+    argument errors into :class:`StiffnessError` subclasses naming the function.
+
+    Only the arguments actually passed are checked (defaults are the package's own); this
+    costs a few µs per call, no ``inspect.Signature.bind``."""
+    sig = inspect.signature(fn)
+    positional: List[Optional[Tuple[str, Callable[[Any, str], Any], bool]]] = []
+    by_name: Dict[str, Tuple[str, Callable[[Any, str], Any], bool]] = {}
+    for pname, param in sig.parameters.items():
+        check, optional = _rule(param.annotation)
+        rule = None if check is None else (pname, check, optional)
+        if param.kind in (param.POSITIONAL_ONLY, param.POSITIONAL_OR_KEYWORD):
+            positional.append(rule)
+        if rule is not None and param.kind != param.POSITIONAL_ONLY:
+            by_name[pname] = rule
+    where = f"{fn.__qualname__}()"
+
+    def apply(rule: Tuple[str, Callable[[Any, str], Any], bool], value: Any) -> Any:
+        pname, check, optional = rule
+        if value is None and optional:
+            return None
+        try:
+            return check(value, pname)
+        except StiffnessError as e:
+            raise type(e)(f"{where}: {e}") from None
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if any(positional[: len(args)]):
+            args = tuple(
+                apply(rule, a) if rule is not None else a
+                for rule, a in zip(positional, args)
+            ) + args[len(positional):]
+        for key in kwargs.keys() & by_name.keys():
+            kwargs[key] = apply(by_name[key], kwargs[key])
+        try:
+            return fn(*args, **kwargs)
+        except StiffnessError:
+            raise
+        except TypeError as e:
+            raise ArgumentTypeError(f"{where}: {e}") from None
+        except (ValueError, OverflowError) as e:
+            raise InvalidValueError(f"{where}: {e}") from None
+
+    return cast(F, wrapper)

@@ -1,0 +1,555 @@
+//! The stiffness model file: what an identification learnt about a robot, saved so that it can
+//! be used later (predict here, compensate and plan elsewhere) with the robot it describes.
+//!
+//! A [`StiffnessModel`] holds the robot it was identified on (URDF path and content hash, base,
+//! tip, joints), the spring model, the identifiable combinations with their values, the
+//! parameter vector used for prediction with its covariance, the null space (the directions
+//! the data could not see), the noise model and where the data came from. It is built from an
+//! [`Identification`] with [`StiffnessModel::from_identification`], written with
+//! [`save`](StiffnessModel::save) and read with [`load`](StiffnessModel::load), which refuses a
+//! file for another robot and a file edited after it was saved. The schema is documented field
+//! by field in `docs/model-file.md`.
+//!
+//! Predictions ([`StiffnessModel::predict`]) use only what the data identified: the parameter
+//! vector is the minimum-norm solution in the column-scaled coordinates of the design (see
+//! [`EstimateRecord`]), so for any pose and load whose regressor lies in the row space of the
+//! identification's design the prediction is the same whatever the aliased springs really
+//! are. A row that excites a direction outside that space is flagged, not silently predicted.
+
+mod error;
+mod file;
+mod predict;
+mod robust;
+
+use serde::{Deserialize, Serialize};
+
+pub use error::ModelError;
+pub use file::MODEL_SCHEMA;
+pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
+pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
+
+use crate::chain::SerialChain;
+use crate::hashing::{kinematics_sha256, sha256_hex};
+use crate::identify::{Identification, IdentifyOptions};
+use crate::model::{Spring, VirtualJointModel};
+
+/// The robot a model was identified on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct RobotRecord {
+    /// The URDF path as given when the chain was loaded (`bundled:panda_arm.urdf` for the
+    /// bundled arm); informative only: a moved file with the same content still matches.
+    pub urdf: Option<String>,
+    /// SHA-256 of the URDF text (hex); `None` when the chain was not read from URDF text.
+    pub urdf_sha256: Option<String>,
+    /// Base link.
+    pub base: String,
+    /// Tip link; the tip point is its origin.
+    pub tip: String,
+    /// Actuated joints, base → tip.
+    pub joint_names: Vec<String>,
+    /// Number of actuated joints n.
+    pub n_joints: usize,
+    /// SHA-256 of the chain's kinematic parameters (see `docs/model-file.md`).
+    pub kinematics_sha256: String,
+}
+
+/// The virtual springs (the parameters), in parameter order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct SpringRecord {
+    /// `traditional`, `extended` or `custom`.
+    pub model: String,
+    /// Spring labels `J<joint><axis>`, 1-based joints, e.g. `J2x`.
+    pub labels: Vec<String>,
+    /// Per joint: centre of its springs in the joint's child frame, m.
+    pub offsets: Vec<[f64; 3]>,
+}
+
+/// One term of an identifiable combination.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct TermRecord {
+    /// Spring label.
+    pub spring: String,
+    /// Coefficient (dimensionless).
+    pub coefficient: f64,
+}
+
+/// An identifiable combination of compliances (a base parameter) and its estimate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct CombinationRecord {
+    /// Human-readable form, e.g. `J1y + 1.000000*J2z`.
+    pub label: String,
+    /// Terms; the first is the independent spring with coefficient 1.
+    pub terms: Vec<TermRecord>,
+    /// Estimate, rad/(N·m).
+    pub value: f64,
+    /// Standard error, rad/(N·m); `None` when no noise scale was available.
+    pub stderr: Option<f64>,
+}
+
+/// What the identification found (for reading; predictions use [`EstimateRecord`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct IdentificationRecord {
+    /// Number of parameters m.
+    pub n_params: usize,
+    /// Numerical rank r: the number of identifiable combinations.
+    pub rank: usize,
+    /// Scalar equations used (3 or 6 per measurement).
+    pub n_equations: usize,
+    /// Reduction used: `normal_equations` or `qr`.
+    pub method: String,
+    /// The r identifiable combinations.
+    pub combinations: Vec<CombinationRecord>,
+    /// Groups of springs that alias each other.
+    pub aliases: Vec<Vec<String>>,
+    /// Singular values of the column-scaled, whitened design, descending.
+    pub singular_values: Vec<f64>,
+    /// σ₁/σ_r of the column-scaled design; `None` when the rank is 0.
+    pub condition_number: Option<f64>,
+    /// RMS of the whitened residuals (≈ 1 when the noise model is right).
+    pub residual_rms: f64,
+}
+
+/// The parameter vector used for prediction and what is known about it.
+///
+/// `compliance` is the minimum-norm least-squares solution in the column-scaled coordinates
+/// y = S·x (S = diag(`column_scale`)): of all compliance vectors that fit the data equally
+/// well (they differ by null-space vectors) it is the one with y orthogonal to the null space.
+/// Its entries for aliased springs are therefore not estimates of those springs, but any
+/// prediction aᵀx with a in the row space of the design is: it equals aᵀx_true up to the
+/// noise, whichever member of the family is stored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct EstimateRecord {
+    /// Parameter vector x (m values, rad/(N·m)).
+    pub compliance: Vec<f64>,
+    /// Covariance of x, m×m rows, (rad/(N·m))²: σ²·S⁻¹(A_sᵀA_s)⁺S⁻¹, meaningful on the row
+    /// space only; `None` when no noise scale was available (no degrees of freedom).
+    pub covariance: Option<Vec<Vec<f64>>>,
+    /// How `covariance` was obtained: `model` — σ²(AᵀA)⁺ of the identification, which assumes
+    /// independent noise of the assumed relative sizes on every equation; `robust` — the
+    /// cluster-robust sandwich over measurements (see
+    /// [`StiffnessModel::with_robust_covariance`]), valid for any noise correlation within a
+    /// measurement (the force sensor's error makes it so).
+    pub covariance_method: String,
+    /// Column norms S of the whitened design (‖A e_k‖), the metric of the rank decisions.
+    pub column_scale: Vec<f64>,
+    /// Null-space basis in parameter units, m − r vectors of m values: N = S⁻¹V₀ with V₀
+    /// orthonormal. Directions of x the data could not see.
+    pub null_space: Vec<Vec<f64>>,
+    /// A prediction row a is identified when ‖aᵀN‖ ≤ `identified_tol`·‖S⁻¹a‖ (the sine of the
+    /// angle between the scaled row and the identified row space).
+    pub identified_tol: f64,
+}
+
+/// The noise model of the identification and the options that shaped it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct NoiseRecord {
+    /// Assumed per-axis standard deviations `[dx, dy, dz, rx, ry, rz]` (m, rad) used to
+    /// whiten the rows.
+    pub noise_sigma: [f64; 6],
+    /// `true`: `noise_sigma` were the true standard deviations (σ² = 1).
+    pub noise_scale_known: bool,
+    /// σ² of the whitened residuals used for the covariance: the variance of a new
+    /// measurement's axis k is σ²·noise_sigma[k]² under this model. `None` when unknown.
+    pub sigma2: Option<f64>,
+    /// Degrees of freedom, equations − rank.
+    pub dof: usize,
+    /// Whether measured rotations were used (6 rows per measurement); without them the
+    /// model does not predict rotations.
+    pub use_rotations: bool,
+    /// Whether compliances were constrained to be ≥ 0 (then `compliance` is the NNLS
+    /// solution and the covariance is the unconstrained one).
+    pub nonnegative: bool,
+}
+
+/// Where the identification data came from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct DataSource {
+    /// Number of measurement rows used.
+    pub rows: usize,
+    /// The measurement file as given, when the data came from a file.
+    pub file: Option<String>,
+    /// SHA-256 of that file's bytes.
+    pub sha256: Option<String>,
+}
+
+impl DataSource {
+    /// Data given in memory (no file).
+    pub fn in_memory(rows: usize) -> Self {
+        DataSource {
+            rows,
+            file: None,
+            sha256: None,
+        }
+    }
+
+    /// Data read from `path` (`rows` rows used); the file is hashed now.
+    pub fn file(path: impl AsRef<std::path::Path>, rows: usize) -> Result<Self, ModelError> {
+        let path = path.as_ref();
+        let bytes = std::fs::read(path).map_err(|source| ModelError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Ok(DataSource {
+            rows,
+            file: Some(path.display().to_string()),
+            sha256: Some(sha256_hex(&bytes)),
+        })
+    }
+}
+
+/// A saved stiffness model: see the [module documentation](self).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StiffnessModel {
+    robot: RobotRecord,
+    springs: SpringRecord,
+    identification: IdentificationRecord,
+    estimate: EstimateRecord,
+    noise: NoiseRecord,
+    data: DataSource,
+    /// The program that wrote the file, e.g. `robot-stiffness 0.1.0`.
+    created_by: String,
+}
+
+impl StiffnessModel {
+    /// The model of identification `id`, obtained with `identify(chain, model, …, opts)` from
+    /// the data described by `data`.
+    pub fn from_identification(
+        id: &Identification,
+        chain: &SerialChain,
+        model: &VirtualJointModel,
+        opts: &IdentifyOptions,
+        data: DataSource,
+    ) -> Result<Self, ModelError> {
+        model.check_chain(chain)?;
+        let sol = &id.solution;
+        let m = model.n_params();
+        if id.n_params != m || sol.solution.len() != m || sol.column_scale.len() != m {
+            return Err(ModelError::Mismatch {
+                message: format!(
+                    "the identification has {} parameters but the spring model `{}` has {m}",
+                    id.n_params,
+                    model.name()
+                ),
+            });
+        }
+        if sol.covariance.len() != m * m || sol.null_space.len() != m - sol.rank {
+            return Err(ModelError::Mismatch {
+                message: "the identification carries no covariance or null space".into(),
+            });
+        }
+        let labels = model.labels();
+        let robot = robot_record(chain);
+        let springs = SpringRecord {
+            model: model.name().to_string(),
+            labels: labels.clone(),
+            offsets: model.offsets().iter().map(|o| [o.x, o.y, o.z]).collect(),
+        };
+        let combinations = id
+            .combinations
+            .iter()
+            .map(|c| CombinationRecord {
+                label: c.label.clone(),
+                terms: c
+                    .terms
+                    .iter()
+                    .map(|t| TermRecord {
+                        spring: labels[t.param].clone(),
+                        coefficient: t.coefficient,
+                    })
+                    .collect(),
+                value: c.value,
+                stderr: c.stderr,
+            })
+            .collect();
+        let identification = IdentificationRecord {
+            n_params: m,
+            rank: id.rank,
+            n_equations: id.n_equations,
+            method: match id.method {
+                crate::SolveMethod::Qr => "qr",
+                _ => "normal_equations",
+            }
+            .into(),
+            combinations,
+            aliases: id.alias_labels.clone(),
+            singular_values: id.singular_values.clone(),
+            condition_number: id
+                .condition_number
+                .is_finite()
+                .then_some(id.condition_number),
+            residual_rms: id.residual_rms,
+        };
+        let estimate = EstimateRecord {
+            compliance: sol.solution.clone(),
+            covariance: sol
+                .sigma2
+                .map(|_| sol.covariance.chunks(m).map(|r| r.to_vec()).collect()),
+            covariance_method: robust::COVARIANCE_MODEL.to_string(),
+            column_scale: sol.column_scale.clone(),
+            null_space: sol.null_space.clone(),
+            identified_tol: IDENTIFIED_TOL,
+        };
+        let noise = NoiseRecord {
+            noise_sigma: opts.noise_sigma,
+            noise_scale_known: opts.noise_scale_known,
+            sigma2: sol.sigma2,
+            dof: sol.dof,
+            use_rotations: opts.use_rotations,
+            nonnegative: opts.nonnegative,
+        };
+        let out = StiffnessModel {
+            robot,
+            springs,
+            identification,
+            estimate,
+            noise,
+            data,
+            created_by: format!("robot-stiffness {}", env!("CARGO_PKG_VERSION")),
+        };
+        out.validate()
+            .map_err(|message| ModelError::Mismatch { message })?;
+        Ok(out)
+    }
+
+    /// The robot the model was identified on.
+    pub fn robot(&self) -> &RobotRecord {
+        &self.robot
+    }
+    /// The springs (parameters).
+    pub fn springs(&self) -> &SpringRecord {
+        &self.springs
+    }
+    /// What the identification found: rank, combinations, aliases.
+    pub fn identification(&self) -> &IdentificationRecord {
+        &self.identification
+    }
+    /// The parameter vector used for prediction, its covariance and null space.
+    pub fn estimate(&self) -> &EstimateRecord {
+        &self.estimate
+    }
+    /// The noise model.
+    pub fn noise(&self) -> &NoiseRecord {
+        &self.noise
+    }
+    /// Where the data came from.
+    pub fn data(&self) -> &DataSource {
+        &self.data
+    }
+    /// The program that wrote the model.
+    pub fn created_by(&self) -> &str {
+        &self.created_by
+    }
+    /// Whether the model predicts rotations (it was identified with measured rotations).
+    pub fn has_rotations(&self) -> bool {
+        self.noise.use_rotations
+    }
+
+    /// The spring model as a [`VirtualJointModel`] (parameter order of the file).
+    pub fn spring_model(&self) -> Result<VirtualJointModel, ModelError> {
+        let n = self.robot.n_joints;
+        let springs = self
+            .springs
+            .labels
+            .iter()
+            .map(|l| parse_label(l))
+            .collect::<Result<Vec<Spring>, String>>()
+            .map_err(|message| ModelError::Mismatch { message })?;
+        let base = match self.springs.model.as_str() {
+            "traditional" if springs == VirtualJointModel::traditional(n).springs() => {
+                VirtualJointModel::traditional(n)
+            }
+            "extended" if springs == VirtualJointModel::extended(n).springs() => {
+                VirtualJointModel::extended(n)
+            }
+            _ => VirtualJointModel::from_springs(n, springs)?,
+        };
+        let offsets = self
+            .springs
+            .offsets
+            .iter()
+            .map(|o| nalgebra::Vector3::new(o[0], o[1], o[2]))
+            .collect();
+        Ok(base.with_offsets(offsets)?)
+    }
+
+    /// Checks that `chain` is the robot of this model: joint count, base and tip links, joint
+    /// names, URDF content hash (when both sides have one) and kinematic parameters.
+    /// `path` names the model in the error (the file, or `<model>`).
+    pub fn check_robot(&self, chain: &SerialChain, path: &str) -> Result<(), ModelError> {
+        let r = &self.robot;
+        let other = |what: &'static str, in_file: String, given: String| {
+            Err(ModelError::OtherRobot {
+                path: path.to_string(),
+                what,
+                in_file,
+                given,
+            })
+        };
+        if r.n_joints != chain.n_joints() {
+            return other(
+                "the joint count",
+                r.n_joints.to_string(),
+                chain.n_joints().to_string(),
+            );
+        }
+        if r.base != chain.base_link() {
+            return other("the base link", r.base.clone(), chain.base_link().into());
+        }
+        if r.tip != chain.tip_link() {
+            return other("the tip link", r.tip.clone(), chain.tip_link().into());
+        }
+        if r.joint_names != chain.joint_names() {
+            return other(
+                "the joint list",
+                r.joint_names.join(","),
+                chain.joint_names().join(","),
+            );
+        }
+        if let (Some(stored), Some(source)) = (&r.urdf_sha256, chain.urdf_source()) {
+            if *stored != source.sha256 {
+                return other(
+                    "the URDF content (SHA-256)",
+                    format!("{} ({})", short(stored), r.urdf.as_deref().unwrap_or("?")),
+                    format!(
+                        "{} ({})",
+                        short(&source.sha256),
+                        source.path.as_deref().unwrap_or("URDF text")
+                    ),
+                );
+            }
+        }
+        let k = kinematics_sha256(chain);
+        if r.kinematics_sha256 != k {
+            return other(
+                "the kinematics (SHA-256 of joint origins and axes)",
+                short(&r.kinematics_sha256).into(),
+                short(&k).into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// Internal consistency of the sizes and values (a file that passes its hash check was
+    /// written by this code, but a hand-made one may not have been).
+    fn validate(&self) -> Result<(), String> {
+        let n = self.robot.n_joints;
+        let m = self.springs.labels.len();
+        let e = &self.estimate;
+        let id = &self.identification;
+        let finite = |what: &str, v: &[f64]| match v.iter().position(|x| !x.is_finite()) {
+            Some(i) => Err(format!("{what}[{i}] is not finite")),
+            None => Ok(()),
+        };
+        if self.robot.joint_names.len() != n || self.springs.offsets.len() != n {
+            return Err(format!(
+                "robot.n_joints is {n} but there are {} joint names and {} spring offsets",
+                self.robot.joint_names.len(),
+                self.springs.offsets.len()
+            ));
+        }
+        if m == 0 || id.n_params != m || e.compliance.len() != m || e.column_scale.len() != m {
+            return Err(format!(
+                "{m} spring labels, identification.n_params {}, {} compliances and {} column scales",
+                id.n_params,
+                e.compliance.len(),
+                e.column_scale.len()
+            ));
+        }
+        if id.rank > m || e.null_space.len() != m - id.rank || id.combinations.len() != id.rank {
+            return Err(format!(
+                "rank {} of {m} parameters needs {} null-space vectors and {} combinations, found {} and {}",
+                id.rank,
+                m.saturating_sub(id.rank),
+                id.rank,
+                e.null_space.len(),
+                id.combinations.len()
+            ));
+        }
+        if let Some(v) = e.null_space.iter().position(|v| v.len() != m) {
+            return Err(format!("null_space[{v}] does not have {m} values"));
+        }
+        if let Some(c) = &e.covariance {
+            if c.len() != m || c.iter().any(|r| r.len() != m) {
+                return Err(format!("covariance is not {m}×{m}"));
+            }
+            for (i, row) in c.iter().enumerate() {
+                finite(&format!("covariance[{i}]"), row)?;
+            }
+        }
+        finite("estimate.compliance", &e.compliance)?;
+        finite("estimate.column_scale", &e.column_scale)?;
+        for (i, v) in e.null_space.iter().enumerate() {
+            finite(&format!("null_space[{i}]"), v)?;
+        }
+        finite("noise.noise_sigma", &self.noise.noise_sigma)?;
+        if e.covariance_method != robust::COVARIANCE_MODEL
+            && e.covariance_method != robust::COVARIANCE_ROBUST
+        {
+            return Err(format!(
+                "covariance_method must be `model` or `robust`, got `{}`",
+                e.covariance_method
+            ));
+        }
+        if !(e.identified_tol > 0.0 && e.identified_tol < 1.0) {
+            return Err(format!(
+                "identified_tol must be in (0, 1), got {}",
+                e.identified_tol
+            ));
+        }
+        self.spring_model().map_err(|e| e.to_string())?;
+        Ok(())
+    }
+}
+
+fn robot_record(chain: &SerialChain) -> RobotRecord {
+    let source = chain.urdf_source();
+    RobotRecord {
+        urdf: source.and_then(|s| s.path.clone()),
+        urdf_sha256: source.map(|s| s.sha256.clone()),
+        base: chain.base_link().to_string(),
+        tip: chain.tip_link().to_string(),
+        joint_names: chain.joint_names().to_vec(),
+        n_joints: chain.n_joints(),
+        kinematics_sha256: kinematics_sha256(chain),
+    }
+}
+
+/// The first 12 hex digits of a hash, enough to tell two apart in a message.
+fn short(hash: &str) -> &str {
+    &hash[..hash.len().min(12)]
+}
+
+/// `J<joint><axis>` (1-based joint) → a [`Spring`].
+fn parse_label(label: &str) -> Result<Spring, String> {
+    let bad = || format!("`{label}` is not a spring label (J<joint><axis>, e.g. J2x)");
+    let rest = label.strip_prefix('J').ok_or_else(bad)?;
+    let axis_char = rest.chars().last().ok_or_else(bad)?;
+    let joint: usize = rest[..rest.len() - axis_char.len_utf8()]
+        .parse()
+        .map_err(|_| bad())?;
+    let axis = axis_char.to_string().parse().map_err(|_| bad())?;
+    if joint == 0 {
+        return Err(bad());
+    }
+    Ok(Spring {
+        joint: joint - 1,
+        axis,
+    })
+}

@@ -1,0 +1,214 @@
+//! Predicted tip deflections and their standard deviations from a [`StiffnessModel`].
+
+use super::{ModelError, StiffnessModel};
+use crate::chain::{check_finite, SerialChain};
+use crate::error::VjmError;
+use crate::kinematics::Workspace;
+use crate::regressor::{regressor_rows, Measured};
+
+/// Standard gravity, m/s² (acts along −z of the base frame for a [`PointMass`]).
+pub const GRAVITY: f64 = 9.80665;
+
+/// Default of [`EstimateRecord::identified_tol`](super::EstimateRecord::identified_tol):
+/// a row whose scaled regressor leaves the identified row space by more than this (the sine
+/// of the angle) is flagged. Structural aliases leave rounding (≲ 1e-12); a pose that really
+/// excites an unseen direction leaves a visible fraction of it.
+pub const IDENTIFIED_TOL: f64 = 1e-6;
+
+/// A payload: a point mass `mass` (kg) at `centre` (m, tip frame), under gravity
+/// [`GRAVITY`] along −z of the base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointMass {
+    mass: f64,
+    centre: [f64; 3],
+}
+
+impl PointMass {
+    /// A point mass of `mass` kg (finite, ≥ 0) at `centre` (finite, m, tip frame).
+    pub fn new(mass: f64, centre: [f64; 3]) -> Result<Self, ModelError> {
+        if !(mass.is_finite() && mass >= 0.0) {
+            return Err(ModelError::Payload {
+                message: format!("the mass must be a finite number ≥ 0 kg, got {mass}"),
+            });
+        }
+        if let Some(k) = centre.iter().position(|c| !c.is_finite()) {
+            return Err(ModelError::Payload {
+                message: format!(
+                    "the centre of mass {} must be finite, got {}",
+                    ["cx", "cy", "cz"][k],
+                    centre[k]
+                ),
+            });
+        }
+        Ok(PointMass { mass, centre })
+    }
+
+    /// Mass, kg.
+    pub fn mass(&self) -> f64 {
+        self.mass
+    }
+    /// Centre of mass in the tip frame, m.
+    pub fn centre(&self) -> [f64; 3] {
+        self.centre
+    }
+
+    /// The wrench `[fx, fy, fz, mx, my, mz]` (N, N·m) the payload exerts at the tip point, base
+    /// frame components, at joint positions `q`: F = (0, 0, −m·g) and M = (R·c) × F with R the
+    /// tip orientation.
+    pub fn wrench(&self, chain: &SerialChain, q: &[f64]) -> Result<[f64; 6], VjmError> {
+        let tip = chain.forward_kinematics(q)?;
+        let r = tip.rotation * nalgebra::Vector3::from(self.centre);
+        let f = nalgebra::Vector3::new(0.0, 0.0, -self.mass * GRAVITY);
+        let m = r.cross(&f);
+        Ok([f.x, f.y, f.z, m.x, m.y, m.z])
+    }
+}
+
+/// The load of every row of a prediction.
+#[derive(Debug, Clone, Copy)]
+#[non_exhaustive]
+pub enum Load<'a> {
+    /// One wrench per row, N×6 row-major `[fx, fy, fz, mx, my, mz]` (N, N·m, at the tip
+    /// point, base frame).
+    Wrench(&'a [f64]),
+    /// The same payload on every row; its wrench depends on the pose.
+    Payload(PointMass),
+}
+
+/// The prediction for one row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// Tip deflection `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame; rotation as a small
+    /// rotation vector). `rx..rz` are NaN when the model has no rotations.
+    pub deflection: [f64; 6],
+    /// Standard deviation of each component of the predicted (true, noise-free) deflection
+    /// from the parameter covariance, √(a V aᵀ); it does not include the noise of a new
+    /// measurement (see [`StiffnessModel::measurement_stddev`]). NaN where unavailable
+    /// (no rotations, no noise scale, or the row is not identified).
+    pub stddev: [f64; 6],
+    /// The wrench used (given, or the payload's at this pose).
+    pub wrench: [f64; 6],
+    /// Whether every predicted component lies in the identified row space, i.e. is determined
+    /// by the data whatever the aliased springs are.
+    pub identified: bool,
+    /// How far the row leaves the identified space: the largest over the predicted components
+    /// of the sine of the angle between the scaled regressor row and the row space (0 when it
+    /// lies in it; rounding gives ~1e-15).
+    pub excitation: f64,
+}
+
+impl StiffnessModel {
+    /// Predicts the tip deflection for N rows: `q` is N×n row-major (rad), `load` the wrench
+    /// per row or a payload. Linear in the compliances (no K_C), the model the identification
+    /// fitted. Errors name the row (0-based) and column of a bad value.
+    pub fn predict(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        load: Load<'_>,
+    ) -> Result<Vec<Prediction>, ModelError> {
+        self.check_robot(chain, "<model>")?;
+        let n = chain.n_joints();
+        let rows = q.len() / n;
+        if q.len() != rows * n {
+            return Err(VjmError::ShapeMismatch {
+                what: "q (N rows of n joint positions)",
+                expected: rows * n + n,
+                got: q.len(),
+            }
+            .into());
+        }
+        if let Load::Wrench(w) = load {
+            if w.len() != 6 * rows {
+                return Err(VjmError::ShapeMismatch {
+                    what: "wrench (one [fx, fy, fz, mx, my, mz] per row of q)",
+                    expected: 6 * rows,
+                    got: w.len(),
+                }
+                .into());
+            }
+        }
+        let model = self.spring_model()?;
+        let m = model.n_params();
+        let mut ws = Workspace::new(chain, &model)?;
+        let mut a = vec![0.0; 6 * m];
+        let mut out = Vec::with_capacity(rows);
+        for i in 0..rows {
+            let qi = &q[i * n..(i + 1) * n];
+            check_finite("q", qi, i, 0)?;
+            let wrench = match load {
+                Load::Wrench(w) => {
+                    let wi = &w[6 * i..6 * i + 6];
+                    check_finite("wrench", wi, i, 0)?;
+                    [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
+                }
+                Load::Payload(p) => p.wrench(chain, qi)?,
+            };
+            regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
+            out.push(self.predict_row(&a, wrench));
+        }
+        Ok(out)
+    }
+
+    /// Standard deviations `[dx..rz]` of a new measurement's noise under the model's noise
+    /// model, σ·noise_sigma (m, rad); NaN when σ² is unknown or (rotations) not modelled.
+    /// A band for a new measurement is √(stddev² + this²).
+    pub fn measurement_stddev(&self) -> [f64; 6] {
+        let mut s = [f64::NAN; 6];
+        if let Some(s2) = self.noise.sigma2 {
+            let axes = if self.noise.use_rotations { 6 } else { 3 };
+            for (k, v) in s.iter_mut().enumerate().take(axes) {
+                *v = s2.sqrt() * self.noise.noise_sigma[k];
+            }
+        }
+        s
+    }
+
+    /// One row from its 6×m regressor `a` (row-major).
+    fn predict_row(&self, a: &[f64], wrench: [f64; 6]) -> Prediction {
+        let e = &self.estimate;
+        let m = e.compliance.len();
+        let axes = if self.noise.use_rotations { 6 } else { 3 };
+        let mut deflection = [f64::NAN; 6];
+        let mut stddev = [f64::NAN; 6];
+        let mut excitation: f64 = 0.0;
+        for r in 0..axes {
+            let ar = &a[r * m..(r + 1) * m];
+            deflection[r] = dot(ar, &e.compliance);
+            if let Some(cov) = &e.covariance {
+                let var: f64 = cov.iter().zip(ar).map(|(row, &ai)| ai * dot(row, ar)).sum();
+                stddev[r] = var.max(0.0).sqrt();
+            }
+            let scaled: f64 = ar
+                .iter()
+                .zip(&e.column_scale)
+                .map(|(x, s)| (x / s) * (x / s))
+                .sum::<f64>()
+                .sqrt();
+            if scaled > 0.0 {
+                let outside: f64 = e
+                    .null_space
+                    .iter()
+                    .map(|nv| dot(ar, nv).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                excitation = excitation.max(outside / scaled);
+            }
+        }
+        let identified = excitation <= e.identified_tol;
+        if !identified {
+            stddev = [f64::NAN; 6];
+        }
+        Prediction {
+            deflection,
+            stddev,
+            wrench,
+            identified,
+            excitation,
+        }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
