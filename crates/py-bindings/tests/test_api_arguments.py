@@ -185,3 +185,32 @@ def test_good_tables_still_work(panda, campaign, rng):
     q = random_q(panda, rng, 5)
     w = random_wrench(rng, 5)
     assert panda.predict_deflection(np.full(7, 1e-5), q, w).shape == (5, 6)
+
+
+def _not_a_rotation_csv(tmp_path):
+    from test_csjm import synthetic, write_csv
+
+    R, tau = synthetic(np.random.default_rng(5))
+    R[4, 0, 1] += 0.3  # not a rotation any more
+    path = tmp_path / "m.csv"
+    write_csv(path, R, tau, ref=0)
+    return path
+
+
+def test_core_messages_use_the_python_spelling_not_a_rust_name(tmp_path):
+    """Before the fix: "(pass RotationPolicy::Project …)" — a Rust name."""
+    path = _not_a_rotation_csv(tmp_path)
+    for call in (lambda: csjm.identify_csv(path), lambda: csjm.read_measurements(path), lambda: csjm.diagnose(path)):
+        with pytest.raises(rs.StiffnessError) as e:
+            call()
+        assert "project=True" in str(e.value) and "::" not in str(e.value), str(e.value)
+
+
+def test_the_cli_names_its_own_flag(tmp_path):
+    from conftest import run_cli
+
+    _not_a_rotation_csv(tmp_path)
+    for cmd in (["identify", "csjm", "m.csv"], ["diagnose", "csjm", "m.csv"]):
+        proc = run_cli(cmd, cwd=tmp_path)
+        line = proc.stderr.strip()
+        assert proc.returncode == 1 and "--project" in line and "::" not in line and "m.csv" in line, line

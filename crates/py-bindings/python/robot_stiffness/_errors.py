@@ -9,6 +9,9 @@ The Rust core's error enums are mapped onto these classes in one place
 
 from __future__ import annotations
 
+import contextlib
+from typing import Iterator, Mapping
+
 __all__ = [
     "StiffnessError",
     "ShapeError",
@@ -21,6 +24,7 @@ __all__ = [
     "InternalError",
     "ArgumentTypeError",
     "OutputPathError",
+    "reworded",
 ]
 
 
@@ -77,3 +81,20 @@ class OutputPathError(StiffnessError, OSError):
 
 class InternalError(StiffnessError, RuntimeError):
     """A bug inside the Rust core (a caught panic). Please report it with the inputs."""
+
+
+@contextlib.contextmanager
+def reworded(names: Mapping[str, str]) -> Iterator[None]:
+    """Within the block, a :class:`StiffnessError` whose message names a term of another
+    front end (a Rust name such as ``RotationPolicy::Project``) is re-raised, same class,
+    with the caller's term (``project=True`` in Python, ``--project`` on the command line)."""
+    try:
+        yield
+    except StiffnessError as e:
+        text = str(e)
+        better = text
+        for old, new in names.items():
+            better = better.replace(old, new)
+        if better == text:
+            raise
+        raise type(e)(better) from None

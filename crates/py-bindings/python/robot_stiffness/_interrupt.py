@@ -1,19 +1,25 @@
 """Ctrl-C and SIGTERM for the console script: prompt, and never leaving temporaries behind.
 
-* :func:`sigterm_raises` turns SIGTERM into the exception :class:`Terminated` (like SIGINT is
-  turned into ``KeyboardInterrupt``) so that the ``except``/``finally`` cleanup runs.
+* :func:`signals_raise` makes SIGINT raise ``KeyboardInterrupt`` and SIGTERM raise
+  :class:`Terminated`, so that the ``except``/``finally`` cleanup runs. The first of them also
+  swallows every later SIGINT/SIGTERM: a second Ctrl-C cannot interrupt the cleanup
+  of the first (the command is leaving anyway).
 * :func:`in_worker` runs a long computation of the Rust core in a worker thread while the main
-  thread waits in ``join(timeout=0.2)``. Python runs signal handlers only in the main thread and
-  only between bytecodes; while the main thread itself sits inside a Rust call the handler
-  waits until the call returns (minutes for a big diagnosis). Waiting in short joins instead
-  lets ``KeyboardInterrupt``/``Terminated`` reach the main thread at once; the cleanup then
-  runs there, and :data:`cancel` is set so that the worker's progress callback stops the
+  thread waits in 0.2 s slices. Python runs signal handlers only in the main thread and only
+  between bytecodes; while the main thread itself sits inside a Rust call the handler waits
+  until the call returns (minutes for a big diagnosis). Waiting in short slices instead lets
+  ``KeyboardInterrupt``/``Terminated`` reach the main thread at once; the cleanup then runs
+  there, and :data:`cancel` is set so that the worker's progress callback stops the
   computation at its next call. A worker still running when the command ends is abandoned:
-  :func:`worker_running` tells ``main`` to leave with ``os._exit`` (the interpreter cannot
-  finalize while a thread is inside native code).
+  ``main`` leaves with ``os._exit`` (the interpreter cannot finalize safely while a thread is
+  inside native code and may call back into Python).
 * :func:`signals_deferred` holds SIGINT/SIGTERM back around short critical file operations
   (reserving, committing, discarding outputs), so an interrupt never lands between creating a
   temporary and recording it.
+
+Only plain flags and a C-level lock are used between the threads: an asynchronous exception
+raised inside ``Thread.join``/``Event.wait`` can corrupt their Python-level state on
+Python < 3.13 (bpo-45274: ``is_alive()`` then says False for a running thread).
 """
 
 from __future__ import annotations
@@ -28,20 +34,36 @@ __all__ = [
     "Terminated",
     "Cancelled",
     "cancel",
-    "sigterm_raises",
+    "signals_raise",
     "signals_deferred",
     "in_worker",
     "worker_running",
     "flush_std_streams",
-    "ignore_signals",
 ]
 
 T = TypeVar("T")
 
-#: Set when the command was interrupted; progress callbacks raise :class:`Cancelled` then.
-cancel = threading.Event()
 
-_workers: List[threading.Thread] = []
+class _Flag:
+    """A boolean shared between threads (attribute access is atomic under the GIL)."""
+
+    def __init__(self) -> None:
+        self.value = False
+
+    def set(self) -> None:
+        self.value = True
+
+    def clear(self) -> None:
+        self.value = False
+
+    def is_set(self) -> bool:
+        return self.value
+
+
+#: Set when the command was interrupted; progress callbacks raise :class:`Cancelled` then.
+cancel = _Flag()
+
+_unfinished: List[Dict[str, Any]] = []
 
 
 class Terminated(BaseException):
@@ -52,28 +74,52 @@ class Cancelled(Exception):
     """Raised by a progress callback to stop a computation whose result nobody will use."""
 
 
-def _on_sigterm(signum: int, frame: Any) -> None:
-    raise Terminated()
-
-
 def _in_main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+#: Set by the first SIGINT/SIGTERM inside :func:`signals_raise`; later ones are swallowed.
+_fired = _Flag()
+
+
+def _on_sigint(signum: int, frame: Any) -> None:
+    if not _fired.is_set():
+        _fired.set()
+        raise KeyboardInterrupt()
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    if not _fired.is_set():
+        _fired.set()
+        raise Terminated()
+
+
 @contextlib.contextmanager
-def sigterm_raises() -> Iterator[None]:
-    """Within the block, SIGTERM raises :class:`Terminated` in the main thread."""
+def signals_raise() -> Iterator[None]:
+    """Within the block (main thread), SIGINT raises ``KeyboardInterrupt`` and SIGTERM
+    :class:`Terminated` — once: later signals are swallowed by the same handlers (switching
+    to ``SIG_IGN`` inside a handler races with a signal already pending and makes Python print
+    "Signal 15 ignored due to race condition"). A signal the caller already ignores
+    (``nohup``, a background job) stays ignored. After an interrupt our handlers stay in place
+    when the block ends (the command is leaving); otherwise the previous ones are restored."""
     if not _in_main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    _fired.clear()
+    ours = {signal.SIGINT: _on_sigint, signal.SIGTERM: _on_sigterm}
+    previous = {sig: signal.getsignal(sig) for sig in _SIGNALS}
+    for sig in _SIGNALS:
+        if previous[sig] is not signal.SIG_IGN:
+            signal.signal(sig, ours[sig])
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+        if not _fired.is_set():
+            for sig in _SIGNALS:
+                if signal.getsignal(sig) is ours[sig]:
+                    signal.signal(sig, previous[sig])
 
 
 @contextlib.contextmanager
@@ -82,18 +128,11 @@ def signals_deferred() -> Iterator[None]:
     if not hasattr(signal, "pthread_sigmask") or not _in_main_thread():
         yield
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(_SIGNALS))
     try:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
-def ignore_signals() -> None:
-    """Ignore SIGINT and SIGTERM from now on (the command is already leaving)."""
-    if _in_main_thread():
-        for sig in _SIGNALS:
-            signal.signal(sig, signal.SIG_IGN)
 
 
 def in_worker(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
@@ -101,32 +140,37 @@ def in_worker(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     to signals. Exceptions of ``fn`` are re-raised here."""
     if not _in_main_thread():
         return fn(*args, **kwargs)
-    box: Dict[str, Any] = {}
+    box: Dict[str, Any] = {"finished": False}
+    done = threading.Lock()  # a C-level lock: held until the worker has finished
+    done.acquire()
 
     def target() -> None:
         try:
             box["value"] = fn(*args, **kwargs)
         except BaseException as e:  # re-raised in the main thread
             box["error"] = e
+        finally:
+            box["finished"] = True
+            done.release()
 
     worker = threading.Thread(target=target, name="robot-stiffness-worker", daemon=True)
-    _workers.append(worker)
+    _unfinished.append(box)
     worker.start()
     try:
-        while worker.is_alive():
-            worker.join(0.2)
+        while not done.acquire(timeout=0.2):
+            pass
     except BaseException:
         cancel.set()
         raise
-    _workers.remove(worker)
+    _unfinished.remove(box)
     if "error" in box:
         raise box["error"]
     return box["value"]  # type: ignore[no-any-return]
 
 
 def worker_running() -> bool:
-    """True when an abandoned worker is still computing."""
-    return any(w.is_alive() for w in _workers)
+    """True when an abandoned worker has not finished."""
+    return any(not box["finished"] for box in _unfinished)
 
 
 def flush_std_streams() -> None:

@@ -31,16 +31,15 @@ from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequ
 
 from . import __version__, cli_model
 from . import _cli_types as T
-from ._errors import DataFileError, StiffnessError
+from ._errors import DataFileError, StiffnessError, reworded
 from ._interrupt import (
     Cancelled,
     Terminated,
     cancel,
     flush_std_streams,
-    ignore_signals,
     in_worker,
-    sigterm_raises,
     signals_deferred,
+    signals_raise,
     worker_running,
 )
 from ._outputs import Outputs
@@ -122,15 +121,23 @@ def _robot(args: argparse.Namespace) -> Any:
     return Robot.from_urdf(args.urdf, args.base, args.tip)
 
 
+#: The Python spelling of an option in a core message → the flag of the command line.
+CLI_NAMES = {"project=True": "--project", "RotationPolicy::Project": "--project"}
+
+
 def _check_input(path: str, what: str) -> None:
     """An input file must be a readable regular file (checked before anything is computed)."""
     p = Path(path)
     if not path:
         raise CliError(f"{what}: empty file name")
+    if not p.exists():
+        raise CliError(f"{what} {path}: no such file")
     if p.is_dir():
         raise CliError(f"{what} {path} is a folder, expected a file")
-    if p.exists() and not os.access(p, os.R_OK):
+    if not os.access(p, os.R_OK):
         raise CliError(f"{what} {path}: permission denied")
+    if p.is_file() and p.stat().st_size == 0:
+        raise CliError(f"{what} {path} is empty")
 
 
 @contextlib.contextmanager
@@ -138,7 +145,8 @@ def _data_file(path: str) -> Iterator[None]:
     """Name the measurement file in its errors (the core names only line and column)."""
     _check_input(path, "DATA.csv")
     try:
-        yield
+        with reworded(CLI_NAMES):
+            yield
     except DataFileError as e:
         text = " ".join(str(e).split())
         if path in text:
@@ -635,7 +643,7 @@ effects (--effect NAME:key=value,...):
     dc.add_argument("--force", action="store_true", help=FORCE_HELP)
     dc.set_defaults(func=cmd_diagnose_csjm)
 
-    cli_model.add_commands(sub)  # predict
+    cli_model.add_commands(sub, sys.modules[__name__])  # predict
 
     # demo
     demo = sub.add_parser(
@@ -708,13 +716,10 @@ def _run(args: argparse.Namespace) -> int:
     cancel.clear()
     inputs = [getattr(args, k, None) for k in ("data", "urdf", "model_file")]
     out = Outputs(inputs=inputs)
-    with sigterm_raises():
+    with signals_raise():
         try:
             return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:
-            if isinstance(e, (KeyboardInterrupt, Terminated)):
-                # Leaving anyway: a second Ctrl-C must not interrupt the cleanup.
-                ignore_signals()
             with signals_deferred():
                 code, line = _outcome(e, out)
                 out.discard()
@@ -744,9 +749,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         code = 130
     except Terminated:
         code = 143
-    if worker_running():
-        # Interrupted while the core was still computing in the worker thread: nothing will use
-        # its result, and the interpreter cannot finalize around a thread inside native code.
+    if worker_running() or code in (130, 143):
+        # Interrupted while the core may still be computing in the worker thread: nothing will
+        # use its result, and the interpreter cannot finalize safely around a thread that is
+        # inside native code and calls back into Python (the progress callback).
         flush_std_streams()
         os._exit(code)
     return code

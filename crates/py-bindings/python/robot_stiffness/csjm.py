@@ -33,7 +33,7 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
-from ._errors import DataFileError, ShapeError
+from ._errors import DataFileError, ShapeError, reworded
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
 from ._vjm_data import Diagnosis
 
@@ -48,6 +48,8 @@ __all__ = [
 ]
 
 Array = npt.NDArray[np.float64]
+#: Rust names in core messages → the Python spelling (the CLI maps these on to its flags).
+PYTHON_NAMES = {"RotationPolicy::Project": "project=True"}
 PathLike = Union[str, "os.PathLike[str]"]
 
 
@@ -163,15 +165,16 @@ def identify(
         R, tau, ref = _table_arrays(R)
     elif tau is None or ref is None:
         raise ShapeError("identify needs R (N, 3, 3), tau (N, 3) and ref, or one table")
-    d = _core.csjm_identify(
-        f64(R, "R"),
-        f64(tau, "tau"),
-        int(ref),
-        order=int(order),
-        project=bool(project),
-        tol=None if tol is None else float(tol),
-        convergence=bool(convergence),
-    )
+    with reworded(PYTHON_NAMES):
+        d = _core.csjm_identify(
+            f64(R, "R"),
+            f64(tau, "tau"),
+            int(ref),
+            order=int(order),
+            project=bool(project),
+            tol=None if tol is None else float(tol),
+            convergence=bool(convergence),
+        )
     return StiffnessFit._from_core(d)
 
 
@@ -183,16 +186,16 @@ def read_measurements(path: PathLike, *, project: bool = False) -> Tuple[Array, 
     exactly one row). Errors name the row and column; a missing file raises
     :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``).
     """
-    R, tau, ref = _core.csjm_read_csv(path, project=project)
+    with reworded(PYTHON_NAMES):
+        R, tau, ref = _core.csjm_read_csv(path, project=project)
     return R, tau, int(ref)
 
 
 @checked
 def identify_csv(path: PathLike, *, order: int = 1, project: bool = False) -> StiffnessFit:
     """Read a CSJM measurement file and identify K (see :func:`identify`)."""
-    return StiffnessFit._from_core(
-        _core.csjm_identify_csv(path, order=order, project=project)
-    )
+    with reworded(PYTHON_NAMES):
+        return StiffnessFit._from_core(_core.csjm_identify_csv(path, order=order, project=project))
 
 
 @dataclass(frozen=True)
@@ -260,14 +263,17 @@ def diagnose(
     if tau is None and ref is None and is_table(data):
         data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
-        text = _core.csjm_diagnose_csv(
-            check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed, project=bool(project)
-        )
+        with reworded(PYTHON_NAMES):
+            text = _core.csjm_diagnose_csv(
+                check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed,
+                project=bool(project),
+            )
     elif tau is not None and ref is not None:
-        text = _core.csjm_diagnose(
-            f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
-            holdout_seed=holdout_seed, project=bool(project),
-        )
+        with reworded(PYTHON_NAMES):
+            text = _core.csjm_diagnose(
+                f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
+                holdout_seed=holdout_seed, project=bool(project),
+            )
     else:
         raise ShapeError("diagnose needs a measurement-file path, or R (N, 3, 3), tau (N, 3) and ref")
     raw = json.loads(text)

@@ -177,8 +177,12 @@ def _plot_residuals(result: Dict[str, Any], path: Path) -> None:
     fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, sharey=True)
     for ax, pred, title in ((axes[0], base, "baseline"), (axes[1], ext, "extended")):
         err = 1e6 * np.linalg.norm(pred - meas, axis=1)
-        ax.bar(idx[~test], err[~test], color="tab:blue", label="training rows", width=1.0)
-        ax.bar(idx[test], err[test], color="tab:orange", label="held-out rows", width=1.0)
+        # One line collection per set, not one rectangle per row: ax.bar costs ~0.5 ms a bar
+        # (2.2 s for 2000 rows, minutes for a big campaign).
+        width = float(np.clip(500.0 / max(len(rows), 1), 0.3, 4.0))  # points
+        ax.vlines(idx[~test], 0.0, err[~test], color="tab:blue", label="training rows", linewidth=width)
+        ax.vlines(idx[test], 0.0, err[test], color="tab:orange", label="held-out rows", linewidth=width)
+        ax.set_ylim(bottom=0.0)
         ax.set_ylabel("‖d_pred − d_meas‖ (µm)")
         ax.set_title(f"Residuals, {title}: {result[title]['model']}", fontsize=10)
         ax.legend(loc="upper right", fontsize=8)
@@ -186,6 +190,10 @@ def _plot_residuals(result: Dict[str, Any], path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+#: Up to this many poses the per-pose plot has a labelled bar pair per pose.
+_LABELLED_POSES = 60
 
 
 def _plot_per_pose(result: Dict[str, Any], path: Path) -> None:
@@ -198,16 +206,27 @@ def _plot_per_pose(result: Dict[str, Any], path: Path) -> None:
     x = np.arange(len(poses))
     b = np.array([100.0 * p["baseline"] for p in poses], dtype=float)
     e = np.array([100.0 * p["extended"] for p in poses], dtype=float)
-    test = [p["set"] == "test" for p in poses]
+    test = np.array([p["set"] == "test" for p in poses], dtype=bool)
     fig, ax = plt.subplots(figsize=(9, 3.8))
-    ax.bar(x - 0.2, b, width=0.4, label="baseline", color="tab:red")
-    ax.bar(x + 0.2, e, width=0.4, label="extended", color="tab:green")
-    for xi, t in zip(x, test):
-        if t:
-            ax.axvspan(xi - 0.5, xi + 0.5, color="0.9", zorder=0)
-    ax.set_xticks(x)
-    ax.set_xticklabels([str(p["pose"]) for p in poses], fontsize=7)
-    ax.set_xlabel("pose (shaded: held out)")
+    if len(poses) <= _LABELLED_POSES:
+        ax.bar(x - 0.2, b, width=0.4, label="baseline", color="tab:red")
+        ax.bar(x + 0.2, e, width=0.4, label="extended", color="tab:green")
+        ax.set_xticks(x)
+        ax.set_xticklabels([str(p["pose"]) for p in poses], fontsize=7)
+        ax.set_xlabel("pose (shaded: held out)")
+    else:
+        # Many poses: one line collection per model instead of one rectangle per pose (ax.bar
+        # and a span per held-out pose took 5 s for 1500 poses), no per-pose tick labels.
+        width = float(np.clip(250.0 / len(poses), 0.3, 4.0))  # points
+        ax.vlines(x - 0.2, 0.0, b, color="tab:red", label="baseline", linewidth=width)
+        ax.vlines(x + 0.2, 0.0, e, color="tab:green", label="extended", linewidth=width)
+        ax.set_ylim(bottom=0.0)
+        ax.set_xlabel("pose, in file order (shaded: held out)")
+    # Held-out poses: one shaded span per run of consecutive poses, in one collection.
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], test.astype(np.int8), [0]])))
+    runs = [(float(a) - 0.5, float(b - a)) for a, b in zip(edges[::2], edges[1::2])]
+    if runs:
+        ax.broken_barh(runs, (0.0, 1.0), color="0.9", zorder=0, transform=ax.get_xaxis_transform())
     ax.set_ylabel("mean relative error (%)")
     ax.set_title("Error per pose", fontsize=10)
     ax.legend(fontsize=8)
@@ -387,8 +406,12 @@ def _plot_csjm_residuals(result: Dict[str, Any], path: Path) -> None:
     fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, sharey=True)
     for ax, res, title in ((axes[0], base, "baseline"), (axes[1], ext, "extended")):
         err = np.linalg.norm(res, axis=1)
-        ax.bar(idx[~test], err[~test], color="tab:blue", label="training rows", width=1.0)
-        ax.bar(idx[test], err[test], color="tab:orange", label="held-out rows", width=1.0)
+        # One line collection per set, not one rectangle per row: ax.bar costs ~0.5 ms a bar
+        # (2.2 s for 2000 rows, minutes for a big campaign).
+        width = float(np.clip(500.0 / max(len(rows), 1), 0.3, 4.0))  # points
+        ax.vlines(idx[~test], 0.0, err[~test], color="tab:blue", label="training rows", linewidth=width)
+        ax.vlines(idx[test], 0.0, err[test], color="tab:orange", label="held-out rows", linewidth=width)
+        ax.set_ylim(bottom=0.0)
         ax.set_ylabel("‖Δτ − Δτ_pred‖ (N·m)")
         ax.set_title(f"Moment residuals, {title}: {result[title]['model']}", fontsize=10)
         ax.legend(loc="upper right", fontsize=8)
