@@ -289,3 +289,14 @@ def test_cli_predict_uses_the_robot_recorded_in_the_model(tmp_path):
     assert proc.returncode == 1 and "input" in proc.stderr
     help_text = run_cli(["predict", "vjm", "--help"], cwd=tmp_path).stdout
     assert "--payload" in help_text and "true deflection" in help_text
+
+
+def test_cli_identify_save_into_a_missing_folder_writes_nothing(saved, tmp_path):
+    import shutil
+
+    shutil.copy(saved / "c.csv", tmp_path / "c.csv")
+    before = listing(tmp_path)
+    proc = run_cli(["identify", "vjm", "c.csv", "--json", "id.json", "--save", "nowhere/m.json"], cwd=tmp_path)
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--save" in proc.stderr
+    assert listing(tmp_path) == before
