@@ -315,6 +315,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         nonnegative=args.nonnegative,
         method=args.method,
         data_file=args.data,
+        robust_covariance=save_out is not None,
     )
     doc = res.to_dict()
     if json_out is not None:
