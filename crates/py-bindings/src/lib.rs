@@ -12,8 +12,10 @@ pub mod csjm;
 pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
+pub mod interrupt;
 pub mod so3;
 pub mod stiffness_model;
+pub mod use_model;
 pub mod vjm;
 pub mod vjm_data;
 
@@ -29,5 +31,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     vjm::register(m)?;
     vjm_data::register(m)?;
     stiffness_model::register(m)?;
+    use_model::register(m)?;
     Ok(())
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vjm::{Load, SerialChain, StiffnessModel};
+use vjm::{Load, PointMass, SerialChain, StiffnessModel};
 
 use crate::convert::{batch, to_numpy, to_numpy_bool};
 use crate::errors::{run, value_error, PyResultExt};
@@ -98,7 +98,11 @@ impl PyStiffnessModel {
             .as_ref()
             .map(|w| batch(w, "wrench", &[6]))
             .transpose()?;
-        let loads: Vec<Load> = match (&w, payload) {
+        let payload = payload
+            .map(|(mass, cx, cy, cz)| PointMass::new(mass, [cx, cy, cz]))
+            .transpose()
+            .py()?;
+        let load = match (&w, payload) {
             (Some(w), None) => {
                 if w.rows != q.rows {
                     return Err(crate::errors::shape_error(format!(
@@ -106,18 +110,9 @@ impl PyStiffnessModel {
                         w.rows, q.rows
                     )));
                 }
-                w.data
-                    .chunks_exact(6)
-                    .map(|c| Load::Wrench([c[0], c[1], c[2], c[3], c[4], c[5]]))
-                    .collect()
+                Load::Wrench(&w.data)
             }
-            (None, Some((mass, cx, cy, cz))) => vec![
-                Load::Payload {
-                    mass,
-                    com: [cx, cy, cz]
-                };
-                q.rows
-            ],
+            (None, Some(p)) => Load::Payload(p),
             (Some(_), Some(_)) => {
                 return Err(value_error("give either wrench or payload, not both"))
             }
@@ -128,7 +123,7 @@ impl PyStiffnessModel {
             }
         };
         let (model, chain) = (&self.model, &self.chain);
-        let pred = run(py, || model.predict(chain, &q.data, &loads))?.py()?;
+        let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
         let rows = pred.len();
         let flat = |f: &dyn Fn(&vjm::Prediction) -> [f64; 6]| -> Vec<f64> {
             pred.iter().flat_map(f).collect()

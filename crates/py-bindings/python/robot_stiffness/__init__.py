@@ -22,6 +22,8 @@ from __future__ import annotations
 from . import _core
 from ._errors import (
     ArgumentTypeError,
+    CancelledError,
+    ConvergenceError,
     DataFileError,
     IdentificationError,
     InternalError,
@@ -53,6 +55,8 @@ __all__ = [
     "IdentificationError",
     "ModelFileError",
     "InternalError",
+    "ConvergenceError",
+    "CancelledError",
     "ArgumentTypeError",
     "OutputPathError",
 ]

@@ -34,6 +34,9 @@ __all__ = [
     "so3_right_jacobian",
     "so3_right_jacobian_inverse",
     "so3_vee",
+    "vjm_compensate",
+    "vjm_compensate_model_file",
+    "vjm_design",
     "vjm_diagnose",
     "vjm_identify_model",
     "vjm_identify_timed",
@@ -138,6 +141,44 @@ def vjm_identify_model(
     robust_covariance: bool = False,
 ) -> Tuple[str, StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
+def vjm_compensate(
+    robot: Robot,
+    model: _Model,
+    compliance: _F64,
+    q: _F64,
+    wrench: Optional[_F64] = None,
+    payload: Optional[Tuple[float, Sequence[float]]] = None,
+    match_orientation: bool = False,
+    with_kc: bool = True,
+    max_iterations: int = 50,
+    position_tol: float = 1e-9,
+    rotation_tol: float = 1e-9,
+    check_limits: bool = True,
+) -> Tuple[_F64, _F64, List[str]]: ...
+def vjm_compensate_model_file(
+    robot: Robot,
+    path: str,
+    q: _F64,
+    wrench: Optional[_F64] = None,
+    payload: Optional[Tuple[float, Sequence[float]]] = None,
+    match_orientation: Optional[bool] = None,
+    with_kc: bool = True,
+    max_iterations: int = 50,
+    position_tol: float = 1e-9,
+    rotation_tol: float = 1e-9,
+    check_limits: bool = True,
+) -> Tuple[_F64, _F64, List[str]]: ...
+def vjm_design(
+    robot: Robot,
+    model: _Model,
+    poses: int = 24,
+    wrenches_per_pose: int = 4,
+    seed: int = 0,
+    margin: float = 0.1,
+    pool_size: int = 300,
+    force: float = 80.0,
+    moment: float = 3.0,
+) -> str: ...
 def vjm_seed_study(robot: Robot, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> str: ...
 def vjm_diagnose(
     robot: Robot,
@@ -153,6 +194,7 @@ def vjm_diagnose(
     split_seed: Optional[int] = None,
     max_findings: Optional[int] = None,
     progress: Optional[Callable[[str, int, int], Any]] = None,
+    allow_outside_limits: bool = False,
 ) -> str: ...
 
 @final

@@ -22,6 +22,8 @@ __all__ = [
     "IdentificationError",
     "ModelFileError",
     "InternalError",
+    "ConvergenceError",
+    "CancelledError",
     "ArgumentTypeError",
     "OutputPathError",
     "reworded",
@@ -83,6 +85,17 @@ class InternalError(StiffnessError, RuntimeError):
     """A bug inside the Rust core (a caught panic). Please report it with the inputs."""
 
 
+class ConvergenceError(StiffnessError, RuntimeError):
+    """An iterative computation hit its iteration cap (almost always: non-finite or extreme
+    input reached a solver). The message names the computation and the cap."""
+
+
+class CancelledError(StiffnessError, RuntimeError):
+    """A long computation was cancelled without a Python exception to re-raise.
+
+    Ctrl-C during a long call raises the ordinary ``KeyboardInterrupt`` and an exception raised
+    by a ``progress`` callback propagates as itself; this class covers a cancel with neither
+    cause."""
 @contextlib.contextmanager
 def reworded(names: Mapping[str, str]) -> Iterator[None]:
     """Within the block, a :class:`StiffnessError` whose message names a term of another

@@ -382,6 +382,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             fdr=args.fdr,
             split_seed=args.split_seed,
             progress=_progress(show),
+            allow_outside_limits=getattr(args, "allow_outside_limits", False),
         )
     finally:
         if show:
@@ -626,6 +627,9 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("--report", metavar="DIR", help=REPORT_HELP)
     dv.add_argument("--force", action="store_true", help=FORCE_HELP)
     dv.add_argument("--quiet", action="store_true", help="no progress display")
+    dv.add_argument("--allow-outside-limits", action="store_true",
+                    help="accept joint angles outside the URDF limits (refused by default: degrees or a wrong "
+                    "joint order?)")
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
         "csjm",
@@ -660,6 +664,9 @@ effects (--effect NAME:key=value,...):
     demo.add_argument("--seed", type=T.seed, default=1, help="campaign seed (default 1)")
     demo.add_argument("--quiet", action="store_true", help="no progress display")
     demo.set_defaults(func=cmd_demo, baseline=None, fdr=None, split_seed=None)
+    from .cli_use import register as register_use_commands  # design, compensate
+
+    register_use_commands(sub, _add_robot_args, FORCE_HELP)
     return p
 
 

@@ -50,6 +50,14 @@ from ._vjm_data import (
     simulate,
 )
 from .model import StiffnessModel
+from ._use_model import (  # planning and compensation (docs/use-the-model.md)
+    Compensation,
+    Plan,
+    PlannedCombination,
+    compensate,
+    compensate_with_model_file,
+    design,
+)
 from ._tables import (
     DISPLACEMENT,
     ROTATION,
@@ -73,6 +81,12 @@ __all__ = [
     "simulate",
     "diagnose",
     "seed_study",
+    "design",
+    "Plan",
+    "PlannedCombination",
+    "compensate",
+    "compensate_with_model_file",
+    "Compensation",
 ]
 
 #: ``"traditional"``, ``"extended"`` or a sequence of spring labels like ``["J1z", "J2x"]``.

@@ -78,6 +78,12 @@ pub enum ModelError {
         /// What is wrong, naming the line and column.
         message: String,
     },
+    /// A payload that is not a finite, non-negative mass at a finite point.
+    #[error("invalid payload: {message}")]
+    Payload {
+        /// What is wrong.
+        message: String,
+    },
     /// Kinematics or input checks of the core (non-finite value with its row and column,
     /// wrong lengths).
     #[error(transparent)]

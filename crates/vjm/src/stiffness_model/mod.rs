@@ -48,7 +48,7 @@ use serde::{Deserialize, Serialize};
 pub use error::ModelError;
 pub use file::MODEL_SCHEMA;
 pub use pose_table::PoseTable;
-pub use predict::{Prediction, IDENTIFIED_TOL};
+pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
 pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
 use crate::chain::SerialChain;

@@ -4,14 +4,82 @@ use super::{ModelError, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
 use crate::kinematics::Workspace;
-use crate::load::Load;
 use crate::regressor::{regressor_rows, Measured};
+
+/// Standard gravity, m/s² (acts along −z of the base frame for a [`PointMass`]).
+pub const GRAVITY: f64 = 9.80665;
 
 /// Default of [`EstimateRecord::identified_tol`](super::EstimateRecord::identified_tol):
 /// a row whose scaled regressor leaves the identified row space by more than this (the sine
 /// of the angle) is flagged. Structural aliases leave rounding (≲ 1e-12); a pose that really
 /// excites an unseen direction leaves a visible fraction of it.
 pub const IDENTIFIED_TOL: f64 = 1e-6;
+
+/// A payload: a point mass `mass` (kg) at `centre` (m, tip frame), under gravity
+/// [`GRAVITY`] along −z of the base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointMass {
+    mass: f64,
+    centre: [f64; 3],
+}
+
+impl PointMass {
+    /// A point mass of `mass` kg (finite, ≥ 0) at `centre` (finite, m, tip frame).
+    pub fn new(mass: f64, centre: [f64; 3]) -> Result<Self, ModelError> {
+        if !(mass.is_finite() && mass >= 0.0) {
+            return Err(ModelError::Payload {
+                message: format!("the mass must be a finite number ≥ 0 kg, got {mass}"),
+            });
+        }
+        if let Some(k) = centre.iter().position(|c| !c.is_finite()) {
+            return Err(ModelError::Payload {
+                message: format!(
+                    "the centre of mass {} must be finite, got {}",
+                    ["cx", "cy", "cz"][k],
+                    centre[k]
+                ),
+            });
+        }
+        Ok(PointMass { mass, centre })
+    }
+
+    /// Mass, kg.
+    pub fn mass(&self) -> f64 {
+        self.mass
+    }
+    /// Centre of mass in the tip frame, m.
+    pub fn centre(&self) -> [f64; 3] {
+        self.centre
+    }
+
+    /// The wrench `[fx, fy, fz, mx, my, mz]` (N, N·m) the payload exerts at the tip point, base
+    /// frame components, at joint positions `q`: F = (0, 0, −m·g) and M = (R·c) × F with R the
+    /// tip orientation.
+    pub fn wrench(&self, chain: &SerialChain, q: &[f64]) -> Result<[f64; 6], VjmError> {
+        let tip = chain.forward_kinematics(q)?;
+        Ok(self.wrench_at(tip.rotation.to_rotation_matrix().matrix()))
+    }
+
+    /// The same wrench for a tip frame of orientation `tip_rotation` (base ← tip), for callers
+    /// that already evaluated the kinematics.
+    pub fn wrench_at(&self, tip_rotation: &nalgebra::Matrix3<f64>) -> [f64; 6] {
+        let r = tip_rotation * nalgebra::Vector3::from(self.centre);
+        let f = nalgebra::Vector3::new(0.0, 0.0, -self.mass * GRAVITY);
+        let m = r.cross(&f);
+        [f.x, f.y, f.z, m.x, m.y, m.z]
+    }
+}
+
+/// The load of every row of a prediction.
+#[derive(Debug, Clone, Copy)]
+#[non_exhaustive]
+pub enum Load<'a> {
+    /// One wrench per row, N×6 row-major `[fx, fy, fz, mx, my, mz]` (N, N·m, at the tip
+    /// point, base frame).
+    Wrench(&'a [f64]),
+    /// The same payload on every row; its wrench depends on the pose.
+    Payload(PointMass),
+}
 
 /// The prediction for one row.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -24,8 +92,7 @@ pub struct Prediction {
     /// measurement (see [`StiffnessModel::measurement_stddev`]). NaN where unavailable
     /// (no rotations, no noise scale, or the row is not identified).
     pub stddev: [f64; 6],
-    /// The wrench used (`[fx, fy, fz, mx, my, mz]`, N and N·m, base frame, at the tip point):
-    /// the given one, or the payload's at this pose.
+    /// The wrench used (given, or the payload's at this pose).
     pub wrench: [f64; 6],
     /// Whether every predicted component lies in the identified row space, i.e. is determined
     /// by the data whatever the aliased springs are.
@@ -37,15 +104,14 @@ pub struct Prediction {
 }
 
 impl StiffnessModel {
-    /// Predicts the tip deflection for N rows: `q` is N×n row-major (rad), `loads` one
-    /// [`Load`] per row (a wrench, or a payload whose wrench follows the tip orientation).
-    /// Linear in the compliances (no K_C), the model the identification fitted. Errors name
-    /// the row (0-based) and column of a bad value.
+    /// Predicts the tip deflection for N rows: `q` is N×n row-major (rad), `load` the wrench
+    /// per row or a payload. Linear in the compliances (no K_C), the model the identification
+    /// fitted. Errors name the row (0-based) and column of a bad value.
     pub fn predict(
         &self,
         chain: &SerialChain,
         q: &[f64],
-        loads: &[Load],
+        load: Load<'_>,
     ) -> Result<Vec<Prediction>, ModelError> {
         self.check_robot(chain, "<model>")?;
         let n = chain.n_joints();
@@ -58,13 +124,15 @@ impl StiffnessModel {
             }
             .into());
         }
-        if loads.len() != rows {
-            return Err(VjmError::ShapeMismatch {
-                what: "loads (one per row of q)",
-                expected: rows,
-                got: loads.len(),
+        if let Load::Wrench(w) = load {
+            if w.len() != 6 * rows {
+                return Err(VjmError::ShapeMismatch {
+                    what: "wrench (one [fx, fy, fz, mx, my, mz] per row of q)",
+                    expected: 6 * rows,
+                    got: w.len(),
+                }
+                .into());
             }
-            .into());
         }
         let model = self.spring_model()?;
         let m = model.n_params();
@@ -74,13 +142,13 @@ impl StiffnessModel {
         for i in 0..rows {
             let qi = &q[i * n..(i + 1) * n];
             check_finite("q", qi, i, 0)?;
-            let load = &loads[i];
-            load.check(i)?;
-            let wrench = if load.depends_on_orientation() {
-                let tip = chain.forward_kinematics(qi)?;
-                load.wrench(tip.rotation.to_rotation_matrix().matrix())
-            } else {
-                load.wrench(&nalgebra::Matrix3::identity())
+            let wrench = match load {
+                Load::Wrench(w) => {
+                    let wi = &w[6 * i..6 * i + 6];
+                    check_finite("wrench", wi, i, 0)?;
+                    [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
+                }
+                Load::Payload(p) => p.wrench(chain, qi)?,
             };
             regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
             out.push(self.predict_row(&a, wrench));

@@ -12,8 +12,8 @@ use vjm::dataset::{Dataset, SetLabel};
 use vjm::stiffness_model::IDENTIFIED_TOL;
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
 use vjm::{
-    identify, DataSource, IdentifyOptions, Load, ModelError, SerialChain, StiffnessModel,
-    VirtualJointModel,
+    identify, DataSource, IdentifyOptions, Load, ModelError, PointMass, SerialChain,
+    StiffnessModel, VirtualJointModel,
 };
 
 /// example-robot-data's `ur5_robot.urdf` (the `example-robot-data` wheel installs it under a
@@ -129,7 +129,7 @@ fn ur5_noise_free_predictions_are_exact_although_springs_alias() {
         .iter()
         .flat_map(|&i| campaign.applied_wrench[i])
         .collect();
-    let pred = sm.predict(&chain, &q, &wrenches(&w)).unwrap();
+    let pred = sm.predict(&chain, &q, Load::Wrench(&w)).unwrap();
     let mut worst = 0.0f64;
     for (p, &i) in pred.iter().zip(&test) {
         let t = campaign.true_displacement[i];
@@ -199,7 +199,7 @@ fn a_pose_outside_what_the_data_saw_is_flagged() {
     let load = [10.0, -20.0, 30.0, 0.0, 0.0, 0.0];
     let both: Vec<f64> = q0.iter().chain(&q1).copied().collect();
     let p = sm
-        .predict(&chain, &both, &wrenches(&[load, load].concat()))
+        .predict(&chain, &both, Load::Wrench(&[load, load].concat()))
         .unwrap();
     // Same pose, new load: identified and exact.
     assert!(p[0].identified, "excitation {:e}", p[0].excitation);
@@ -222,8 +222,8 @@ fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
     let (chain, sm, _) = panda_model();
     let q = [0.3, -0.2, 0.1, -1.9, 0.4, 1.5, 0.7];
     let c = [0.05, -0.02, 0.1];
-    let payload = Load::Payload { mass: 2.5, com: c };
-    let p = sm.predict(&chain, &q, &[payload]).unwrap()[0];
+    let payload = Load::Payload(PointMass::new(2.5, c).unwrap());
+    let p = sm.predict(&chain, &q, payload).unwrap()[0];
     // Independently: the mass's base-frame position from the tip pose, moment r × F.
     let tip = chain.forward_kinematics(&q).unwrap();
     let at = tip.transform_point(&nalgebra::Point3::from(c)) - tip.translation.vector;
@@ -243,39 +243,24 @@ fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
         );
     }
     // The payload's prediction is the prediction under its wrench.
-    let by_wrench = sm.predict(&chain, &q, &[Load::Wrench(p.wrench)]).unwrap()[0];
+    let by_wrench = sm.predict(&chain, &q, Load::Wrench(&p.wrench)).unwrap()[0];
     assert_eq!(by_wrench.deflection[..3], p.deflection[..3]);
-    for (bad, what) in [
+    for (mass, com, what) in [
         (
-            Load::Payload {
-                mass: f64::NAN,
-                com: c,
-            },
-            "payload mass at row 0",
+            f64::NAN,
+            c,
+            "the mass must be a finite number ≥ 0 kg, got NaN",
         ),
-        (Load::Payload { mass: -1.0, com: c }, "must be ≥ 0 kg"),
+        (-1.0, c, "the mass must be a finite number ≥ 0 kg, got -1"),
         (
-            Load::Payload {
-                mass: 1.0,
-                com: [0.0, f64::INFINITY, 0.0],
-            },
-            "payload centre of mass at row 0, column 1",
+            1.0,
+            [0.0, f64::INFINITY, 0.0],
+            "the centre of mass cy must be finite",
         ),
     ] {
-        let err = sm.predict(&chain, &q, &[bad]).unwrap_err();
+        let err = PointMass::new(mass, com).unwrap_err();
         assert!(err.to_string().contains(what), "{err}");
     }
-}
-
-/// One [`Load::Wrench`] per row of an N×6 row-major array.
-fn wrenches(w: &[f64]) -> Vec<Load> {
-    w.chunks(6)
-        .map(|c| {
-            Load::Wrench(std::array::from_fn(|k| {
-                c.get(k).copied().unwrap_or(f64::NAN)
-            }))
-        })
-        .collect()
 }
 
 /// A small identified Panda model (noise-free campaign, extended model, aliases).
@@ -305,15 +290,9 @@ fn save_load_predict_is_bitwise_identical() {
     let back = StiffnessModel::load(&path, &chain).unwrap();
     assert_eq!(back, sm);
     let q = data.q_flat();
-    let payload = vec![
-        Load::Payload {
-            mass: 3.0,
-            com: [0.0, 0.05, 0.08]
-        };
-        q.len() / 7
-    ];
-    let a = sm.predict(&chain, q, &payload).unwrap();
-    let b = back.predict(&chain, q, &payload).unwrap();
+    let payload = Load::Payload(PointMass::new(3.0, [0.0, 0.05, 0.08]).unwrap());
+    let a = sm.predict(&chain, q, payload).unwrap();
+    let b = back.predict(&chain, q, payload).unwrap();
     for (x, y) in a.iter().zip(&b) {
         for k in 0..6 {
             assert_eq!(x.deflection[k].to_bits(), y.deflection[k].to_bits());
@@ -449,7 +428,7 @@ fn edited_stale_and_foreign_model_files_are_refused() {
     assert!(err.to_string().contains("kinematics"), "{err}");
     // Predicting with another robot is refused too.
     let err = sm
-        .predict(&tcp, &[0.0; 7], &wrenches(&[0.0; 6]))
+        .predict(&tcp, &[0.0; 7], Load::Wrench(&[0.0; 6]))
         .unwrap_err();
     assert!(matches!(err, ModelError::OtherRobot { .. }), "{err}");
     // A failed save leaves nothing behind and names the file.
@@ -463,17 +442,19 @@ fn bad_prediction_inputs_name_the_row() {
     let (chain, sm, _) = panda_model();
     let mut q = vec![0.2; 14];
     q[9] = f64::NAN;
-    let err = sm.predict(&chain, &q, &wrenches(&[1.0; 12])).unwrap_err();
+    let err = sm
+        .predict(&chain, &q, Load::Wrench(&[1.0; 12]))
+        .unwrap_err();
     assert!(err.to_string().contains("row 1"), "{err}");
     let err = sm
-        .predict(&chain, &[0.2; 13], &wrenches(&[1.0; 12]))
+        .predict(&chain, &[0.2; 13], Load::Wrench(&[1.0; 12]))
         .unwrap_err();
     assert!(
         matches!(err, ModelError::Vjm(vjm::VjmError::ShapeMismatch { .. })),
         "{err}"
     );
     let err = sm
-        .predict(&chain, &[0.2; 14], &wrenches(&[1.0; 6]))
+        .predict(&chain, &[0.2; 14], Load::Wrench(&[1.0; 6]))
         .unwrap_err();
     assert!(
         matches!(err, ModelError::Vjm(vjm::VjmError::ShapeMismatch { .. })),
@@ -481,7 +462,9 @@ fn bad_prediction_inputs_name_the_row() {
     );
     let mut w = vec![1.0; 12];
     w[10] = f64::INFINITY;
-    let err = sm.predict(&chain, &[0.2; 14], &wrenches(&w)).unwrap_err();
+    let err = sm
+        .predict(&chain, &[0.2; 14], Load::Wrench(&w))
+        .unwrap_err();
     assert!(
         err.to_string().contains("wrench at row 1, column 4"),
         "{err}"
@@ -530,7 +513,7 @@ fn standard_deviations_cover_the_true_deflection() {
             .collect();
         for (c, sm) in count.iter_mut().zip([&robust, &plain]) {
             for (p, &i) in sm
-                .predict(&chain, &q, &wrenches(&w))
+                .predict(&chain, &q, Load::Wrench(&w))
                 .unwrap()
                 .iter()
                 .zip(&test)
