@@ -31,7 +31,7 @@
 //! let text = sm.to_json();
 //! let back = StiffnessModel::from_json(&text, "model.json")?;
 //! back.check_robot(&chain, "model.json")?;
-//! let p = back.predict(&chain, data.q(0), &[Load::Wrench(data.wrench(0))])?;
+//! let p = back.predict(&chain, data.q(0), Load::Wrench(&data.wrench(0)))?;
 //! let truth = data.displacement(0);
 //! assert!(p[0].identified && (p[0].deflection[0] - truth[0]).abs() < 1e-9 * truth[0].abs().max(1e-6));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
