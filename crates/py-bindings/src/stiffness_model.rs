@@ -161,9 +161,10 @@ impl PyStiffnessModel {
 }
 
 /// Identification that also returns the stiffness model: `(result JSON, StiffnessModel)`.
-/// `data_file` is the measurement file the arrays came from (hashed into the model).
+/// `data_file` is the measurement file the arrays came from (hashed into the model);
+/// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None))]
+#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_identify_model<'py>(
     py: Python<'py>,
@@ -179,6 +180,7 @@ pub fn vjm_identify_model<'py>(
     dense: bool,
     method: &str,
     data_file: Option<String>,
+    robust_covariance: bool,
 ) -> PyResult<(String, PyStiffnessModel)> {
     let args = IdentifyArgs {
         q,
@@ -191,7 +193,13 @@ pub fn vjm_identify_model<'py>(
         dense,
         method,
     };
-    let (id, built) = robot.identify_with(py, model, args, Some(data_file.as_deref()))?;
+    let (id, built) = robot.identify_with(
+        py,
+        model,
+        args,
+        Some(data_file.as_deref()),
+        robust_covariance,
+    )?;
     let text = serde_json::to_string(&id)
         .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))?;
     let built = built.ok_or_else(|| crate::errors::internal_error("no model was built"))?;

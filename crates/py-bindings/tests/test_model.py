@@ -76,7 +76,7 @@ def test_ur5_predictions_are_exact_although_springs_alias():
 def fitted(panda):
     c = simulate(panda, all_tilts(7, 2), n_poses=16, seed=8)
     m = c.measurements
-    return m, panda.identify(m.q, m.wrench, m.displacement, model="extended")
+    return m, panda.identify(m.q, m.wrench, m.displacement, model="extended", robust_covariance=True)
 
 
 def test_round_trip_is_bitwise(fitted, panda, tmp_path):
@@ -95,6 +95,9 @@ def test_round_trip_is_bitwise(fitted, panda, tmp_path):
     assert doc["model"]["data"]["rows"] == len(m)
     assert doc["model"]["estimate"]["covariance_method"] == "robust"
     assert back.labels == panda.labels("extended") and back.rank == ident.rank
+    # Without robust_covariance the model carries the identification's own covariance.
+    plain = panda.identify(m.q, m.wrench, m.displacement, model="extended")
+    assert plain.stiffness_model.to_dict()["estimate"]["covariance_method"] == "model"
 
 
 def test_edited_and_foreign_files_are_refused(fitted, panda, tmp_path):
@@ -289,3 +292,14 @@ def test_cli_predict_uses_the_robot_recorded_in_the_model(tmp_path):
     assert proc.returncode == 1 and "input" in proc.stderr
     help_text = run_cli(["predict", "vjm", "--help"], cwd=tmp_path).stdout
     assert "--payload" in help_text and "true deflection" in help_text
+
+
+def test_cli_identify_save_into_a_missing_folder_writes_nothing(saved, tmp_path):
+    import shutil
+
+    shutil.copy(saved / "c.csv", tmp_path / "c.csv")
+    before = listing(tmp_path)
+    proc = run_cli(["identify", "vjm", "c.csv", "--json", "id.json", "--save", "nowhere/m.json"], cwd=tmp_path)
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--save" in proc.stderr
+    assert listing(tmp_path) == before

@@ -138,6 +138,7 @@ def vjm_identify_model(
     dense: bool = False,
     method: str = "auto",
     data_file: Optional[str] = None,
+    robust_covariance: bool = False,
 ) -> Tuple[str, StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
 def vjm_compensate(

@@ -315,6 +315,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         nonnegative=args.nonnegative,
         method=args.method,
         data_file=args.data,
+        robust_covariance=save_out is not None,
     )
     doc = res.to_dict()
     if json_out is not None:
@@ -647,7 +648,7 @@ effects (--effect NAME:key=value,...):
     dc.add_argument("--force", action="store_true", help=FORCE_HELP)
     dc.set_defaults(func=cmd_diagnose_csjm)
 
-    cli_model.add_commands(sub)  # predict
+    cli_model.add_commands(sub, sys.modules[__name__])  # predict
 
     # demo
     demo = sub.add_parser(

@@ -16,7 +16,6 @@ from typing import Any, List, Optional
 
 import numpy as np
 
-from ._errors import DataFileError, InvalidValueError
 
 BUNDLED_URDF_PATH = "bundled:panda_arm.urdf"
 
@@ -62,9 +61,17 @@ def write_model(staged: Any, result: Any) -> None:
         staged.write_text(result.stiffness_model.to_json())
 
 
-def add_commands(sub: Any) -> None:
-    """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser."""
-    from .cli import _add_robot_args
+# The running CLI module (robot_stiffness.cli, or __main__ under `python -m`): its helpers and
+# its CliError, which its main loop reports as one line.
+_CLI: Any = None
+
+
+def add_commands(sub: Any, cli: Any) -> None:
+    """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser;
+    ``cli`` is the calling CLI module (for its robot options, input checks and CliError)."""
+    global _CLI
+    _CLI = cli
+    _add_robot_args = cli._add_robot_args
 
     pre = sub.add_parser(
         "predict",
@@ -95,18 +102,14 @@ def add_commands(sub: Any) -> None:
     pv.set_defaults(func=cmd_predict_vjm)
 
 
-# Errors here are StiffnessError subclasses, not cli.CliError: under `python -m
-# robot_stiffness.cli` the running module is __main__, whose CliError is another class.
-
-
 def _parse_payload(text: str) -> List[float]:
     parts = [p.strip() for p in text.split(",")]
     if len(parts) not in (1, 4):
-        raise InvalidValueError(f"--payload {text!r}: expected MASS or MASS,cx,cy,cz (kg, m in the tip frame)")
+        raise _CLI.CliError(f"--payload {text!r}: expected MASS or MASS,cx,cy,cz (kg, m in the tip frame)")
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise InvalidValueError(f"--payload {text!r}: expected numbers, MASS or MASS,cx,cy,cz (kg, m)") from None
+        raise _CLI.CliError(f"--payload {text!r}: expected numbers, MASS or MASS,cx,cy,cz (kg, m)") from None
     return values + [0.0] * (4 - len(values))
 
 
@@ -125,14 +128,8 @@ def _recorded_robot(path: str) -> Optional[dict]:
 def _robot_for(args: argparse.Namespace) -> Any:
     from .vjm import Robot
 
-    if args.urdf is not None:
-        if not args.base or not args.tip:
-            raise InvalidValueError("--urdf needs both --base LINK and --tip LINK")
-        return Robot.from_urdf(args.urdf, args.base, args.tip)
-    if args.base is not None and args.base != "panda_link0":
-        raise InvalidValueError("--base needs --urdf (the bundled arm's base is panda_link0)")
-    if args.tip is not None or args.base is not None:
-        return Robot.bundled(args.tip)
+    if args.urdf is not None or args.base is not None or args.tip is not None:
+        return _CLI._robot(args)
     rec = _recorded_robot(args.model_file)
     if rec is None:
         return Robot.bundled()
@@ -140,9 +137,9 @@ def _robot_for(args: argparse.Namespace) -> Any:
     if urdf == BUNDLED_URDF_PATH:
         return Robot.bundled(tip)
     if not urdf:
-        raise InvalidValueError(f"{args.model_file} records no URDF path: give --urdf, --base and --tip")
+        raise _CLI.CliError(f"{args.model_file} records no URDF path: give --urdf, --base and --tip")
     if not Path(urdf).is_file():
-        raise InvalidValueError(
+        raise _CLI.CliError(
             f"{args.model_file} was identified on {urdf}, which does not exist here: give --urdf, --base and --tip"
         )
     return Robot.from_urdf(urdf, str(base), str(tip))
@@ -173,14 +170,16 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     from .model import StiffnessModel
 
     staged = out.file(args.out, "--out")
+    _CLI._check_input(args.model_file, "MODEL.json")
+    _CLI._check_input(args.data, "POSES.csv")
     payload = None if args.payload is None else _parse_payload(args.payload)
     robot = _robot_for(args)
     model = StiffnessModel.load(args.model_file, robot)
     q, wrench = _core.vjm_read_poses(args.data, robot._inner)
     if payload is not None and wrench is not None:
-        raise InvalidValueError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
+        raise _CLI.CliError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
-        raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
+        raise _CLI.CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     pred = model.predict(q, wrench=wrench, payload=payload)
     staged.write_text(predictions_csv(robot.n_joints, q, pred))
     out.commit()

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -80,10 +80,8 @@ _PAYLOAD_NAMES = ("payload mass (kg)", "payload cx (m)", "payload cy (m)", "payl
 
 def _payload(payload: Payload) -> tuple:
     """``(mass, cx, cy, cz)`` from a mass or a sequence of 1 or 4 real numbers."""
-    if isinstance(payload, (str, bytes)) or not hasattr(payload, "__len__"):
-        items = [payload]
-    else:
-        items = list(payload)
+    scalar = isinstance(payload, (str, bytes)) or not hasattr(payload, "__len__")
+    items: List[Any] = [payload] if scalar else list(cast(Sequence[Any], payload))
     if len(items) not in (1, 4):
         raise InvalidValueError(
             f"payload must be a mass in kg or (mass, cx, cy, cz), got {len(items)} numbers"

@@ -352,6 +352,7 @@ class Robot:
         dense: bool = False,
         method: str = "auto",
         data_file: Optional[PathLike] = None,
+        robust_covariance: bool = False,
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
@@ -369,6 +370,10 @@ class Robot:
         number exceeds 1e4), ``"normal_equations"`` or ``"qr"``; ``Identification.method`` says
         which one produced the result. ``data_file``: the measurement file the arrays were read
         from; its path and SHA-256 are recorded in the saved model (``Identification.save``).
+        ``robust_covariance``: give the stiffness model the cluster-robust covariance (valid for
+        force-sensor noise, which is correlated within a measurement; one more pass over the data,
+        about 10 µs per measurement) instead of the identification's own; the CLI's ``--save``
+        uses it. See ``docs/model-file.md``.
 
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
@@ -392,13 +397,14 @@ class Robot:
         # A table's cells are named by column and row; arrays keep the core's array/row/column.
         with blame_rows() if from_table else contextlib.nullcontext():
             text, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
-                                              noise_scale_known, nonnegative, dense, method, data_file)
+                                              noise_scale_known, nonnegative, dense, method, data_file,
+                                              robust_covariance)
         return Identification._from_json(text, StiffnessModel(core_model, self))
 
     def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
                   noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str,
-                  data_file: Any) -> Tuple[str, Any]:
-        # One call identifies and builds the stiffness model (robust covariance) from the same arrays.
+                  data_file: Any, robust_covariance: bool) -> Tuple[str, Any]:
+        # One call identifies and builds the stiffness model from the same arrays.
         text, core_model = _core.vjm_identify_model(
             self._inner,
             q_arr,
@@ -412,6 +418,7 @@ class Robot:
             dense=bool(dense),
             method=str(method),
             data_file=None if data_file is None else os.fspath(data_file),
+            robust_covariance=bool(robust_covariance),
         )
         return str(text), core_model
 

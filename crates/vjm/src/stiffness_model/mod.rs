@@ -31,7 +31,7 @@
 //! let text = sm.to_json();
 //! let back = StiffnessModel::from_json(&text, "model.json")?;
 //! back.check_robot(&chain, "model.json")?;
-//! let p = back.predict(&chain, data.q(0), &[Load::Wrench(data.wrench(0))])?;
+//! let p = back.predict(&chain, data.q(0), Load::Wrench(&data.wrench(0)))?;
 //! let truth = data.displacement(0);
 //! assert!(p[0].identified && (p[0].deflection[0] - truth[0]).abs() < 1e-9 * truth[0].abs().max(1e-6));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -186,7 +186,7 @@ pub struct NoiseRecord {
     /// `true`: `noise_sigma` were the true standard deviations (σ² = 1).
     pub noise_scale_known: bool,
     /// σ² of the whitened residuals used for the covariance: the variance of a new
-    /// measurement's axis k is σ²·noise_sigma[k]² under this model. `None` when unknown.
+    /// measurement's axis k is `σ²·noise_sigma[k]²` under this model. `None` when unknown.
     pub sigma2: Option<f64>,
     /// Degrees of freedom, equations − rank.
     pub dof: usize,
