@@ -10,6 +10,7 @@ use vjm::SpringAxis;
 
 use crate::convert::{batch, check_effect_keys, fixed, to_numpy};
 use crate::errors::{run, value_error, IntoPyErr, PyResultExt};
+use crate::interrupt::run_interruptible;
 use crate::vjm::PyRobot;
 
 /// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
@@ -287,8 +288,10 @@ pub fn vjm_simulate<'py>(
     if let Some(t) = test_fraction {
         spec.test_fraction = t;
     }
-    let campaign =
-        run(py, || testbed::simulate(chain, &truth, &spec))?.map_err(IntoPyErr::into_py_err)?;
+    let campaign = run_interruptible(py, None, |monitor| {
+        testbed::simulate_monitored(chain, &truth, &spec, monitor)
+    })?
+    .map_err(IntoPyErr::into_py_err)?;
     let out = dataset_to_dict(py, &campaign.dataset)?;
     let n = campaign.dataset.len();
     out.set_item(
