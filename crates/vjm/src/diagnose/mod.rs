@@ -146,7 +146,7 @@ pub enum DiagnoseError {
         /// Baseline parameters.
         params: usize,
     },
-    /// The run was cancelled through its [`Cancel`](stiffness_core::Cancel) token.
+    /// The run was cancelled through its [`Cancel`] token.
     #[error("diagnosis cancelled")]
     Cancelled(#[from] stiffness_core::Cancelled),
     /// An option is out of range.

@@ -163,7 +163,7 @@ pub struct NoiseRecord {
     /// `true`: `noise_sigma` were the true standard deviations (σ² = 1).
     pub noise_scale_known: bool,
     /// σ² of the whitened residuals used for the covariance: the variance of a new
-    /// measurement's axis k is σ²·noise_sigma[k]² under this model. `None` when unknown.
+    /// measurement's axis k is `σ²·noise_sigma[k]²` under this model. `None` when unknown.
     pub sigma2: Option<f64>,
     /// Degrees of freedom, equations − rank.
     pub dof: usize,
