@@ -243,6 +243,7 @@ impl IntoPyErr for vjm::testbed::TestbedError {
     fn into_py_err(self) -> PyErr {
         match self {
             vjm::testbed::TestbedError::Dataset(d) => d.into_py_err(),
+            vjm::testbed::TestbedError::Cancelled(_) => error(Kind::Cancelled, self.to_string()),
             other => error(Kind::Value, other.to_string()),
         }
     }

@@ -136,7 +136,8 @@ def test_a_bad_effect_value_blames_the_effect_not_a_file_column(value):
     with pytest.raises(rs.StiffnessError) as info:
         vjm.simulate(panda, [tilt], n_poses=4, wrenches_per_pose=2)
     msg = str(info.value)
-    assert "joint_tilt at joint 3" in msg and "'dx'" not in msg and "line" not in msg, msg
+    assert "effects[0] (joint_tilt): `compliance`" in msg, msg
+    assert "'dx'" not in msg and "line" not in msg, msg
     from robot_stiffness import csjm
 
     with pytest.raises(rs.InvalidValueError, match=r"cable_hysteresis.*`friction` must be finite and ≥ 0"):
@@ -164,7 +165,8 @@ def test_joint_angles_outside_the_limits_are_refused_unless_allowed(big_campaign
         pose=None if m.pose is None else list(m.pose)[:400],
         set=None if m.set is None else list(m.set)[:400],
     )
-    with pytest.raises(rs.DataFileError, match=r"line 9, column 'q4' \(joint `panda_joint4`\)"):
+    # Row 7 of the arrays (line 9 of the file they would be written to).
+    with pytest.raises(rs.DataFileError, match=r"row 7.*column 'q4' \(joint `panda_joint4`\)"):
         vjm.diagnose(panda, data)
     vjm.diagnose(panda, data, allow_outside_limits=True)
 

@@ -13,7 +13,7 @@
 //!
 //! ```
 //! use nalgebra::Vector3;
-//! use so3_stiffness::so3;
+//! use stiffness_core::so3;
 //! let w = Vector3::new(0.1, -0.2, 0.3);
 //! let r = so3::exp(&w);
 //! assert!((so3::log(&r) - w).norm() < 1e-15);
@@ -319,7 +319,7 @@ fn check_finite(m: &Matrix3<f64>, what: &'static str) -> Result<(), So3Error> {
 ///
 /// ```
 /// use nalgebra::{Matrix3, Vector3};
-/// use so3_stiffness::so3;
+/// use stiffness_core::so3;
 /// let noisy = so3::exp(&Vector3::new(0.3, 0.0, 0.1)).into_inner() + Matrix3::repeat(1e-4);
 /// let r = so3::project_to_rotation(&noisy).unwrap();
 /// assert!(so3::orthogonality_error(r.matrix()) < 1e-14);
@@ -356,7 +356,7 @@ pub fn project_to_rotation(m: &Matrix3<f64>) -> Result<Rotation3<f64>, So3Error>
 ///
 /// ```
 /// use nalgebra::Matrix3;
-/// use so3_stiffness::so3;
+/// use stiffness_core::so3;
 /// assert!(so3::rotation_from_matrix(&Matrix3::identity(), 1e-12).is_ok());
 /// assert!(so3::rotation_from_matrix(&(Matrix3::identity() * 1.01), 1e-6).is_err());
 /// ```

@@ -146,7 +146,7 @@ pub enum DiagnoseError {
         /// Baseline parameters.
         params: usize,
     },
-    /// The run was cancelled through its [`Cancel`](stiffness_core::Cancel) token.
+    /// The run was cancelled through its [`Cancel`] token.
     #[error("diagnosis cancelled")]
     Cancelled(#[from] stiffness_core::Cancelled),
     /// An option is out of range.
@@ -288,13 +288,17 @@ fn prepare<'a>(
     let zeros = vec![0.0; m];
     let kin: Vec<RowKinematics> = (0..data.len())
         .map(|i| {
+            // Polled every few thousand rows: the kinematics of a million rows take seconds.
+            if i % 4096 == 0 {
+                cancel.check()?;
+            }
             let q = data.q(i).to_vec();
             let pose = crate::testbed::kinematics::deflected_pose(chain, &q, &zeros);
             let w = data.wrench(i);
             let wv = nalgebra::DVector::from_column_slice(&w);
             let tau: Vec<f64> = (pose.jacobian.transpose() * wv).iter().cloned().collect();
             let tau_sigma = candidates::torque_sigma(&pose.jacobian, &opts.noise.wrench_sigma);
-            RowKinematics {
+            Ok(RowKinematics {
                 q,
                 jacobian: pose.jacobian,
                 tau,
@@ -302,9 +306,9 @@ fn prepare<'a>(
                 displacement: data.displacement(i),
                 tip: [pose.tip.x, pose.tip.y, pose.tip.z],
                 tau_sigma,
-            }
+            })
         })
-        .collect();
+        .collect::<Result<_, stiffness_core::Cancelled>>()?;
     let tau_scale: Vec<f64> = (0..n)
         .map(|j| {
             (train

@@ -11,6 +11,8 @@ use super::effects::{ForceSensorNoise, TrackerNoise};
 use super::kinematics::deflected_pose;
 use super::truth::{Effect, TrueModel};
 use super::TestbedError;
+use stiffness_core::{Monitor, Progress};
+
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, DatasetError, MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
 use crate::model::SpringAxis;
@@ -271,6 +273,18 @@ pub fn simulate(
     truth: &TrueModel,
     spec: &CampaignSpec,
 ) -> Result<Campaign, TestbedError> {
+    simulate_monitored(chain, truth, spec, &Monitor::none())
+}
+
+/// [`simulate`] under a [`Monitor`]: its token is polled per pose draw and every
+/// [`CHECK_EVERY_ROWS`] simulated rows ([`TestbedError::Cancelled`]); progress is reported per
+/// block of rows (stage `"simulate"`).
+pub fn simulate_monitored(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    spec: &CampaignSpec,
+    monitor: &Monitor<'_>,
+) -> Result<Campaign, TestbedError> {
     check_truth(chain, truth)?;
     if spec.n_poses < 2 || spec.wrenches_per_pose == 0 {
         return Err(TestbedError::InvalidSpec {
@@ -301,6 +315,7 @@ pub fn simulate(
     let mut attempts = 0usize;
     while q_all.len() < spec.n_poses * n {
         attempts += 1;
+        monitor.check()?;
         if attempts > 2000 * spec.n_poses {
             return Err(TestbedError::NoPose { attempts });
         }
@@ -349,7 +364,7 @@ pub fn simulate(
             poses.push(p as i64);
         }
     }
-    let campaign = simulate_at(chain, truth, &q_rows, &wrenches, &poses, spec)?;
+    let campaign = simulate_at_monitored(chain, truth, &q_rows, &wrenches, &poses, spec, monitor)?;
     // Hold out whole poses, reproducibly.
     let labels = campaign
         .dataset
@@ -389,6 +404,22 @@ pub fn simulate_at(
     poses: &[i64],
     spec: &CampaignSpec,
 ) -> Result<Campaign, TestbedError> {
+    simulate_at_monitored(chain, truth, q, wrenches, poses, spec, &Monitor::none())
+}
+
+/// Rows simulated between two polls of the cancellation token (a few ms of work).
+pub const CHECK_EVERY_ROWS: usize = 1024;
+
+/// [`simulate_at`] under a [`Monitor`] (see [`simulate_monitored`]).
+pub fn simulate_at_monitored(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    q: &[f64],
+    wrenches: &[[f64; 6]],
+    poses: &[i64],
+    spec: &CampaignSpec,
+    monitor: &Monitor<'_>,
+) -> Result<Campaign, TestbedError> {
     check_truth(chain, truth)?;
     let n = chain.n_joints();
     let rows = wrenches.len();
@@ -415,6 +446,13 @@ pub fn simulate_at(
     let mut true_d = Vec::with_capacity(rows);
     let mut tips = Vec::with_capacity(rows);
     for i in 0..rows {
+        if i % CHECK_EVERY_ROWS == 0 {
+            monitor.report(Progress {
+                stage: "simulate",
+                done: i,
+                total: rows,
+            })?;
+        }
         let qi = &q[i * n..(i + 1) * n];
         let (d, tip) = truth.displacement(chain, qi, &wrenches[i]);
         let (mut dm, mut wm) = truth.measured(d, wrenches[i]);

@@ -179,6 +179,48 @@ mod cancellation {
     }
 }
 
+mod simulation_cancel {
+    use stiffness_core::{Cancel, Monitor, Progress};
+    use vjm::testbed::{simulate, simulate_monitored, CampaignSpec, TestbedError, TrueModel};
+    use vjm::SerialChain;
+
+    #[test]
+    fn simulate_reports_progress_and_stops_when_cancelled() {
+        let chain = SerialChain::bundled();
+        let spec = CampaignSpec {
+            n_poses: 600,
+            wrenches_per_pose: 4,
+            seed: 2,
+            ..Default::default()
+        };
+        let truth = TrueModel::nominal(7);
+        let cancel = Cancel::new();
+        let reports = std::sync::Mutex::new(Vec::new());
+        let sink = |p: Progress| {
+            reports.lock().unwrap().push(p.done);
+            if p.done >= 1024 {
+                cancel.cancel();
+            }
+        };
+        let r = simulate_monitored(
+            &chain,
+            &truth,
+            &spec,
+            &Monitor::new(cancel.clone()).with_progress(&sink),
+        );
+        assert!(
+            matches!(r, Err(TestbedError::Cancelled(_))),
+            "{:?}",
+            r.err()
+        );
+        assert_eq!(*reports.lock().unwrap(), [0, 1024]);
+        // Unmonitored and monitored-but-idle runs agree.
+        let a = simulate(&chain, &truth, &spec).unwrap();
+        let b = simulate_monitored(&chain, &truth, &spec, &Monitor::none()).unwrap();
+        assert_eq!(a.dataset, b.dataset);
+    }
+}
+
 // ---------------------------------------------------------------- messages
 
 mod messages {
