@@ -129,7 +129,7 @@ def _mutate_once(data: bytes, rng: random.Random) -> bytes:
         width = lines[0].count(b",") + 1
         c = rng.randrange(width)
         op = rng.randrange(2)
-        out = []
+        edited = []
         for line in lines:
             cells = line.split(b",")
             if c < len(cells):
@@ -137,8 +137,8 @@ def _mutate_once(data: bytes, rng: random.Random) -> bytes:
                     del cells[c]
                 else:
                     cells.insert(c, cells[c])
-            out.append(b",".join(cells))
-        return b"\n".join(out)
+            edited.append(b",".join(cells))
+        return b"\n".join(edited)
     if kind == 5 and lines:
         cells = lines[0].split(b",")
         i = rng.randrange(len(cells))
@@ -159,17 +159,17 @@ def _mutate_once(data: bytes, rng: random.Random) -> bytes:
         return rng.choice([data.replace(b"\n", b"\r\n"), b"\xef\xbb\xbf" + data,
                            data.replace(b",", b";"), data + b"\n\n", data.replace(b"\n", b",\n")])
     # raw bytes
-    out = bytearray(data)
-    at = rng.randrange(len(out)) if out else 0
+    raw = bytearray(data)
+    at = rng.randrange(len(raw)) if raw else 0
     special = b"\0\xff\x80,\"'\n\r\t e-."
     op = rng.randrange(3)
-    if op == 0 and out:
-        out[at] ^= 1 << rng.randrange(8)
+    if op == 0 and raw:
+        raw[at] ^= 1 << rng.randrange(8)
     elif op == 1:
-        out.insert(at, rng.choice(special))
-    elif out:
-        del out[at: at + rng.randint(1, 16)]
-    return bytes(out)
+        raw.insert(at, rng.choice(special))
+    elif raw:
+        del raw[at: at + rng.randint(1, 16)]
+    return bytes(raw)
 
 
 def mutate_argv(argv: List[str], rng: random.Random) -> List[str]:
@@ -309,11 +309,12 @@ def serve(timeout: float) -> None:
     signal.signal(signal.SIGPROF, _on_alarm)
     # Matplotlib without a display; no progress bars.
     os.environ.setdefault("MPLBACKEND", "Agg")
+    answers = sys.stdout  # cases print into their own buffers; answers go here
     for line in sys.stdin:
         case = Case.from_json(json.loads(line))
         result = run_case(case, timeout)
-        sys.__stdout__.write(json.dumps(result) + "\n")
-        sys.__stdout__.flush()
+        answers.write(json.dumps(result) + "\n")
+        answers.flush()
 
 
 # ---------------------------------------------------------------- parent (watchdog, checks)
@@ -396,6 +397,8 @@ def check(case: Case, result: Optional[Dict[str, Any]]) -> Tuple[Optional[str], 
 
 
 def classify(text: str) -> str:
+    """A failure's class: numbers, quoted text and temporary names blanked."""
+    text = re.sub(r"\.tmp-\S+", ".tmp-_", text)
     text = re.sub(r"'[^']*'|\"[^\"]*\"|`[^`]*`", "_", text)
     return re.sub(r"[0-9][0-9.e+-]*", "#", text)[:160]
 
@@ -445,7 +448,9 @@ def fuzz(args: argparse.Namespace) -> int:
             key = "failure" if failure else f"status {result['status']}" if result else "failure"
             counts[key] = counts.get(key, 0) + 1
             if failure:
-                cls = classify(failure.splitlines()[0] + " " + " ".join(case.argv[:2]))
+                # A traceback's class is its last line (the exception), per subcommand.
+                last = [ln for ln in failure.splitlines() if ln.strip()][-1]
+                cls = classify(failure.splitlines()[0] + last + " " + " ".join(case.argv[:2]))
                 if cls not in seen:
                     seen.add(cls)
                     path = save(args.crashes, case, failure)
@@ -464,8 +469,8 @@ def fuzz(args: argparse.Namespace) -> int:
                + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
                + f"; {len(failures)} distinct failures, {len(warnings)} message warnings")
     print(summary)
-    for w in warnings.values():
-        print(f"  warning (case {w['case']}): {w['message'][:200]}")
+    for warning in warnings.values():
+        print(f"  warning (case {warning['case']}): {warning['message'][:200]}")
     if args.record:
         record = {
             "command": " ".join([Path(sys.argv[0]).name] + sys.argv[1:]),

@@ -30,7 +30,7 @@ def main() -> None:
 
     robot = Robot.bundled()
     rng = np.random.default_rng(0)
-    lo = np.array([l for l, _ in robot.limits])
+    lo = np.array([lower for lower, _ in robot.limits])
     hi = np.array([u for _, u in robot.limits])
     q = lo + (hi - lo) * (0.1 + 0.8 * rng.random((args.n, robot.n_joints)))
     w = rng.normal(size=(args.n, 6)) * np.array([30, 30, 30, 1.5, 1.5, 1.5])

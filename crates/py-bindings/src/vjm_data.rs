@@ -8,7 +8,7 @@ use vjm::dataset::{Dataset, SetLabel};
 use vjm::testbed::{self, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
 use vjm::SpringAxis;
 
-use crate::convert::{batch, fixed, to_numpy};
+use crate::convert::{batch, check_effect_keys, fixed, to_numpy};
 use crate::errors::{run, value_error, IntoPyErr, PyResultExt};
 use crate::vjm::PyRobot;
 
@@ -142,9 +142,26 @@ fn joint0(i: usize, joint: usize, n: usize) -> PyResult<usize> {
     Ok(joint - 1)
 }
 
+/// The keys each effect accepts (besides `effect`).
+fn effect_keys(name: &str) -> Option<&'static [&'static str]> {
+    Some(match name {
+        "joint_tilt" => &["joint", "axis", "compliance"],
+        "joint_torsion_nonlinear" => &["joint", "k1", "k2", "k3", "t1", "t2", "ratio"],
+        "joint_backlash" => &["joint", "lost_motion"],
+        "wrench_bias" => &["bias"],
+        "frame_misalignment" => &["rotation"],
+        "geometric_nonlinearity" => &[],
+        "pose_drift" => &["sigma"],
+        _ => return None,
+    })
+}
+
 /// Parses one effect: a dict with `effect` and its parameters (1-based `joint`, SI units).
 fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) -> PyResult<Effect> {
     let name: String = get(d, i, "effect")?;
+    if let Some(valid) = effect_keys(&name) {
+        check_effect_keys(d, i, &name, valid)?;
+    }
     Ok(match name.as_str() {
         "joint_tilt" => {
             let joint = joint0(i, get(d, i, "joint")?, n)?;

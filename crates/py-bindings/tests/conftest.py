@@ -28,7 +28,7 @@ def rng() -> np.random.Generator:
 
 def random_q(robot: Robot, rng: np.random.Generator, n: int) -> np.ndarray:
     """Joint angles inside the limits (10 % margin), rad."""
-    lo = np.array([l for l, _ in robot.limits])
+    lo = np.array([lower for lower, _ in robot.limits])
     hi = np.array([u for _, u in robot.limits])
     return lo + (hi - lo) * (0.1 + 0.8 * rng.random((n, robot.n_joints)))
 

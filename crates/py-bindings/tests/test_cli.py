@@ -98,7 +98,7 @@ def test_identify_csjm_json_contract(tmp_path):
 def _edit_csv(src: Path, dst: Path, edit) -> None:
     lines = src.read_text().splitlines()
     header = lines[0].split(",")
-    rows = [l.split(",") for l in lines[1:]]
+    rows = [line.split(",") for line in lines[1:]]
     header, rows = edit(header, rows)
     dst.write_text("\n".join([",".join(header)] + [",".join(r) for r in rows]) + "\n")
 

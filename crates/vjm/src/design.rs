@@ -247,7 +247,5 @@ pub(crate) fn symmetric_eigen(
     m: DMatrix<f64>,
     what: &'static str,
 ) -> Result<SymmetricEigen<f64, Dyn>, VjmError> {
-    stiffness_core::decompose::symmetric_eigen(m, what).map_err(|e| VjmError::Numerical {
-        message: e.to_string(),
-    })
+    Ok(stiffness_core::decompose::symmetric_eigen(m, what)?)
 }

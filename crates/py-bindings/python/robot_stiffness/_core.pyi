@@ -13,6 +13,7 @@ _Path = Union[str, os.PathLike[str]]
 
 __all__ = [
     "Robot",
+    "StiffnessModel",
     "__version__",
     "_panic_for_tests",
     "csjm_diagnose",
@@ -37,8 +38,10 @@ __all__ = [
     "vjm_compensate_model_file",
     "vjm_design",
     "vjm_diagnose",
+    "vjm_identify_model",
     "vjm_identify_timed",
     "vjm_read_csv",
+    "vjm_read_poses",
     "vjm_seed_study",
     "vjm_simulate",
     "vjm_to_csv",
@@ -122,6 +125,21 @@ def vjm_identify_timed(
     model: _Model,
     repeats: int = 1,
 ) -> List[float]: ...
+def vjm_identify_model(
+    robot: Robot,
+    q: _F64,
+    wrench: _F64,
+    displacement: _F64,
+    model: _Model,
+    rotation: Optional[_F64] = None,
+    noise_sigma: Optional[_F64] = None,
+    noise_scale_known: bool = False,
+    nonnegative: bool = False,
+    dense: bool = False,
+    method: str = "auto",
+    data_file: Optional[str] = None,
+) -> Tuple[str, StiffnessModel]: ...
+def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
 def vjm_compensate(
     robot: Robot,
     model: _Model,
@@ -175,6 +193,7 @@ def vjm_diagnose(
     split_seed: Optional[int] = None,
     max_findings: Optional[int] = None,
     progress: Optional[Callable[[str, int, int], Any]] = None,
+    allow_outside_limits: bool = False,
 ) -> str: ...
 
 @final
@@ -219,3 +238,26 @@ class Robot:
         model: _Model,
         with_kc: bool = False,
     ) -> _F64: ...
+
+@final
+class StiffnessModel:
+    @staticmethod
+    def load(path: _Path, robot: Robot) -> StiffnessModel: ...
+    def save(self, path: _Path) -> None: ...
+    def to_json(self) -> str: ...
+    def to_dict(self) -> Any: ...
+    @property
+    def content_sha256(self) -> str: ...
+    @property
+    def labels(self) -> List[str]: ...
+    @property
+    def has_rotations(self) -> bool: ...
+    @property
+    def rank(self) -> int: ...
+    def measurement_stddev(self) -> List[float]: ...
+    def predict(
+        self,
+        q: _F64,
+        wrench: Optional[_F64] = None,
+        payload: Optional[Tuple[float, float, float, float]] = None,
+    ) -> Dict[str, Any]: ...
