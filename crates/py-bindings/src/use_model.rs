@@ -81,7 +81,7 @@ fn load_of<'a>(
     let pm = match payload {
         Some((mass, centre)) => Some(
             // The payload's own check (finite, mass ≥ 0); its message names the value.
-            PointMass::new(mass, centre).map_err(|e| value_error(e.to_string()))?,
+            PointMass::new(mass, centre).py()?,
         ),
         None => None,
     };
@@ -149,16 +149,14 @@ pub fn vjm_compensate_model_file<'py>(
 ) -> PyResult<CompensationArrays<'py>> {
     let chain = &robot.chain;
     let n = chain.n_joints();
-    // Until ModelError has its own mapping in errors.rs (the model-file work), its message
-    // (naming the file and the cause) surfaces as a ValueError subclass.
-    let model = run(py, || vjm::StiffnessModel::load(path, chain))?
-        .map_err(|e| value_error(e.to_string()))?;
+    // The inputs first (a bad payload is named even when the file is also bad), then the file.
     let q = batch(&q, "q", &[n])?;
     let w = match &wrench {
         Some(w) => Some(batch(w, "wrench", &[6])?),
         None => None,
     };
     let load = load_of(&q, w.as_ref(), payload)?;
+    let model = run(py, || vjm::StiffnessModel::load(path, chain))?.py()?;
     let mut opts = CompensateOptions::default();
     opts.match_orientation = match_orientation.unwrap_or(model.has_rotations());
     opts.with_kc = with_kc;
@@ -166,8 +164,7 @@ pub fn vjm_compensate_model_file<'py>(
     opts.position_tol = position_tol;
     opts.rotation_tol = rotation_tol;
     opts.check_limits = check_limits;
-    let out = run(py, || model.compensate(chain, &q.data, load, &opts))?
-        .map_err(|e| value_error(e.to_string()))?;
+    let out = run(py, || model.compensate(chain, &q.data, load, &opts))?.py()?;
     arrays(py, out, n)
 }
 

@@ -119,11 +119,13 @@ def test_cli_compensate_bad_input_writes_nothing(plan, tmp_path):
     before = listing(tmp_path)
     # No wrench columns and no --payload.
     (tmp_path / "nowrench.csv").write_text("q1,q2,q3,q4,q5,q6,q7\n" + ",".join(["0.1"] * 7) + "\n")
+    (tmp_path / "qonly.csv").write_text("q1,q2,q3,q4,q5,q6,q7\n" + ",".join(["0.1", "-0.3", "0.1", "-2.0", "0.3", "1.8", "0.8"]) + "\n")
     cases = [
-        (["nowrench.csv"], "missing column(s) fx"),
-        (["traj8.csv"], "q8 but the robot has 7 joints"),
-        (["trajnan.csv"], "row 2, column fz"),
-        (["traj.csv", "--payload", "nan"], "finite"),
+        (["nowrench.csv"], "missing columns fx,fy,fz,mx,my,mz"),
+        (["traj8.csv"], "8 joint columns but the chain has 7"),
+        (["trajnan.csv"], "line 3, column 'fz'"),
+        (["qonly.csv", "--payload", "nan"], "finite"),
+        (["traj.csv", "--payload", "1,2"], "MASS or MASS,cx,cy,cz"),
     ]
     q8 = np.c_[plan.q, np.zeros(len(plan.q))]
     (tmp_path / "traj8.csv").write_text(

@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 from typing import Any, List, Optional, Tuple
 
@@ -22,24 +21,6 @@ NOISE_LINE = (
     "(tracker at (2.5, 0, 0.5) m), force/torque sensor 1 % of 100 N / 10 N·m as 2σ, entering "
     "through the testbed's nominal compliances; estimator: identify vjm with its defaults"
 )
-
-
-def _payload(text: str) -> Tuple[float, ...]:
-    parts = text.split(",")
-    if len(parts) not in (1, 4):
-        raise argparse.ArgumentTypeError(f"must be MASS or MASS,cx,cy,cz (kg, m in the tip frame), got {text!r}")
-    values = []
-    for p in parts:
-        try:
-            v = float(p)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be numbers, got {p!r}") from None
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"must be finite numbers, got {p!r}")
-        values.append(v)
-    if values[0] < 0:
-        raise argparse.ArgumentTypeError(f"the mass must be ≥ 0 kg, got {parts[0]!r}")
-    return tuple(values)
 
 
 def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
@@ -81,7 +62,7 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     cv.add_argument("model_file", metavar="MODEL.json", help="model file written by identify vjm --save")
     cv.add_argument("data", metavar="TRAJ.csv", help="trajectory: q1..qn and fx,fy,fz,mx,my,mz (or --payload)")
     add_robot_args(cv)
-    cv.add_argument("--payload", type=_payload, metavar="MASS[,cx,cy,cz]",
+    cv.add_argument("--payload", metavar="MASS[,cx,cy,cz]",
                     help="the load is a point mass (kg) at (cx, cy, cz) m in the tip frame, gravity along −z of the base")
     cv.add_argument("--position-only", action="store_true",
                     help="match the position only (default: also the orientation when the model has rotations)")
@@ -110,43 +91,6 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
         print(f"  {c.label:<40} {c.stderr:.3e}")
     print(f"worst: {plan.worst_stderr:.3e}; written {args.out}")
     return 0
-
-
-def _read_trajectory(path: str, n: int, need_wrench: bool) -> Tuple[np.ndarray, Optional[np.ndarray]]:
-    """q (N, n) and the wrench (N, 6) or None, with errors naming row and column."""
-    try:
-        with open(path, newline="", encoding="utf-8") as f:
-            rows = list(csv.reader(f))
-    except UnicodeDecodeError:
-        raise DataFileError(f"{path}: not a text CSV file") from None
-    if not rows:
-        raise DataFileError(f"{path}: empty file, expected a header with q1..q{n}")
-    header = [h.strip() for h in rows[0]]
-    qcols = [f"q{j + 1}" for j in range(n)]
-    extra = [h for h in header if h.startswith("q") and h[1:].isdigit() and int(h[1:]) > n]
-    if extra:
-        raise DataFileError(f"{path}: column {extra[0]} but the robot has {n} joints (q1..q{n})")
-    wcols = ["fx", "fy", "fz", "mx", "my", "mz"]
-    needed = qcols + (wcols if need_wrench else [])
-    missing = [c for c in needed if c not in header]
-    if missing:
-        hint = " (or give --payload)" if need_wrench and set(missing) <= set(wcols) else ""
-        raise DataFileError(f"{path}: missing column(s) {', '.join(missing)}{hint}")
-    idx = [header.index(c) for c in needed]
-    data = np.empty((len(rows) - 1, len(needed)))
-    for r, row in enumerate(rows[1:]):
-        for k, i in enumerate(idx):
-            cell = row[i].strip() if i < len(row) else ""
-            try:
-                v = float(cell)
-            except ValueError:
-                raise DataFileError(f"{path}: row {r + 1}, column {needed[k]}: not a number: {cell!r}") from None
-            if not math.isfinite(v):
-                raise DataFileError(f"{path}: row {r + 1}, column {needed[k]}: {cell} is not finite")
-            data[r, k] = v
-    if data.shape[0] == 0:
-        raise DataFileError(f"{path}: no data rows")
-    return np.ascontiguousarray(data[:, :n]), (np.ascontiguousarray(data[:, n:]) if need_wrench else None)
 
 
 def _comp_csv(q: np.ndarray, comp: Any) -> str:
@@ -188,8 +132,10 @@ def plot_compensation(path: Any, comp: Any) -> None:
 def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from pathlib import Path
 
-    from ._errors import MissingFileError
-    from .cli import CliError, _check_input, _robot
+    from . import _core
+    from ._errors import InvalidValueError, MissingFileError
+    from .cli import CliError, _check_input
+    from .cli_model import _parse_payload, _robot_for
     from .vjm import compensate_with_model_file
 
     for path, what in ((args.model_file, "MODEL.json"), (args.data, "TRAJ.csv")):
@@ -201,10 +147,15 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
             raise CliError(f"{flag} is the model file MODEL.json; choose another output name")
     comp_out = out.file(args.out, "--out")
     plot_out = out.file(args.plot, "--plot") if args.plot is not None else None
-    robot = _robot(args)
-    q, wrench = _read_trajectory(args.data, robot.n_joints, need_wrench=args.payload is None)
+    payload = None if args.payload is None else _parse_payload(args.payload)
+    robot = _robot_for(args)  # the robot the model file records, unless --urdf/--base/--tip
+    q, wrench = _core.vjm_read_poses(args.data, robot._inner)
+    if payload is not None and wrench is not None:
+        raise InvalidValueError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
+    if payload is None and wrench is None:
+        raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     comp = in_worker(
-        compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=args.payload,
+        compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
         match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
     )
     comp_out.write_text(_comp_csv(q, comp))
