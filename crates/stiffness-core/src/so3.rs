@@ -19,8 +19,6 @@
 //! assert!((so3::log(&r) - w).norm() < 1e-15);
 //! ```
 
-// `!(x < tol)` is deliberate: it is true for NaN, so non-finite input takes the safe branch.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
