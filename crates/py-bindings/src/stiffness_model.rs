@@ -164,7 +164,7 @@ impl PyStiffnessModel {
 /// `data_file` is the measurement file the arrays came from (hashed into the model);
 /// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false))]
+#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false, allow_outside_limits = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_identify_model<'py>(
     py: Python<'py>,
@@ -181,6 +181,7 @@ pub fn vjm_identify_model<'py>(
     method: &str,
     data_file: Option<String>,
     robust_covariance: bool,
+    allow_outside_limits: bool,
 ) -> PyResult<(String, PyStiffnessModel)> {
     let args = IdentifyArgs {
         q,
@@ -192,6 +193,7 @@ pub fn vjm_identify_model<'py>(
         nonnegative,
         dense,
         method,
+        allow_outside_limits,
     };
     let (id, built) = robot.identify_with(
         py,

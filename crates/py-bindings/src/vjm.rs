@@ -202,7 +202,7 @@ impl PyRobot {
     }
 
     /// Rank-revealing identification; returns the result as JSON text (the core's serde form).
-    #[pyo3(signature = (q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto"))]
+    #[pyo3(signature = (q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", allow_outside_limits = false))]
     #[allow(clippy::too_many_arguments)]
     fn identify<'py>(
         &self,
@@ -217,6 +217,7 @@ impl PyRobot {
         nonnegative: bool,
         dense: bool,
         method: &str,
+        allow_outside_limits: bool,
     ) -> PyResult<String> {
         let args = IdentifyArgs {
             q,
@@ -228,6 +229,7 @@ impl PyRobot {
             nonnegative,
             dense,
             method,
+            allow_outside_limits,
         };
         let (id, _) = self.identify_with(py, model, args, None, false)?;
         serde_json::to_string(&id)
@@ -289,6 +291,8 @@ pub(crate) struct IdentifyArgs<'py, 'a> {
     pub nonnegative: bool,
     pub dense: bool,
     pub method: &'a str,
+    /// Skip the check of the joint angles against the URDF limits.
+    pub allow_outside_limits: bool,
 }
 
 impl PyRobot {
@@ -327,6 +331,14 @@ impl PyRobot {
         check_rows(q.rows, &[("wrench", w.rows), ("displacement", d.rows)])?;
         if let Some(r) = &r {
             check_rows(q.rows, &[("rotation", r.rows)])?;
+        }
+        // The same checks as a measurement file (units, magnitudes, information, joint limits):
+        // the Python API must not accept what the command line refuses.
+        vjm::dataset::check_values(n, &q.data, &w.data, &d.data, r.as_ref().map(|r| &*r.data))
+            .map_err(crate::errors::IntoPyErr::into_py_err)?;
+        if !a.allow_outside_limits {
+            vjm::dataset::check_joint_limits(&self.chain, &q.data)
+                .map_err(crate::errors::IntoPyErr::into_py_err)?;
         }
         let mut opts = IdentifyOptions::default();
         if let Some(s) = &a.noise_sigma {

@@ -19,7 +19,6 @@
 //! assert!((so3::log(&r) - w).norm() < 1e-15);
 //! ```
 
-
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::fast_math;

@@ -336,6 +336,86 @@ fn check_value(line: u64, column: &str, value: f64) -> Result<(), DatasetError> 
     Ok(())
 }
 
+/// The value checks of a measurement table held as row-major arrays (`q` N×n, `wrench` N×6,
+/// `displacement` N×3, `rotation` N×3), without copying them: finiteness and plausibility of
+/// every cell (row `i` is reported as line `i + 2`, its line in the written CSV), then that the
+/// data carry information (some load, some displacement). Shapes must already match. This is
+/// the one validation of in-memory data: [`Dataset::new`] and the Python `identify` call it.
+pub fn check_values(
+    n_joints: usize,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+) -> Result<(), DatasetError> {
+    // The fast path compares without building column names; a name is formatted only for the
+    // cell that fails (check_value), so 10⁶ rows cost a few ms.
+    let fails = |v: f64, limit: f64| !(v.abs() <= limit);
+    let check = |i: usize, column: &str, v: f64, limit: f64| {
+        if fails(v, limit) {
+            check_value(i as u64 + 2, column, v)
+        } else {
+            Ok(())
+        }
+    };
+    let rows = displacement.len() / 3;
+    for i in 0..rows {
+        for j in 0..n_joints {
+            let v = q[i * n_joints + j];
+            if fails(v, MAX_PLAUSIBLE_JOINT_ANGLE) {
+                check_value(i as u64 + 2, &format!("q{}", j + 1), v)?;
+            }
+        }
+        for (k, c) in WRENCH_COLUMNS.iter().enumerate() {
+            let limit = if k < 3 {
+                MAX_PLAUSIBLE_FORCE
+            } else {
+                MAX_PLAUSIBLE_MOMENT
+            };
+            check(i, c, wrench[i * 6 + k], limit)?;
+        }
+        for (k, c) in DISPLACEMENT_COLUMNS.iter().enumerate() {
+            check(i, c, displacement[i * 3 + k], MAX_PLAUSIBLE_DISPLACEMENT)?;
+        }
+        if let Some(r) = rotation {
+            for (k, c) in ROTATION_COLUMNS.iter().enumerate() {
+                check(i, c, r[i * 3 + k], MAX_PLAUSIBLE_ROTATION)?;
+            }
+        }
+    }
+    check_information(wrench, displacement)
+}
+
+/// Refuses the first joint angle of `q` (N×n row-major, rad) outside `chain`'s limits by more
+/// than [`JOINT_LIMIT_TOLERANCE`] (continuous joints have none), naming line (row + 2), column
+/// and joint. Callers skip it when the user opts out (`allow_outside_limits`).
+pub fn check_joint_limits(chain: &crate::SerialChain, q: &[f64]) -> Result<(), DatasetError> {
+    let n = chain.n_joints();
+    if n == 0 || !q.len().is_multiple_of(n) {
+        return Err(DatasetError::JointCount {
+            found: q.len(),
+            expected: n,
+        });
+    }
+    let limits = chain.limits();
+    for (i, row) in q.chunks_exact(n).enumerate() {
+        for (j, &value) in row.iter().enumerate() {
+            let (lower, upper) = limits[j];
+            if value < lower - JOINT_LIMIT_TOLERANCE || value > upper + JOINT_LIMIT_TOLERANCE {
+                return Err(DatasetError::OutsideLimits {
+                    line: i as u64 + 2,
+                    column: format!("q{}", j + 1),
+                    joint: chain.joint_names()[j].clone(),
+                    value,
+                    lower,
+                    upper,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Dataset {
     /// Builds a dataset from row-major arrays: `q` N×n (rad), `wrench` N×6 (N, N·m),
     /// `displacement` N×3 (m), optional `rotation` N×3 (rad), `pose` and `set` of length N.
@@ -390,24 +470,7 @@ impl Dataset {
                 });
             }
         }
-        for i in 0..rows {
-            let line = i as u64 + 2;
-            for j in 0..n_joints {
-                check_value(line, &format!("q{}", j + 1), q[i * n_joints + j])?;
-            }
-            for (k, c) in WRENCH_COLUMNS.iter().enumerate() {
-                check_value(line, c, wrench[i * 6 + k])?;
-            }
-            for (k, c) in DISPLACEMENT_COLUMNS.iter().enumerate() {
-                check_value(line, c, displacement[i * 3 + k])?;
-            }
-            if let Some(r) = &rotation {
-                for (k, c) in ROTATION_COLUMNS.iter().enumerate() {
-                    check_value(line, c, r[i * 3 + k])?;
-                }
-            }
-        }
-        check_information(&wrench, &displacement)?;
+        check_values(n_joints, &q, &wrench, &displacement, rotation.as_deref())?;
         Ok(Dataset {
             n_joints,
             q,
@@ -429,23 +492,7 @@ impl Dataset {
                 expected: chain.n_joints(),
             });
         }
-        let limits = chain.limits();
-        for i in 0..self.len() {
-            for (j, &value) in self.q(i).iter().enumerate() {
-                let (lower, upper) = limits[j];
-                if value < lower - JOINT_LIMIT_TOLERANCE || value > upper + JOINT_LIMIT_TOLERANCE {
-                    return Err(DatasetError::OutsideLimits {
-                        line: i as u64 + 2,
-                        column: format!("q{}", j + 1),
-                        joint: chain.joint_names()[j].clone(),
-                        value,
-                        lower,
-                        upper,
-                    });
-                }
-            }
-        }
-        Ok(())
+        check_joint_limits(chain, &self.q)
     }
 
     /// Reads and validates a measurement file for a chain with `n_joints` actuated joints.

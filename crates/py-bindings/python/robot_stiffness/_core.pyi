@@ -139,6 +139,7 @@ def vjm_identify_model(
     method: str = "auto",
     data_file: Optional[str] = None,
     robust_covariance: bool = False,
+    allow_outside_limits: bool = False,
 ) -> Tuple[str, StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
 def vjm_compensate(
@@ -230,6 +231,7 @@ class Robot:
         nonnegative: bool = False,
         dense: bool = False,
         method: str = "auto",
+        allow_outside_limits: bool = False,
     ) -> str: ...
     def predict_deflection(
         self,

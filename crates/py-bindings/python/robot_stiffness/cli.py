@@ -316,6 +316,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         method=args.method,
         data_file=args.data,
         robust_covariance=save_out is not None,
+        allow_outside_limits=args.allow_outside_limits,
     )
     doc = res.to_dict()
     if json_out is not None:
@@ -585,6 +586,9 @@ effects (--effect NAME:key=value,...):
     iv.add_argument("--model", default="traditional",
                     help="traditional (torsion only), extended (3 springs per joint) or labels like J1z,J2x (default traditional)")
     iv.add_argument("--use-rotations", action="store_true", help="also use the rx,ry,rz columns")
+    iv.add_argument("--allow-outside-limits", action="store_true",
+                    help="accept joint angles outside the URDF limits (refused by default: degrees or a wrong "
+                    "joint order?)")
     iv.add_argument("--nonnegative", action="store_true", help="constrain compliances to be ≥ 0")
     iv.add_argument("--method", choices=("auto", "normal_equations", "qr"), default="auto",
                     help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")

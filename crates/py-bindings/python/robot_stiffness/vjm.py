@@ -353,6 +353,7 @@ class Robot:
         method: str = "auto",
         data_file: Optional[PathLike] = None,
         robust_covariance: bool = False,
+        allow_outside_limits: bool = False,
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
@@ -373,7 +374,9 @@ class Robot:
         ``robust_covariance``: give the stiffness model the cluster-robust covariance (valid for
         force-sensor noise, which is correlated within a measurement; one more pass over the data,
         about 10 µs per measurement) instead of the identification's own; the CLI's ``--save``
-        uses it. See ``docs/model-file.md``.
+        uses it. See ``docs/model-file.md``. The data get the checks of a measurement file
+        (implausible units or magnitudes, no load, no displacement, joint angles outside the
+        URDF limits — ``allow_outside_limits=True`` to accept those).
 
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
@@ -398,12 +401,13 @@ class Robot:
         with blame_rows() if from_table else contextlib.nullcontext():
             text, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
                                               noise_scale_known, nonnegative, dense, method, data_file,
-                                              robust_covariance)
+                                              robust_covariance, allow_outside_limits)
         return Identification._from_json(text, StiffnessModel(core_model, self))
 
     def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
                   noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str,
-                  data_file: Any, robust_covariance: bool) -> Tuple[str, Any]:
+                  data_file: Any, robust_covariance: bool,
+                  allow_outside_limits: bool = False) -> Tuple[str, Any]:
         # One call identifies and builds the stiffness model from the same arrays.
         text, core_model = _core.vjm_identify_model(
             self._inner,
@@ -419,6 +423,7 @@ class Robot:
             method=str(method),
             data_file=None if data_file is None else os.fspath(data_file),
             robust_covariance=bool(robust_covariance),
+            allow_outside_limits=bool(allow_outside_limits),
         )
         return str(text), core_model
 

@@ -485,4 +485,56 @@ mod validation {
         .to_string();
         assert!(msg.contains("true model") && !msg.contains("line"), "{msg}");
     }
+
+    /// The slice-level checks (used by the Python `identify`, which never builds a Dataset)
+    /// give the same verdicts as `Dataset::new` on the same arrays, cell by cell.
+    #[test]
+    fn slice_checks_agree_with_the_dataset_constructor() {
+        let q = vec![0.1, 0.2, 0.3, 0.4];
+        let good_w = vec![
+            10.0, 0.0, -5.0, 0.1, 0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.2, 0.0,
+        ];
+        let good_d = vec![1e-4, 0.0, -2e-4, 0.0, 3e-4, 0.0];
+        let cases: Vec<(Vec<f64>, Vec<f64>)> = vec![
+            (good_w.clone(), good_d.clone()),
+            (good_w.clone(), good_d.iter().map(|v| v * 1000.0).collect()),
+            (
+                {
+                    let mut w = good_w.clone();
+                    w[8] = 1e308;
+                    w
+                },
+                good_d.clone(),
+            ),
+            (
+                {
+                    let mut w = good_w.clone();
+                    w[4] = f64::NAN;
+                    w
+                },
+                good_d.clone(),
+            ),
+            (vec![0.0; 12], good_d.clone()),
+            (good_w.clone(), vec![0.0; 6]),
+        ];
+        for (w, d) in cases {
+            let a = vjm::dataset::check_values(2, &q, &w, &d, None).map_err(|e| e.to_string());
+            let b = Dataset::new(2, q.clone(), w.clone(), d.clone(), None, None, None)
+                .map(|_| ())
+                .map_err(|e| e.to_string());
+            assert_eq!(a, b, "w {w:?} d {d:?}");
+        }
+    }
+
+    #[test]
+    fn slice_joint_limit_check_names_row_column_and_joint() {
+        let chain = SerialChain::bundled();
+        let mut q = vec![0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8].repeat(3);
+        assert!(vjm::dataset::check_joint_limits(&chain, &q).is_ok());
+        q[7 + 3] = 0.5; // row 1, joint 4 in [-3.07, -0.07] rad
+        let msg = vjm::dataset::check_joint_limits(&chain, &q)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("q4") && msg.contains("panda_joint4"), "{msg}");
+    }
 }
