@@ -14,7 +14,7 @@ use crate::interrupt::run_interruptible;
 use crate::vjm::PyRobot;
 
 /// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
-/// (N, 3) or None, `pose` list[int] or None, `set` list[str] or None.
+/// (N, 3) or None, `pose` `list[int]` or None, `set` `list[str]` or None.
 pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset) -> PyResult<Bound<'py, PyDict>> {
     let n = d.len();
     let out = PyDict::new(py);
