@@ -350,7 +350,8 @@ pub fn check_values(
 ) -> Result<(), DatasetError> {
     // The fast path compares without building column names; a name is formatted only for the
     // cell that fails (check_value), so 10⁶ rows cost a few ms.
-    let fails = |v: f64, limit: f64| !(v.abs() <= limit);
+    // NaN fails too: `is_finite` first, then the cap.
+    let fails = |v: f64, limit: f64| !v.is_finite() || v.abs() > limit;
     let check = |i: usize, column: &str, v: f64, limit: f64| {
         if fails(v, limit) {
             check_value(i as u64 + 2, column, v)
