@@ -529,7 +529,7 @@ mod validation {
     #[test]
     fn slice_joint_limit_check_names_row_column_and_joint() {
         let chain = SerialChain::bundled();
-        let mut q = vec![0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8].repeat(3);
+        let mut q = [0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8].repeat(3);
         assert!(vjm::dataset::check_joint_limits(&chain, &q).is_ok());
         q[7 + 3] = 0.5; // row 1, joint 4 in [-3.07, -0.07] rad
         let msg = vjm::dataset::check_joint_limits(&chain, &q)
