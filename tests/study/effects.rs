@@ -23,7 +23,7 @@ pub enum Hidden {
     /// Backlash of joint 2, full dead band in arcmin.
     Backlash(f64),
     /// Wrench bias: force `b` N along (1, −0.5, 0.7)/‖·‖ and moment 0.1·b N·m along
-    /// (0.3, 0.2, −0.4)/‖·‖.
+    /// (0.3, 0.2, −0.4)/‖·‖ (b/10).
     WrenchBias(f64),
     /// Tracker frame rotated by `m` mrad about (0.3, −0.8, 0.5)/‖·‖.
     Misalignment(f64),
@@ -69,7 +69,7 @@ impl Hidden {
             Hidden::Tilt(f) => format!("{f} × torsion"),
             Hidden::TorsionNonlinear(r) => format!("ratio {r}"),
             Hidden::Backlash(a) => format!("{a} arcmin"),
-            Hidden::WrenchBias(b) => format!("{b} N, {} N·m", 0.1 * b),
+            Hidden::WrenchBias(b) => format!("{b} N, {} N·m", b / 10.0),
             Hidden::Misalignment(m) => format!("{m} mrad"),
             Hidden::Geometric(s) => format!("loads × {s}"),
             Hidden::Mount(k) => format!("k = {k:.1e} N/m"),
@@ -137,9 +137,9 @@ impl Hidden {
                         b * f[0],
                         b * f[1],
                         b * f[2],
-                        0.1 * b * m[0],
-                        0.1 * b * m[1],
-                        0.1 * b * m[2],
+                        b / 10.0 * m[0],
+                        b / 10.0 * m[1],
+                        b / 10.0 * m[2],
                     ],
                 }]
             }
@@ -246,16 +246,17 @@ pub fn outside_grid() -> Vec<Hidden> {
     v
 }
 
-/// Two effects at once.
+/// Two effects at once, each at a magnitude it is detected at alone in ≥ 95 % of runs on
+/// every robot (see the power table): the question is whether both are named together.
 pub fn pair_grid() -> Vec<Hidden> {
     vec![
         Hidden::Pair(
-            Box::new(Hidden::Tilt(0.3)),
+            Box::new(Hidden::Tilt(0.1)),
             Box::new(Hidden::WrenchBias(1.0)),
         ),
         Hidden::Pair(
-            Box::new(Hidden::Backlash(2.0)),
-            Box::new(Hidden::Misalignment(2.0)),
+            Box::new(Hidden::Backlash(1.0)),
+            Box::new(Hidden::Misalignment(10.0)),
         ),
     ]
 }

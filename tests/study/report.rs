@@ -24,17 +24,21 @@ pub fn false_alarm_table(cells: &[CellResult], fdr: f64) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| robot | tracker σ | noise given | runs | any finding | unexplained | false-alarm rate | 95 % CI | stated FDR | verdicts (runs) |"
+        "| robot | tracker σ | F/T accuracy | noise given | runs | any finding | unexplained | false-alarm rate | 95 % CI | stated FDR | median scaled RMS | verdicts (runs) |"
     );
-    let _ = writeln!(s, "|---|---:|---|---:|---:|---:|---:|---|---:|---|");
+    let _ = writeln!(
+        s,
+        "|---|---:|---:|---|---:|---:|---:|---:|---|---:|---:|---|"
+    );
     for r in cells {
         let (lo, hi) = r.alarm_ci();
         let _ = writeln!(
             s,
-            "| {} | {} µm | {} | {} | {} | {} | {} | [{}, {}] | {} | {} |",
+            "| {} | {} µm | {} % | {} | {} | {} | {} | {} | [{}, {}] | {} | {:.2} | {} |",
             r.robot,
             r.tracker_sigma_um,
-            if r.noise_given { "yes" } else { "no (21 µm)" },
+            100.0 * r.ft_accuracy,
+            if r.noise_given { "yes" } else { "no" },
             r.runs,
             r.any_finding,
             r.unexplained,
@@ -42,6 +46,7 @@ pub fn false_alarm_table(cells: &[CellResult], fdr: f64) -> String {
             pct(lo),
             pct(hi),
             fdr,
+            r.median_scaled_rms,
             verdicts(r, 3)
         );
     }
@@ -53,14 +58,14 @@ pub fn power_table(cells: &[CellResult]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| robot | effect | magnitude | noise given | runs | detected | 95 % CI | any finding | unexplained | mean gain | verdicts (runs) |"
+        "| robot | effect | magnitude | noise given | runs | detected | 95 % CI | any finding | unexplained | mean gain | median scaled RMS | verdicts (runs) |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---:|---:|---|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---|");
     for r in cells {
         let (lo, hi) = r.detected_ci();
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | [{}, {}] | {} | {} | {:.2} | {} |",
+            "| {} | {} | {} | {} | {} | {} | [{}, {}] | {} | {} | {:.2} | {:.2} | {} |",
             r.robot,
             r.effect,
             r.magnitude,
@@ -72,6 +77,7 @@ pub fn power_table(cells: &[CellResult]) -> String {
             r.any_finding,
             r.unexplained,
             r.mean_gain,
+            r.median_scaled_rms,
             verdicts(r, 3)
         );
     }
@@ -109,5 +115,62 @@ pub fn csjm_table(r: &CsjmResult) -> String {
         r.connection_term,
         v
     );
+    s
+}
+
+/// The power summary: one row per effect × magnitude, one column per robot, each cell
+/// "detection rate without / with the noise given (median scaled RMS of the extended model
+/// with the noise given)".
+pub fn power_summary(cells: &[CellResult]) -> String {
+    let mut robots: Vec<&str> = Vec::new();
+    let mut rows: Vec<(&str, &str)> = Vec::new();
+    for c in cells {
+        if !robots.contains(&c.robot.as_str()) {
+            robots.push(&c.robot);
+        }
+        if !rows.contains(&(c.effect.as_str(), c.magnitude.as_str())) {
+            rows.push((&c.effect, &c.magnitude));
+        }
+    }
+    let mut s = String::new();
+    let _ = write!(s, "| effect | magnitude |");
+    for r in &robots {
+        let _ = write!(s, " {r} |");
+    }
+    let _ = writeln!(s);
+    let _ = write!(s, "|---|---|");
+    for _ in &robots {
+        let _ = write!(s, "---:|");
+    }
+    let _ = writeln!(s);
+    for (effect, magnitude) in rows {
+        let _ = write!(s, "| {effect} | {magnitude} |");
+        for robot in &robots {
+            let rate = |given: bool| {
+                cells
+                    .iter()
+                    .find(|c| {
+                        c.robot == *robot
+                            && c.effect == effect
+                            && c.magnitude == magnitude
+                            && c.noise_given == given
+                    })
+                    .map(|c| format!("{:.0}", 100.0 * c.detected as f64 / c.runs.max(1) as f64))
+                    .unwrap_or_else(|| "–".into())
+            };
+            let rms = cells
+                .iter()
+                .find(|c| {
+                    c.robot == *robot
+                        && c.effect == effect
+                        && c.magnitude == magnitude
+                        && c.noise_given
+                })
+                .map(|c| format!("{:.1}", c.median_scaled_rms))
+                .unwrap_or_else(|| "–".into());
+            let _ = write!(s, " {} / {} ({rms}) |", rate(false), rate(true));
+        }
+        let _ = writeln!(s);
+    }
     s
 }

@@ -9,7 +9,7 @@ use serde::Serialize;
 use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 use vjm::diagnose::report::Diagnosis;
 use vjm::diagnose::{diagnose, DiagnoseOptions};
-use vjm::testbed::{simulate, CampaignSpec, TrackerNoise, TrueModel};
+use vjm::testbed::{simulate, CampaignSpec, ForceSensorNoise, TrackerNoise, TrueModel};
 
 use super::effects::{rms_torque, Hidden, EFFECT_JOINT};
 use super::robots::StudyRobot;
@@ -54,7 +54,10 @@ pub struct CellResult {
     pub outside: bool,
     /// Per-axis tracker noise of the campaigns, µm.
     pub tracker_sigma_um: f64,
-    /// Whether diagnose was given the tracker noise (else the default assumption, ≈ 21 µm).
+    /// F/T sensor accuracy of the campaigns, fraction of full scale (100 N, 10 N·m) read as 2σ.
+    pub ft_accuracy: f64,
+    /// Whether diagnose was given the instruments' noise (tracker σ and F/T σ), else its
+    /// default assumption (≈ 21 µm, 1 % of full scale).
     pub noise_given: bool,
     /// Campaign seeds `first_seed .. first_seed + runs`.
     pub first_seed: u64,
@@ -72,6 +75,9 @@ pub struct CellResult {
     pub verdicts: BTreeMap<String, usize>,
     /// Mean held-out gain of the extension.
     pub mean_gain: f64,
+    /// Median over runs of the extended model's `scaled_rms` (RMS of the residuals in units of
+    /// the assumed noise, ≈ 1 when only noise of the assumed size remains).
+    pub median_scaled_rms: f64,
     /// Wall time of the cell (both modes share simulation), s.
     pub seconds: f64,
 }
@@ -114,13 +120,15 @@ fn labels(d: &Diagnosis) -> Vec<String> {
 }
 
 /// Runs one cell: `runs` campaigns (seeds `first_seed..`) of `robot` carrying `hidden`, with
-/// isotropic tracker noise `sigma` (m) per axis and the testbed's default force sensor; each
-/// campaign is diagnosed with the tracker noise given and with the default assumption.
+/// isotropic tracker noise `sigma` (m) per axis and an F/T sensor of accuracy `ft_accuracy`
+/// (fraction of full scale, the testbed's default is 0.01); each campaign is diagnosed with
+/// the instruments' noise given and with diagnose's default assumption.
 /// Returns `[not given, given]`. `progress` is called after each seed.
 pub fn run_cell(
     robot: &StudyRobot,
     hidden: &Hidden,
     sigma: f64,
+    ft_accuracy: f64,
     first_seed: u64,
     runs: usize,
     progress: &mut dyn FnMut(usize),
@@ -132,6 +140,7 @@ pub fn run_cell(
         magnitude: hidden.magnitude(),
         outside: hidden.outside(),
         tracker_sigma_um: sigma * 1e6,
+        ft_accuracy,
         noise_given: given,
         first_seed,
         runs: 0,
@@ -141,11 +150,17 @@ pub fn run_cell(
         alarm: 0,
         verdicts: BTreeMap::new(),
         mean_gain: 0.0,
+        median_scaled_rms: 0.0,
         seconds: 0.0,
     };
     let mut out = [empty(false), empty(true)];
+    let mut scaled_rms: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let chain = &robot.chain;
     let needs_rms = format!("{hidden:?}").contains("TorsionNonlinear");
+    let force_sensor = ForceSensorNoise {
+        relative_accuracy: ft_accuracy,
+        ..Default::default()
+    };
     for (done, seed) in (first_seed..first_seed + runs as u64).enumerate() {
         let sim_err = |e: vjm::testbed::TestbedError| StudyError::Simulate {
             robot: robot.name.into(),
@@ -154,6 +169,7 @@ pub fn run_cell(
         };
         let base = CampaignSpec {
             tracker: TrackerNoise::isotropic(sigma),
+            force_sensor,
             seed,
             ..Default::default()
         };
@@ -179,6 +195,7 @@ pub fn run_cell(
             let mut opts = DiagnoseOptions::default();
             if given {
                 opts.noise.displacement_sigma = sigma;
+                opts.noise.wrench_sigma = force_sensor.sigma();
             }
             let d =
                 diagnose(chain, &campaign.dataset, &opts).map_err(|e| StudyError::Diagnose {
@@ -193,6 +210,7 @@ pub fn run_cell(
             r.unexplained += d.unexplained as usize;
             r.alarm += (!d.findings.is_empty() || d.unexplained) as usize;
             r.mean_gain += if d.gain.is_finite() { d.gain } else { 0.0 };
+            scaled_rms[k].push(d.residuals.extended.scaled_rms);
             for l in labels(&d) {
                 *r.verdicts.entry(l).or_insert(0) += 1;
             }
@@ -200,8 +218,14 @@ pub fn run_cell(
         progress(done + 1);
     }
     let secs = start.elapsed().as_secs_f64();
-    for r in out.iter_mut() {
+    for (r, v) in out.iter_mut().zip(scaled_rms.iter_mut()) {
         r.mean_gain /= r.runs.max(1) as f64;
+        v.sort_by(f64::total_cmp);
+        r.median_scaled_rms = match v.len() {
+            0 => f64::NAN,
+            n if n % 2 == 1 => v[n / 2],
+            n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+        };
         r.seconds = secs;
     }
     Ok(out)

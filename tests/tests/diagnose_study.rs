@@ -42,7 +42,7 @@ fn smoke_two_seeds_on_the_panda() {
         Hidden::Drift(100.0),
         Hidden::Mount(1e5),
     ] {
-        let r = run_cell(&panda, &hidden, 10e-6, 20_000, 2, &mut |_| calls += 1).unwrap();
+        let r = run_cell(&panda, &hidden, 10e-6, 0.01, 20_000, 2, &mut |_| calls += 1).unwrap();
         for (k, c) in r.iter().enumerate() {
             assert_eq!(c.runs, 2);
             assert_eq!(c.noise_given, k == 1);

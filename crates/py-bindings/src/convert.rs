@@ -11,8 +11,9 @@ use std::borrow::Cow;
 use numpy::ndarray::{ArrayD, Ix1, Ix2, Ix3, IxDyn};
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
-use crate::errors::shape_error;
+use crate::errors::{shape_error, value_error};
 
 /// A row-major view (borrowed when possible) of an `(N, cols…)` float64 array.
 #[derive(Debug)]
@@ -222,6 +223,32 @@ pub fn single_or_batch<'a>(
         "{name} must have shape {single} or {}, got {shape:?}: {detail}",
         describe(item)
     )))
+}
+
+/// Refuses a key of effect dict `effects[i]` (named `name`) that is not `effect` or one of
+/// `valid`: a typo would otherwise be silently ignored. Shared by the VJM and CSJM testbeds.
+pub fn check_effect_keys(
+    d: &Bound<'_, PyDict>,
+    i: usize,
+    name: &str,
+    valid: &[&str],
+) -> PyResult<()> {
+    for key in d.keys() {
+        let key: String = key
+            .extract()
+            .map_err(|_| value_error(format!("effects[{i}] ({name}): keys must be strings")))?;
+        if key != "effect" && !valid.contains(&key.as_str()) {
+            let listed = if valid.is_empty() {
+                "none besides `effect`".to_string()
+            } else {
+                valid.join(", ")
+            };
+            return Err(value_error(format!(
+                "effects[{i}] ({name}): unknown key `{key}` (valid keys: {listed})"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Checks that every value is finite; the error names the argument and the index of the first

@@ -11,7 +11,7 @@ use so3_stiffness::diagnose::{
 use so3_stiffness::identification::campaign::GravityRecording;
 use so3_stiffness::identification::ReadOptions;
 
-use crate::convert::to_numpy;
+use crate::convert::{check_effect_keys, to_numpy};
 use crate::errors::{internal_error, run, value_error, IntoPyErr, PyResultExt};
 
 fn number(d: &Bound<'_, PyDict>, i: usize, key: &str) -> PyResult<f64> {
@@ -34,12 +34,28 @@ fn effects(list: &Bound<'_, PyList>) -> PyResult<CsjmEffects> {
             .get_item("effect")?
             .ok_or_else(|| value_error(format!("effects[{i}] needs the key `effect`")))?
             .extract()?;
+        let valid: &[&str] = match name.as_str() {
+            "cable_hysteresis" => &["friction"],
+            "cable_nonlinearity" => &["k2"],
+            _ => &[],
+        };
+        check_effect_keys(d, i, &name, valid)?;
+        // Physical ranges: a friction force and a stiffening coefficient are ≥ 0.
+        let non_negative = |key: &str, unit: &str| -> PyResult<f64> {
+            let v = number(d, i, key)?;
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(value_error(format!(
+                    "effects[{i}] ({name}): `{key}` must be finite and ≥ 0 {unit}, got {v}"
+                )));
+            }
+            Ok(v)
+        };
         match name.as_str() {
             "platform_gravity" => {
                 out.gravity = GravityRecording::Omitted(PointLoad::prototype_gravity());
             }
-            "cable_hysteresis" => out.cable_friction = [number(d, i, "friction")?; 6],
-            "cable_nonlinearity" => out.cable_stiffening = [number(d, i, "k2")?; 6],
+            "cable_hysteresis" => out.cable_friction = [non_negative("friction", "N")?; 6],
+            "cable_nonlinearity" => out.cable_stiffening = [non_negative("k2", "N/m²")?; 6],
             other => {
                 return Err(value_error(format!(
                     "effects[{i}]: unknown CSJM effect `{other}` (platform_gravity, cable_hysteresis, cable_nonlinearity)"

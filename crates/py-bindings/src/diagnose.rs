@@ -3,18 +3,19 @@
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
-use vjm::diagnose::{diagnose_with_progress, DiagnoseOptions, Progress};
+use vjm::diagnose::{diagnose_monitored, DiagnoseOptions};
 
-use crate::errors::{run, IntoPyErr};
+use crate::errors::IntoPyErr;
+use crate::interrupt::run_interruptible;
 use crate::vjm::{parse_model, PyRobot};
 use crate::vjm_data::dataset_from_arrays;
 
 /// Diagnoses a measurement table on `robot`; returns the result as JSON text.
 ///
-/// `progress`, when given, is called as `progress(stage, done, total)` (the GIL is taken
-/// back only for that call).
+/// `progress`, when given, is called as `progress(stage, done, total)` on the calling thread;
+/// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None))]
+#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_diagnose<'py>(
     py: Python<'py>,
@@ -31,11 +32,15 @@ pub fn vjm_diagnose<'py>(
     split_seed: Option<u64>,
     max_findings: Option<usize>,
     progress: Option<Py<PyAny>>,
+    allow_outside_limits: bool,
 ) -> PyResult<String> {
     let chain = &robot.chain;
     let n = chain.n_joints();
     let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
-    let mut opts = DiagnoseOptions::default();
+    let mut opts = DiagnoseOptions {
+        allow_outside_limits,
+        ..DiagnoseOptions::default()
+    };
     if let Some(b) = &baseline {
         opts.baseline = Some(parse_model(n, b)?);
     }
@@ -51,16 +56,8 @@ pub fn vjm_diagnose<'py>(
     if let Some(v) = max_findings {
         opts.max_findings = v;
     }
-    let result = run(py, || {
-        let mut report = |p: Progress| {
-            if let Some(cb) = &progress {
-                Python::attach(|py| {
-                    // A failing progress callback must not abort the diagnosis.
-                    let _ = cb.call1(py, (p.stage, p.done, p.total));
-                });
-            }
-        };
-        diagnose_with_progress(chain, &data, &opts, &mut report)
+    let result = run_interruptible(py, progress.as_ref(), |monitor| {
+        diagnose_monitored(chain, &data, &opts, monitor)
     })?
     .map_err(IntoPyErr::into_py_err)?;
     Ok(result.to_json())

@@ -28,6 +28,13 @@ pub enum Kind {
     Identification,
     /// A caught panic or an inconsistent result (`InternalError`, a `RuntimeError`).
     Internal,
+    /// An iteration cap was hit (`ConvergenceError`, a `RuntimeError`).
+    Convergence,
+    /// Cancelled with no Python exception to re-raise (`CancelledError`, a `RuntimeError`).
+    Cancelled,
+    /// Unusable stiffness model file: edited, stale schema, another robot (`ModelFileError`,
+    /// a `ValueError`).
+    ModelFile,
 }
 
 impl Kind {
@@ -40,6 +47,9 @@ impl Kind {
             Kind::RobotModel => "RobotModelError",
             Kind::Identification => "IdentificationError",
             Kind::Internal => "InternalError",
+            Kind::Convergence => "ConvergenceError",
+            Kind::Cancelled => "CancelledError",
+            Kind::ModelFile => "ModelFileError",
         }
     }
 }
@@ -57,7 +67,9 @@ pub fn error(kind: Kind, message: impl Into<String>) -> PyErr {
             // `_core` imported on its own (not through the package): fall back to built-ins.
             Err(_) => match kind {
                 Kind::MissingFile => PyFileNotFoundError::new_err(message),
-                Kind::Internal => PyRuntimeError::new_err(message),
+                Kind::Internal | Kind::Convergence | Kind::Cancelled => {
+                    PyRuntimeError::new_err(message)
+                }
                 _ => PyValueError::new_err(message),
             },
         }
@@ -86,16 +98,19 @@ where
     T: Send,
 {
     py.detach(|| catch_unwind(AssertUnwindSafe(f)))
-        .map_err(|payload| {
-            let what = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".to_string());
-            internal_error(format!(
-                "internal error in the Rust core (please report it with the inputs): {what}"
-            ))
-        })
+        .map_err(panic_error)
+}
+
+/// `InternalError` for a caught panic `payload` of the core.
+pub fn panic_error(payload: Box<dyn std::any::Any + Send>) -> PyErr {
+    let what = payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_string());
+    internal_error(format!(
+        "internal error in the Rust core (please report it with the inputs): {what}"
+    ))
 }
 
 /// Test hook (private): panics inside [`run`], so the test suite can check that a panic of the
@@ -150,6 +165,7 @@ impl IntoPyErr for vjm::VjmError {
             | E::NoActuatedJoints { .. } => Kind::RobotModel,
             E::ShapeMismatch { .. } => Kind::Shape,
             E::TooFewMeasurements { .. } | E::Numerical { .. } => Kind::Identification,
+            E::NotConverged(_) => Kind::Convergence,
             E::NonFinite { .. } | E::InvalidModel { .. } | E::InvalidOption { .. } => Kind::Value,
             _ => Kind::Value,
         };
@@ -204,6 +220,7 @@ impl IntoPyErr for vjm::diagnose::DiagnoseError {
             vjm::diagnose::DiagnoseError::TooFewRows { .. } => {
                 error(Kind::Identification, self.to_string())
             }
+            vjm::diagnose::DiagnoseError::Cancelled(_) => error(Kind::Cancelled, self.to_string()),
             other => error(Kind::Value, other.to_string()),
         }
     }
@@ -226,7 +243,26 @@ impl IntoPyErr for vjm::testbed::TestbedError {
     fn into_py_err(self) -> PyErr {
         match self {
             vjm::testbed::TestbedError::Dataset(d) => d.into_py_err(),
+            vjm::testbed::TestbedError::Cancelled(_) => error(Kind::Cancelled, self.to_string()),
             other => error(Kind::Value, other.to_string()),
         }
+    }
+}
+
+impl IntoPyErr for vjm::ModelError {
+    fn into_py_err(self) -> PyErr {
+        use vjm::ModelError as E;
+        if let E::Vjm(inner) = self {
+            return inner.into_py_err();
+        }
+        let kind = match &self {
+            E::Read { .. } | E::Write { .. } => Kind::MissingFile,
+            E::Format { .. } | E::Schema { .. } | E::Edited { .. } | E::OtherRobot { .. } => {
+                Kind::ModelFile
+            }
+            E::Table { .. } => Kind::DataFile,
+            _ => Kind::Value,
+        };
+        error(kind, self.to_string())
     }
 }

@@ -12,7 +12,10 @@ pub mod csjm;
 pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
+pub mod interrupt;
 pub mod so3;
+pub mod stiffness_model;
+pub mod use_model;
 pub mod vjm;
 pub mod vjm_data;
 
@@ -27,5 +30,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     diagnose::register(m)?;
     vjm::register(m)?;
     vjm_data::register(m)?;
+    stiffness_model::register(m)?;
+    use_model::register(m)?;
     Ok(())
 }

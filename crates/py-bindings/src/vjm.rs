@@ -218,48 +218,18 @@ impl PyRobot {
         dense: bool,
         method: &str,
     ) -> PyResult<String> {
-        let method = match method {
-            "auto" => vjm::SolveMethod::Auto,
-            "normal_equations" => vjm::SolveMethod::NormalEquations,
-            "qr" => vjm::SolveMethod::Qr,
-            other => {
-                return Err(value_error(format!(
-                    "method must be 'auto', 'normal_equations' or 'qr', got {other:?}"
-                )))
-            }
+        let args = IdentifyArgs {
+            q,
+            wrench,
+            displacement,
+            rotation,
+            noise_sigma,
+            noise_scale_known,
+            nonnegative,
+            dense,
+            method,
         };
-        let n = self.n();
-        let model = parse_model(n, model)?;
-        let q = batch(&q, "q", &[n])?;
-        let w = batch(&wrench, "wrench", &[6])?;
-        let d = batch(&displacement, "displacement", &[3])?;
-        let r = match &rotation {
-            Some(r) => Some(batch(r, "rotation", &[3])?),
-            None => None,
-        };
-        check_rows(q.rows, &[("wrench", w.rows), ("displacement", d.rows)])?;
-        if let Some(r) = &r {
-            check_rows(q.rows, &[("rotation", r.rows)])?;
-        }
-        let mut opts = IdentifyOptions::default();
-        if let Some(s) = &noise_sigma {
-            let s = fixed(s, "noise_sigma", &[6])?;
-            opts.noise_sigma.copy_from_slice(&s);
-        }
-        opts.noise_scale_known = noise_scale_known;
-        opts.nonnegative = nonnegative;
-        opts.use_rotations = r.is_some();
-        opts.method = method;
-        let chain = &self.chain;
-        let rot = r.as_ref().map(|r| &*r.data);
-        let id = run(py, || {
-            if dense {
-                vjm::identify_dense(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
-            } else {
-                vjm::identify(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
-            }
-        })?
-        .py()?;
+        let (id, _) = self.identify_with(py, model, args, None, false)?;
         serde_json::to_string(&id)
             .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))
     }
@@ -304,6 +274,97 @@ impl PyRobot {
             self.chain.tip_link(),
             self.n()
         )
+    }
+}
+
+/// The arguments of [`PyRobot::identify`] (shared with the model-building identification).
+#[derive(Debug)]
+pub(crate) struct IdentifyArgs<'py, 'a> {
+    pub q: PyReadonlyArrayDyn<'py, f64>,
+    pub wrench: PyReadonlyArrayDyn<'py, f64>,
+    pub displacement: PyReadonlyArrayDyn<'py, f64>,
+    pub rotation: Option<PyReadonlyArrayDyn<'py, f64>>,
+    pub noise_sigma: Option<PyReadonlyArrayDyn<'py, f64>>,
+    pub noise_scale_known: bool,
+    pub nonnegative: bool,
+    pub dense: bool,
+    pub method: &'a str,
+}
+
+impl PyRobot {
+    /// Identification; with `model_data` also the [`vjm::StiffnessModel`], built in the same
+    /// call so that it cannot drift from the result. `model_data = Some(Some(path))` records the
+    /// measurement file the arrays came from. `robust`: the model carries the cluster-robust
+    /// covariance (one more pass over the data, about 10 µs per measurement) instead of the
+    /// identification's own.
+    pub(crate) fn identify_with<'py>(
+        &self,
+        py: Python<'py>,
+        model: &Bound<'py, PyAny>,
+        a: IdentifyArgs<'py, '_>,
+        model_data: Option<Option<&str>>,
+        robust: bool,
+    ) -> PyResult<(vjm::Identification, Option<vjm::StiffnessModel>)> {
+        let method = match a.method {
+            "auto" => vjm::SolveMethod::Auto,
+            "normal_equations" => vjm::SolveMethod::NormalEquations,
+            "qr" => vjm::SolveMethod::Qr,
+            other => {
+                return Err(value_error(format!(
+                    "method must be 'auto', 'normal_equations' or 'qr', got {other:?}"
+                )))
+            }
+        };
+        let n = self.n();
+        let model = parse_model(n, model)?;
+        let q = batch(&a.q, "q", &[n])?;
+        let w = batch(&a.wrench, "wrench", &[6])?;
+        let d = batch(&a.displacement, "displacement", &[3])?;
+        let r = match &a.rotation {
+            Some(r) => Some(batch(r, "rotation", &[3])?),
+            None => None,
+        };
+        check_rows(q.rows, &[("wrench", w.rows), ("displacement", d.rows)])?;
+        if let Some(r) = &r {
+            check_rows(q.rows, &[("rotation", r.rows)])?;
+        }
+        let mut opts = IdentifyOptions::default();
+        if let Some(s) = &a.noise_sigma {
+            let s = fixed(s, "noise_sigma", &[6])?;
+            opts.noise_sigma.copy_from_slice(&s);
+        }
+        opts.noise_scale_known = a.noise_scale_known;
+        opts.nonnegative = a.nonnegative;
+        opts.use_rotations = r.is_some();
+        opts.method = method;
+        let chain = &self.chain;
+        let rot = r.as_ref().map(|r| &*r.data);
+        let dense = a.dense;
+        let id = run(py, || {
+            if dense {
+                vjm::identify_dense(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
+            } else {
+                vjm::identify(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
+            }
+        })?
+        .py()?;
+        let Some(file) = model_data else {
+            return Ok((id, None));
+        };
+        let data = match file {
+            Some(path) => vjm::DataSource::file(path, q.rows).py()?,
+            None => vjm::DataSource::in_memory(q.rows),
+        };
+        let built = run(py, || {
+            let m = vjm::StiffnessModel::from_identification(&id, chain, &model, &opts, data)?;
+            if robust {
+                m.with_robust_covariance(chain, &q.data, &w.data, &d.data, rot)
+            } else {
+                Ok(m)
+            }
+        })?
+        .py()?;
+        Ok((id, Some(built)))
     }
 }
 

@@ -8,8 +8,9 @@ use vjm::dataset::{Dataset, SetLabel};
 use vjm::testbed::{self, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
 use vjm::SpringAxis;
 
-use crate::convert::{batch, fixed, to_numpy};
+use crate::convert::{batch, check_effect_keys, fixed, to_numpy};
 use crate::errors::{run, value_error, IntoPyErr, PyResultExt};
+use crate::interrupt::run_interruptible;
 use crate::vjm::PyRobot;
 
 /// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
@@ -142,9 +143,52 @@ fn joint0(i: usize, joint: usize, n: usize) -> PyResult<usize> {
     Ok(joint - 1)
 }
 
+/// The keys each effect accepts (besides `effect`).
+fn effect_keys(name: &str) -> Option<&'static [&'static str]> {
+    Some(match name {
+        "joint_tilt" => &["joint", "axis", "compliance"],
+        "joint_torsion_nonlinear" => &["joint", "k1", "k2", "k3", "t1", "t2", "ratio"],
+        "joint_backlash" => &["joint", "lost_motion"],
+        "wrench_bias" => &["bias"],
+        "frame_misalignment" => &["rotation"],
+        "geometric_nonlinearity" => &[],
+        "pose_drift" => &["sigma"],
+        _ => return None,
+    })
+}
+
+/// `d[key]` as a number in `[0, max]` (`> 0` when `positive`), else an error naming the effect
+/// and the key: the user's own words, not a line of the simulated file.
+fn in_range(
+    d: &Bound<'_, PyDict>,
+    i: usize,
+    name: &str,
+    key: &str,
+    positive: bool,
+    max: f64,
+    unit: &str,
+) -> PyResult<f64> {
+    let v: f64 = get(d, i, key)?;
+    let low_ok = if positive { v > 0.0 } else { v >= 0.0 };
+    if !(low_ok && v <= max) {
+        let low = if positive { "> 0" } else { "≥ 0" };
+        return Err(value_error(format!(
+            "effects[{i}] ({name}): `{key}` must be {low} and at most {max} {unit}, got {v}"
+        )));
+    }
+    Ok(v)
+}
+
+/// Largest tilt compliance an effect may have, rad/(N·m): 10 N·m would tilt the joint by
+/// 0.1 rad, far beyond any arm (nominal values are ~1e-6–1e-4).
+const MAX_EFFECT_COMPLIANCE: f64 = 1e-2;
+
 /// Parses one effect: a dict with `effect` and its parameters (1-based `joint`, SI units).
 fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) -> PyResult<Effect> {
     let name: String = get(d, i, "effect")?;
+    if let Some(valid) = effect_keys(&name) {
+        check_effect_keys(d, i, &name, valid)?;
+    }
     Ok(match name.as_str() {
         "joint_tilt" => {
             let joint = joint0(i, get(d, i, "joint")?, n)?;
@@ -161,7 +205,15 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
             Effect::JointTilt {
                 joint,
                 axis,
-                compliance: get(d, i, "compliance")?,
+                compliance: in_range(
+                    d,
+                    i,
+                    &name,
+                    "compliance",
+                    false,
+                    MAX_EFFECT_COMPLIANCE,
+                    "rad/(N·m)",
+                )?,
             }
         }
         "joint_torsion_nonlinear" => {
@@ -183,18 +235,21 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
                         joint + 1
                     )));
                 }
-                HarmonicDriveSpring::stiffening(
-                    c1,
-                    get(d, i, "ratio")?,
-                    get(d, i, "t1")?,
-                    get(d, i, "t2")?,
-                )
+                let ratio = in_range(d, i, &name, "ratio", true, 1e6, "")?;
+                let t1 = in_range(d, i, &name, "t1", true, 1e4, "N·m")?;
+                let t2: f64 = get(d, i, "t2")?;
+                if !(t2 > t1 && t2 <= 1e4) {
+                    return Err(value_error(format!(
+                        "effects[{i}] ({name}): `t2` must be above t1 = {t1} and at most 10000 N·m, got {t2}"
+                    )));
+                }
+                HarmonicDriveSpring::stiffening(c1, ratio, t1, t2)
             };
             Effect::TorsionNonlinear { joint, spring }
         }
         "joint_backlash" => Effect::Backlash {
             joint: joint0(i, get(d, i, "joint")?, n)?,
-            lost_motion: get(d, i, "lost_motion")?,
+            lost_motion: in_range(d, i, &name, "lost_motion", false, 0.1, "rad")?,
         },
         "wrench_bias" => Effect::WrenchBias {
             bias: get(d, i, "bias")?,
@@ -204,7 +259,7 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
         },
         "geometric_nonlinearity" => Effect::GeometricNonlinearity,
         "pose_drift" => Effect::PoseDrift {
-            sigma: get(d, i, "sigma")?,
+            sigma: in_range(d, i, &name, "sigma", false, 0.01, "m")?,
         },
         other => {
             return Err(value_error(format!(
@@ -270,8 +325,10 @@ pub fn vjm_simulate<'py>(
     if let Some(t) = test_fraction {
         spec.test_fraction = t;
     }
-    let campaign =
-        run(py, || testbed::simulate(chain, &truth, &spec))?.map_err(IntoPyErr::into_py_err)?;
+    let campaign = run_interruptible(py, None, |monitor| {
+        testbed::simulate_monitored(chain, &truth, &spec, monitor)
+    })?
+    .map_err(IntoPyErr::into_py_err)?;
     let out = dataset_to_dict(py, &campaign.dataset)?;
     let n = campaign.dataset.len();
     out.set_item(

@@ -29,6 +29,8 @@
 //! assert_eq!(long_job(&Monitor::new(cancel)), Err(Cancelled));
 //! ```
 #![deny(missing_docs)]
+// `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod cancel;
 pub mod decompose;

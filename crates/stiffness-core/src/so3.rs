@@ -13,11 +13,12 @@
 //!
 //! ```
 //! use nalgebra::Vector3;
-//! use so3_stiffness::so3;
+//! use stiffness_core::so3;
 //! let w = Vector3::new(0.1, -0.2, 0.3);
 //! let r = so3::exp(&w);
 //! assert!((so3::log(&r) - w).norm() < 1e-15);
 //! ```
+
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -75,6 +76,10 @@ pub fn exp(w: &Vector3<f64>) -> Rotation3<f64> {
     // R = I + a·hat(w) + b·hat(w)² with hat(w)² = w wᵀ − θ² I, i.e.
     // R = cos θ·I + a·hat(w) + b·w wᵀ: one sin_cos and no matrix product (hot path).
     let t2 = w.norm_squared();
+    if !(t2 <= LARGE_SQUARED_NORM) {
+        // ‖w‖² overflows (or w is not finite): the cold path with a scaled norm.
+        return exp_large(w);
+    }
     let (a, b, cos_t) = if t2 < 1e-8 {
         // θ < 1e-4: truncation error below θ⁶/5040 < 1e-27.
         let b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0;
@@ -103,6 +108,33 @@ pub fn exp(w: &Vector3<f64>) -> Rotation3<f64> {
         byz + a * x,
         cos_t + b * z * z,
     ))
+}
+
+/// Above this ‖w‖² the products in [`exp`] and the Jacobians may overflow; [`axis_angle`]
+/// takes over. (θ ≈ 1e150 rad: no physical rotation vector comes near.)
+const LARGE_SQUARED_NORM: f64 = 1e300;
+
+/// Unit axis n and the half angle θ/2 of a rotation vector w with ‖w‖² beyond
+/// [`LARGE_SQUARED_NORM`], computed without overflow: w is scaled by its largest component
+/// first, and the half angle is kept because θ itself may exceed `f64::MAX` (‖w‖ ≤ √3·MAX).
+/// Non-finite w gives NaN (the bindings refuse it before).
+fn axis_half_angle(w: &Vector3<f64>) -> (Vector3<f64>, f64) {
+    let s = w.amax();
+    let u = w / s;
+    let un = u.norm();
+    (u / un, (0.5 * s) * un)
+}
+
+/// [`exp`] for huge w: R = I + sin θ hat(n) + (1 − cos θ) hat(n)², with sin θ = 2 sin(θ/2)
+/// cos(θ/2) and 1 − cos θ = 2 sin²(θ/2) from the half angle.
+#[cold]
+fn exp_large(w: &Vector3<f64>) -> Rotation3<f64> {
+    let (n, half) = axis_half_angle(w);
+    let (sh, ch) = half.sin_cos();
+    let sin_t = 2.0 * sh * ch;
+    let one_minus_cos = 2.0 * sh * sh;
+    let k = hat(&n);
+    Rotation3::from_matrix_unchecked(Matrix3::identity() + sin_t * k + one_minus_cos * (k * k))
 }
 
 /// Logarithm map: the rotation vector ω with `exp(ω) = r` and ‖ω‖ ∈ [0, π].
@@ -201,6 +233,15 @@ pub fn adjoint(r: &Rotation3<f64>) -> Matrix3<f64> {
 
 /// Left Jacobian: `exp(w + δ) ≈ exp(left_jacobian(w) δ) · exp(w)`.
 pub fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
+    if !(w.norm_squared() <= LARGE_SQUARED_NORM) {
+        // J = I + (1 − cos θ)/θ hat(n) + (1 − sin θ/θ) hat(n)², from the half angle (the
+        // θ-power form overflows).
+        let (n, half) = axis_half_angle(w);
+        let (sh, ch) = half.sin_cos();
+        let k = hat(&n);
+        // θ = 2·half may overflow to ∞: then sh²/half → 0 and sin θ/θ → 0, the limits.
+        return Matrix3::identity() + (sh * sh / half) * k + (1.0 - sh * ch / half) * (k * k);
+    }
     let (_, b, c) = rodrigues_coefficients(w.norm());
     let k = hat(w);
     Matrix3::identity() + b * k + c * k * k
@@ -226,6 +267,13 @@ fn inverse_jacobian_coefficient(theta: f64) -> f64 {
 
 /// Inverse of [`left_jacobian`] (closed form). Singular at ‖w‖ = 2π k, k ≥ 1.
 pub fn left_jacobian_inverse(w: &Vector3<f64>) -> Matrix3<f64> {
+    if !(w.norm_squared() <= LARGE_SQUARED_NORM) {
+        // J⁻¹ = I − (θ/2) hat(n) + (1 − (θ/2) cot(θ/2)) hat(n)²: entries of order θ, finite
+        // while θ/2 is (always, for finite w), unless cot(θ/2) is itself huge.
+        let (n, half) = axis_half_angle(w);
+        let k = hat(&n);
+        return Matrix3::identity() - half * k + (1.0 - half / half.tan()) * (k * k);
+    }
     let k = hat(w);
     Matrix3::identity() - 0.5 * k + inverse_jacobian_coefficient(w.norm()) * k * k
 }
@@ -269,7 +317,7 @@ fn check_finite(m: &Matrix3<f64>, what: &'static str) -> Result<(), So3Error> {
 ///
 /// ```
 /// use nalgebra::{Matrix3, Vector3};
-/// use so3_stiffness::so3;
+/// use stiffness_core::so3;
 /// let noisy = so3::exp(&Vector3::new(0.3, 0.0, 0.1)).into_inner() + Matrix3::repeat(1e-4);
 /// let r = so3::project_to_rotation(&noisy).unwrap();
 /// assert!(so3::orthogonality_error(r.matrix()) < 1e-14);
@@ -306,7 +354,7 @@ pub fn project_to_rotation(m: &Matrix3<f64>) -> Result<Rotation3<f64>, So3Error>
 ///
 /// ```
 /// use nalgebra::Matrix3;
-/// use so3_stiffness::so3;
+/// use stiffness_core::so3;
 /// assert!(so3::rotation_from_matrix(&Matrix3::identity(), 1e-12).is_ok());
 /// assert!(so3::rotation_from_matrix(&(Matrix3::identity() * 1.01), 1e-6).is_err());
 /// ```

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use vjm::{
     compensate_in_place, CompensateOptions, CompensatedRow, CompensationStatus,
-    CompensationWorkspace, Load, SerialChain, VirtualJointModel,
+    CompensationWorkspace, Load, PointMass, SerialChain, VirtualJointModel,
 };
 
 /// CPU seconds (user + system) of this process from /proc/self/stat (Linux, 100 Hz ticks).
@@ -46,13 +46,7 @@ fn main() {
             q.push(mid + amp * (std::f64::consts::TAU * (1.0 + j as f64 * 0.37) * t).sin());
         }
     }
-    let loads = vec![
-        Load::Payload {
-            mass: 8.0,
-            com: [0.0, 0.0, 0.1],
-        };
-        rows
-    ];
+    let load = Load::Payload(PointMass::new(8.0, [0.0, 0.0, 0.1]).expect("payload"));
     let blank = CompensatedRow {
         status: CompensationStatus::NotConverged,
         iterations: 0,
@@ -75,7 +69,7 @@ fn main() {
             &model,
             &compliance,
             &q,
-            &loads,
+            load,
             &opts,
             &mut ws,
             &mut q_out,

@@ -20,8 +20,8 @@ use stiffness_core::so3::{exp, log};
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
 use crate::kinematics::{jacobian_in_place, Workspace};
-use crate::load::Load;
 use crate::model::VirtualJointModel;
+use crate::stiffness_model::Load;
 
 /// Cap of the fixed-point iteration for `Δθ = C Jᵀ W + C K_C Δθ` (it contracts by ‖C K_C‖,
 /// about 1e-2 for a cobot; failing to converge means the load is at or beyond buckling).
@@ -244,6 +244,13 @@ pub(crate) fn kc_times(ws: &Workspace, wrench: &[f64; 6], theta: &[f64], out: &m
     }
 }
 
+/// The load of one row: a fixed base-frame wrench, or a payload whose moment turns with the tip.
+#[derive(Debug, Clone, Copy)]
+enum RowLoad {
+    Wrench([f64; 6]),
+    Payload(crate::stiffness_model::PointMass),
+}
+
 /// Evaluates the model's loaded tip at `q`; `None` when the K_C equilibrium diverges.
 #[allow(clippy::needless_range_loop)] // indexes four parallel per-spring arrays
 fn loaded_tip(
@@ -251,14 +258,17 @@ fn loaded_tip(
     model: &VirtualJointModel,
     compliance: &[f64],
     q: &[f64],
-    load: &Load,
+    load: &RowLoad,
     with_kc: bool,
     ws: &mut CompensationWorkspace,
 ) -> Result<Option<LoadedTip>, VjmError> {
     jacobian_in_place(chain, model, q, &mut ws.springs, &mut ws.jac)?;
     let p = ws.springs.p;
     let r = ws.springs.tip_rotation(chain);
-    let wrench = load.wrench(&r);
+    let wrench = match load {
+        RowLoad::Wrench(w) => *w,
+        RowLoad::Payload(pm) => pm.wrench_at(&r),
+    };
     let m = compliance.len();
     for k in 0..m {
         let col = &ws.jac[6 * k..6 * k + 6];
@@ -307,8 +317,8 @@ fn loaded_tip(
 
 /// Orientation error `log(exp(φ) R R*ᵀ)`, rad, base frame.
 fn rotation_residual(t: &LoadedTip, target: &Matrix3<f64>) -> Vector3<f64> {
-    // so3::log is accurate down to θ = 0 (nalgebra's acos of the trace gives NaN when
-    // rounding puts the trace just above 3).
+    // so3::log is accurate down to θ = 0 (nalgebra's Rotation3 angle takes the acos of the
+    // trace, which is NaN when rounding puts the trace just above 3).
     let loaded = exp(&t.phi) * Rotation3::from_matrix_unchecked(t.r);
     log(&(loaded * Rotation3::from_matrix_unchecked(target.transpose())))
 }
@@ -334,9 +344,12 @@ trait SmallSymmetric<const D: usize> {
 macro_rules! small_symmetric {
     ($d:literal) => {
         impl SmallSymmetric<$d> for SMatrix<f64, $d, $d> {
+            /// (0, 0) — reported as singular — when the capped decomposition fails (NaN).
             fn extreme_eigenvalues(&self) -> (f64, f64) {
-                let e = self.symmetric_eigenvalues();
-                (e.min(), e.max())
+                match stiffness_core::decompose::symmetric_eigen(*self, "task J Jᵀ") {
+                    Ok(e) => (e.eigenvalues.min(), e.eigenvalues.max()),
+                    Err(_) => (0.0, 0.0),
+                }
             }
             fn solve_spd(&self, b: &SVector<f64, $d>) -> Option<SVector<f64, $d>> {
                 self.cholesky().map(|c| c.solve(b))
@@ -406,10 +419,11 @@ fn pose_task(length: f64) -> Task<6> {
     }
 }
 
-/// Corrected joint targets for N rows: `q_nominal` N×n row-major (rad), one [`Load`] per row,
+/// Corrected joint targets for N rows: `q_nominal` N×n row-major (rad), `load` one wrench per
+/// row (N×6, base frame, at the tip point) or one payload for all rows,
 /// `compliance` one value per spring of `model` (rad/(N·m); for a model with aliased springs
 /// any vector that reproduces the identifiable combinations, e.g. the minimum-norm solution).
-/// Input errors (shapes, NaN, a negative mass) fail the call naming the row; per-row numerical
+/// Input errors (shapes, NaN) fail the call naming the row; per-row numerical
 /// outcomes are in [`CompensatedRow::status`].
 ///
 /// ```
@@ -418,8 +432,8 @@ fn pose_task(length: f64) -> Task<6> {
 /// let model = VirtualJointModel::traditional(7);
 /// let c = [1e-4; 7];
 /// let q = [0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8];
-/// let load = Load::Wrench([0.0, 0.0, -50.0, 0.0, 0.0, 0.0]);
-/// let out = compensate(&panda, &model, &c, &q, &[load], &CompensateOptions::default()).unwrap();
+/// let load = Load::Wrench(&[0.0, 0.0, -50.0, 0.0, 0.0, 0.0]);
+/// let out = compensate(&panda, &model, &c, &q, load, &CompensateOptions::default()).unwrap();
 /// assert_eq!(out.rows[0].status, CompensationStatus::Converged);
 /// assert!(out.rows[0].position_error <= 1e-9 && out.rows[0].deflection > 1e-4);
 /// ```
@@ -428,7 +442,7 @@ pub fn compensate(
     model: &VirtualJointModel,
     compliance: &[f64],
     q_nominal: &[f64],
-    loads: &[Load],
+    load: Load<'_>,
     opts: &CompensateOptions,
 ) -> Result<Compensation, VjmError> {
     let mut ws = CompensationWorkspace::new(chain, model)?;
@@ -444,10 +458,10 @@ pub fn compensate(
             inverse_condition: f64::NAN,
             limit_joint: None,
         };
-        loads.len()
+        q_nominal.len() / chain.n_joints().max(1)
     ];
     compensate_in_place(
-        chain, model, compliance, q_nominal, loads, opts, &mut ws, &mut q, &mut rows,
+        chain, model, compliance, q_nominal, load, opts, &mut ws, &mut q, &mut rows,
     )?;
     Ok(Compensation { q, rows })
 }
@@ -460,7 +474,7 @@ pub fn compensate_in_place(
     model: &VirtualJointModel,
     compliance: &[f64],
     q_nominal: &[f64],
-    loads: &[Load],
+    load: Load<'_>,
     opts: &CompensateOptions,
     ws: &mut CompensationWorkspace,
     q_out: &mut [f64],
@@ -469,7 +483,7 @@ pub fn compensate_in_place(
     opts.check()?;
     model.check_chain(chain)?;
     let n = chain.n_joints();
-    let rows = loads.len();
+    let rows = q_nominal.len() / n;
     if compliance.len() != model.n_params() {
         return Err(VjmError::ShapeMismatch {
             what: "compliance (one per spring)",
@@ -478,10 +492,10 @@ pub fn compensate_in_place(
         });
     }
     check_finite("compliance", compliance, 0, 0)?;
-    if q_nominal.len() != rows * n {
+    if q_nominal.len() != rows * n || rows == 0 {
         return Err(VjmError::ShapeMismatch {
-            what: "q_nominal (N×n row-major, one row per load)",
-            expected: rows * n,
+            what: "q_nominal (N×n row-major)",
+            expected: rows * n + n,
             got: q_nominal.len(),
         });
     }
@@ -504,14 +518,29 @@ pub fn compensate_in_place(
             message: "the compensation workspace was built for another chain or model; create it with CompensationWorkspace::new(chain, model)".into(),
         });
     }
-    for (i, load) in loads.iter().enumerate() {
-        check_finite("q", &q_nominal[i * n..(i + 1) * n], i, 0)?;
-        load.check(i)?;
+    if let Load::Wrench(w) = load {
+        if w.len() != 6 * rows {
+            return Err(VjmError::ShapeMismatch {
+                what: "wrench (one [fx, fy, fz, mx, my, mz] per row of q_nominal)",
+                expected: 6 * rows,
+                got: w.len(),
+            });
+        }
     }
-    for (i, load) in loads.iter().enumerate() {
+    for i in 0..rows {
+        check_finite("q", &q_nominal[i * n..(i + 1) * n], i, 0)?;
+        if let Load::Wrench(w) = load {
+            check_finite("wrench", &w[6 * i..6 * i + 6], i, 0)?;
+        }
+    }
+    for i in 0..rows {
+        let row_load = match load {
+            Load::Wrench(w) => RowLoad::Wrench(w[6 * i..6 * i + 6].try_into().expect("6 values")),
+            Load::Payload(pm) => RowLoad::Payload(pm),
+        };
         let qn = &q_nominal[i * n..(i + 1) * n];
         let q = &mut q_out[i * n..(i + 1) * n];
-        rows_out[i] = compensate_row(chain, model, compliance, qn, load, opts, ws, q)?;
+        rows_out[i] = compensate_row(chain, model, compliance, qn, &row_load, opts, ws, q)?;
     }
     Ok(())
 }
@@ -522,7 +551,7 @@ fn compensate_row(
     model: &VirtualJointModel,
     compliance: &[f64],
     q_nominal: &[f64],
-    load: &Load,
+    load: &RowLoad,
     opts: &CompensateOptions,
     ws: &mut CompensationWorkspace,
     q: &mut [f64],
@@ -644,4 +673,29 @@ fn compensate_row(
         CompensationStatus::Converged
     };
     Ok(report)
+}
+
+impl crate::stiffness_model::StiffnessModel {
+    /// [`compensate`] with this model's springs and compliance vector (any member of the
+    /// family that reproduces the identifiable combinations: the compensation, like a
+    /// prediction, depends on the aliased springs only through those combinations when the
+    /// rows lie in the identified row space). The robot is checked against the model first.
+    pub fn compensate(
+        &self,
+        chain: &SerialChain,
+        q_nominal: &[f64],
+        load: Load<'_>,
+        opts: &CompensateOptions,
+    ) -> Result<Compensation, crate::stiffness_model::ModelError> {
+        self.check_robot(chain, "<model>")?;
+        let model = self.spring_model()?;
+        Ok(compensate(
+            chain,
+            &model,
+            &self.estimate().compliance,
+            q_nominal,
+            load,
+            opts,
+        )?)
+    }
 }

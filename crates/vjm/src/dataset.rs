@@ -42,6 +42,15 @@ pub const MAX_PLAUSIBLE_DISPLACEMENT: f64 = 0.05;
 pub const MAX_PLAUSIBLE_JOINT_ANGLE: f64 = 4.0 * std::f64::consts::PI;
 /// Largest plausible tip rotation component under load, rad (about 5.7°).
 pub const MAX_PLAUSIBLE_ROTATION: f64 = 0.1;
+/// How far (rad) a recorded joint angle may lie outside the URDF limits before it is refused:
+/// encoders report a hair beyond a soft limit, degrees or a swapped joint lie far beyond.
+pub const JOINT_LIMIT_TOLERANCE: f64 = 1e-3;
+/// Largest plausible force component, N (100 kN: ten times what a heavy industrial arm
+/// carries). Larger values are a unit error or a corrupt cell; a single such cell would
+/// otherwise dominate every fit (one 1e308 cell gave "100 %" errors and a spurious finding).
+pub const MAX_PLAUSIBLE_FORCE: f64 = 1e5;
+/// Largest plausible moment component, N·m (10 kN·m), for the same reason.
+pub const MAX_PLAUSIBLE_MOMENT: f64 = 1e4;
 
 /// Which part of a campaign a row belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -111,7 +120,10 @@ pub enum DatasetError {
         column: String,
     },
     /// The file's `q` columns do not match the chain's actuated joint count.
-    #[error("the file has {found} joint columns (q1..q{found}) but the chain has {expected} actuated joints")]
+    #[error(
+        "the data have {} but the chain has {expected} actuated joints (expected columns q1..q{expected})",
+        joint_columns(*found)
+    )]
     JointCount {
         /// Joint columns found (or joint values per row given).
         found: usize,
@@ -170,9 +182,53 @@ pub enum DatasetError {
         /// The likely cause, e.g. "looks like mm, expected m".
         hint: &'static str,
     },
+    /// The file is empty: not even a header line.
+    #[error(
+        "the file is empty: no header line (expected columns q1..qN, fx,fy,fz,mx,my,mz, dx,dy,dz)"
+    )]
+    NoHeader,
     /// The file has a header but no data rows.
     #[error("no data rows")]
     Empty,
+    /// A joint angle lies outside the joint's limits in the robot description.
+    #[error(
+        "line {line}, column '{column}' (joint `{joint}`): {value} rad is outside the joint's \
+         limits [{lower}, {upper}] rad (degrees, or a wrong joint order? If the robot really went \
+         there, pass allow_outside_limits=True in Python or --allow-outside-limits on the command \
+         line)"
+    )]
+    OutsideLimits {
+        /// File line (header = 1; row i of arrays is line i + 2).
+        line: u64,
+        /// The column, `q1`..`qn`.
+        column: String,
+        /// The joint's name in the robot description.
+        joint: String,
+        /// The angle, rad.
+        value: f64,
+        /// Lower limit, rad.
+        lower: f64,
+        /// Upper limit, rad.
+        upper: f64,
+    },
+    /// Every wrench is zero: no load, so nothing about the stiffness can be learnt.
+    #[error(
+        "no load in any of the {rows} rows (fx, fy, fz, mx, my, mz are all 0): a stiffness cannot \
+         be identified without loading the robot"
+    )]
+    NoLoad {
+        /// Rows in the data.
+        rows: usize,
+    },
+    /// Every displacement is zero: relative errors would be 0/0.
+    #[error(
+        "no displacement in any of the {rows} rows (dx, dy, dz are all 0): either the robot is \
+         rigid to the instrument's resolution or the displacement columns are empty"
+    )]
+    NoDisplacement {
+        /// Rows in the data.
+        rows: usize,
+    },
     /// In-memory construction: a flat array does not have the expected length.
     #[error("'{name}' has {found} values, expected {expected} ({rows} rows × {per_row})")]
     Shape {
@@ -260,6 +316,16 @@ fn check_value(line: u64, column: &str, value: f64) -> Result<(), DatasetError> 
             "looks like degrees or mrad, expected rad",
         );
     }
+    if column.starts_with('f') && value.abs() > MAX_PLAUSIBLE_FORCE {
+        return implausible(MAX_PLAUSIBLE_FORCE, "N", "check the unit (N) and the cell");
+    }
+    if column.starts_with('m') && value.abs() > MAX_PLAUSIBLE_MOMENT {
+        return implausible(
+            MAX_PLAUSIBLE_MOMENT,
+            "N·m",
+            "check the unit (N·m) and the cell",
+        );
+    }
     if column.starts_with('q') && value.abs() > MAX_PLAUSIBLE_JOINT_ANGLE {
         return implausible(
             MAX_PLAUSIBLE_JOINT_ANGLE,
@@ -341,6 +407,7 @@ impl Dataset {
                 }
             }
         }
+        check_information(&wrench, &displacement)?;
         Ok(Dataset {
             n_joints,
             q,
@@ -350,6 +417,35 @@ impl Dataset {
             pose,
             set,
         })
+    }
+
+    /// Refuses the first joint angle outside `chain`'s limits by more than
+    /// [`JOINT_LIMIT_TOLERANCE`] (continuous joints have none), naming line, column and joint.
+    /// Callers skip it when the user opts out (`allow_outside_limits`).
+    pub fn check_joint_limits(&self, chain: &crate::SerialChain) -> Result<(), DatasetError> {
+        if chain.n_joints() != self.n_joints {
+            return Err(DatasetError::JointCount {
+                found: self.n_joints,
+                expected: chain.n_joints(),
+            });
+        }
+        let limits = chain.limits();
+        for i in 0..self.len() {
+            for (j, &value) in self.q(i).iter().enumerate() {
+                let (lower, upper) = limits[j];
+                if value < lower - JOINT_LIMIT_TOLERANCE || value > upper + JOINT_LIMIT_TOLERANCE {
+                    return Err(DatasetError::OutsideLimits {
+                        line: i as u64 + 2,
+                        column: format!("q{}", j + 1),
+                        joint: chain.joint_names()[j].clone(),
+                        value,
+                        lower,
+                        upper,
+                    });
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Reads and validates a measurement file for a chain with `n_joints` actuated joints.
@@ -373,6 +469,9 @@ impl Dataset {
             message: e.to_string(),
         };
         let headers = rdr.headers().map_err(csv_err)?.clone();
+        if headers.iter().all(|h| h.is_empty()) {
+            return Err(DatasetError::NoHeader);
+        }
         // Map column name -> field index, rejecting unknown and duplicate names.
         let mut index: BTreeMap<String, usize> = BTreeMap::new();
         let mut q_found = 0usize;
@@ -517,6 +616,7 @@ impl Dataset {
         if displacement.is_empty() {
             return Err(DatasetError::Empty);
         }
+        check_information(&wrench, &displacement)?;
         Ok(Dataset {
             n_joints,
             q,
@@ -748,4 +848,26 @@ impl Dataset {
         self.set = Some(set);
         Ok(self)
     }
+}
+
+/// "no joint columns", "1 joint column", "7 joint columns".
+fn joint_columns(found: usize) -> String {
+    match found {
+        0 => "no joint columns".to_string(),
+        1 => "1 joint column".to_string(),
+        n => format!("{n} joint columns"),
+    }
+}
+
+/// Refuses data that carry no information at all: every wrench zero, or every displacement
+/// zero (shared by the file reader and [`Dataset::new`]).
+fn check_information(wrench: &[f64], displacement: &[f64]) -> Result<(), DatasetError> {
+    let rows = displacement.len() / 3;
+    if wrench.iter().all(|&v| v == 0.0) {
+        return Err(DatasetError::NoLoad { rows });
+    }
+    if displacement.iter().all(|&v| v == 0.0) {
+        return Err(DatasetError::NoDisplacement { rows });
+    }
+    Ok(())
 }

@@ -1,5 +1,8 @@
 //! Experiment design (item 6): scoring configurations by conditioning and picking a
-//! well-conditioned subset from a pool.
+//! well-conditioned subset from a pool; [`plan`] plans poses and wrenches against the
+//! predicted standard errors.
+
+pub mod plan;
 
 use nalgebra::{DMatrix, Dyn, SymmetricEigen};
 use serde::Serialize;
@@ -240,11 +243,9 @@ pub fn select_configurations(
 }
 
 /// Capped symmetric eigen-decomposition (nalgebra's own loops forever on NaN).
-fn symmetric_eigen(
+pub(crate) fn symmetric_eigen(
     m: DMatrix<f64>,
     what: &'static str,
 ) -> Result<SymmetricEigen<f64, Dyn>, VjmError> {
-    stiffness_core::decompose::symmetric_eigen(m, what).map_err(|e| VjmError::Numerical {
-        message: e.to_string(),
-    })
+    Ok(stiffness_core::decompose::symmetric_eigen(m, what)?)
 }

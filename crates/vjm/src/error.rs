@@ -141,6 +141,9 @@ pub enum VjmError {
         /// What is wrong with it.
         message: String,
     },
+    /// An iterative decomposition hit its iteration cap (non-finite or extreme input).
+    #[error(transparent)]
+    NotConverged(#[from] stiffness_core::NotConverged),
     /// A numerical routine failed (e.g. SVD did not converge, or a load beyond buckling).
     #[error("numerical failure: {message}")]
     Numerical {

@@ -12,7 +12,7 @@
 //! - [`StiffnessModel`]: an identification saved as a versioned, hashed model file, and its
 //!   predictions with standard deviations ([`stiffness_model`]).
 //! - [`compensate`]: corrected joint targets so that the loaded tip reaches the nominal pose
-//!   under a [`Load`] (a wrench or a payload).
+//!   under a [`Load`] (wrenches or a payload).
 //!
 //! Conventions (frames, units, parameter order) are in `docs/conventions.md`; the method
 //! and its deviations from the seed paper in `docs/vjm.md`.
@@ -49,7 +49,6 @@ mod hashing;
 mod identify;
 mod kinematics;
 mod lanes;
-mod load;
 pub mod lsq;
 mod model;
 mod predict;
@@ -66,6 +65,9 @@ pub use compensate::{
     compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
     CompensationStatus, CompensationWorkspace,
 };
+pub use design::plan::{
+    plan_measurements, predicted_stderr, NoiseModel, Plan, PlanSpec, PlannedCombination,
+};
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
 pub use hashing::{kinematics_sha256, sha256_hex};
@@ -78,8 +80,7 @@ pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,
     jacobian, jacobian_batch_in_place, jacobian_deflected, jacobian_in_place, Workspace,
 };
-pub use load::{Load, STANDARD_GRAVITY};
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
-pub use stiffness_model::{DataSource, ModelError, PointMass, Prediction, StiffnessModel};
+pub use stiffness_model::{DataSource, Load, ModelError, PointMass, Prediction, StiffnessModel};

@@ -29,6 +29,18 @@ pub fn spring_deflection(
         });
     }
     check_finite("compliance", compliance, 0, 0)?;
+    if let Some(i) = compliance.iter().position(|&c| c < 0.0) {
+        // A negative compliance is an unstable spring: the prediction would be meaningless.
+        let s = model.springs()[i];
+        return Err(VjmError::InvalidModel {
+            message: format!(
+                "compliance of spring J{}{} is {} rad/(N·m); compliances must be ≥ 0",
+                s.joint + 1,
+                s.axis,
+                compliance[i]
+            ),
+        });
+    }
     check_wrench(wrench, 0)?;
     let j = jacobian(chain, model, q)?;
     let f = DVector::from_column_slice(wrench);

@@ -5,7 +5,8 @@
 //! ```text
 //! diagnose_study [--part all|false-alarm|power|csjm[,…]] [--seeds N] [--power-seeds N]
 //!                [--robots panda,xarm7,ur5,kinova] [--power-robots …]
-//!                [--noise-um 3,10,40] [--power-noise-um 10] [--json PATH] [--smoke]
+//!                [--noise-um 3,10,40] [--ft-accuracy 0.01[,…]] [--power-noise-um 10]
+//!                [--json PATH] [--smoke]
 //! ```
 
 use std::io::Write;
@@ -13,7 +14,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use robot_stiffness_tests::study::effects::{catalogue_grid, outside_grid, pair_grid, Hidden};
-use robot_stiffness_tests::study::report::{csjm_table, false_alarm_table, power_table};
+use robot_stiffness_tests::study::report::{
+    csjm_table, false_alarm_table, power_summary, power_table,
+};
 use robot_stiffness_tests::study::robots::{load_robot, StudyRobot, ROBOTS};
 use robot_stiffness_tests::study::run::{run_cell, run_csjm, CellResult, CsjmResult};
 use vjm::diagnose::DiagnoseOptions;
@@ -32,6 +35,7 @@ struct Args {
     robots: Vec<String>,
     power_robots: Vec<String>,
     noise_um: Vec<f64>,
+    ft_accuracy: Vec<f64>,
     power_noise_um: f64,
     json: Option<String>,
 }
@@ -44,6 +48,7 @@ fn parse() -> Result<Args, String> {
         robots: ROBOTS.iter().map(|s| s.to_string()).collect(),
         power_robots: Vec::new(),
         noise_um: vec![3.0, 10.0, 40.0],
+        ft_accuracy: vec![0.01],
         power_noise_um: 10.0,
         json: None,
     };
@@ -80,6 +85,19 @@ fn parse() -> Result<Args, String> {
                     .map(|v| um(&flag, v))
                     .collect::<Result<_, _>>()?
             }
+            "--ft-accuracy" => {
+                a.ft_accuracy = list(&value)
+                    .iter()
+                    .map(|v| {
+                        v.parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite() && *x > 0.0 && *x < 1.0)
+                            .ok_or_else(|| {
+                                format!("{flag} needs fractions of full scale in (0, 1), got `{v}`")
+                            })
+                    })
+                    .collect::<Result<_, _>>()?
+            }
             "--power-noise-um" => a.power_noise_um = um(&flag, &value)?,
             "--json" => a.json = Some(value),
             other => return Err(format!("unknown flag `{other}` (see the file header)")),
@@ -106,22 +124,25 @@ fn cell(
     robot: &StudyRobot,
     hidden: &Hidden,
     sigma_um: f64,
+    ft_accuracy: f64,
     first_seed: u64,
     runs: usize,
     out: &mut Vec<CellResult>,
 ) -> Result<(), String> {
     let t = Instant::now();
     let label = format!(
-        "{} | {} {} | {} µm",
+        "{} | {} {} | {} µm, F/T {} %",
         robot.name,
         hidden.family(),
         hidden.magnitude(),
-        sigma_um
+        sigma_um,
+        100.0 * ft_accuracy
     );
     let r = run_cell(
         robot,
         hidden,
         sigma_um * 1e-6,
+        ft_accuracy,
         first_seed,
         runs,
         &mut |done| {
@@ -184,11 +205,16 @@ fn run(args: &Args) -> Result<(), String> {
     let mut csjm: Option<CsjmResult> = None;
     if wants(args, "false-alarm") {
         for name in &args.robots {
-            for &s in &args.noise_um {
+            for (&ft, &s) in args
+                .ft_accuracy
+                .iter()
+                .flat_map(|ft| args.noise_um.iter().map(move |s| (ft, s)))
+            {
                 cell(
                     get(name),
                     &Hidden::Clean,
                     s,
+                    ft,
                     FALSE_ALARM_SEED,
                     args.seeds,
                     &mut false_alarm,
@@ -217,6 +243,7 @@ fn run(args: &Args) -> Result<(), String> {
                     get(name),
                     h,
                     args.power_noise_um,
+                    args.ft_accuracy[0],
                     POWER_SEED,
                     args.power_seeds,
                     &mut power,
@@ -251,9 +278,12 @@ fn run(args: &Args) -> Result<(), String> {
     }
     if !power.is_empty() {
         println!(
-            "### Power at {} µm tracker noise (seeds {POWER_SEED}…)\n",
-            args.power_noise_um
+            "### Power at {} µm tracker noise, F/T {} % (seeds {POWER_SEED}…): detected % without / with the noise given\n",
+            args.power_noise_um,
+            100.0 * args.ft_accuracy[0]
         );
+        println!("{}", power_summary(&power));
+        println!("#### Every power cell\n");
         println!("{}", power_table(&power));
     }
     println!("Total wall time {secs:.0} s.");

@@ -8,6 +8,8 @@ Submodules:
   rotational stiffness K (N·m/rad) from platform orientations and moments.
 * :mod:`robot_stiffness.vjm` — virtual-joint models of serial arms from URDF: Jacobians,
   rank-revealing identification of joint compliances (rad/(N·m)), prediction.
+* :mod:`robot_stiffness.model` — stiffness model files (``Identification.save``,
+  ``StiffnessModel.load``) and predictions with standard deviations.
 
 Units are SI (m, rad, N, N·m); frames are named in every docstring and follow
 ``docs/conventions.md``. Every error derives from :class:`StiffnessError`.
@@ -20,11 +22,14 @@ from __future__ import annotations
 from . import _core
 from ._errors import (
     ArgumentTypeError,
+    CancelledError,
+    ConvergenceError,
     DataFileError,
     IdentificationError,
     InternalError,
     InvalidValueError,
     MissingFileError,
+    ModelFileError,
     OutputPathError,
     RobotModelError,
     ShapeError,
@@ -33,11 +38,12 @@ from ._errors import (
 
 __version__: str = _core.__version__
 
-from . import csjm, so3, vjm  # noqa: E402
+from . import csjm, model, so3, vjm  # noqa: E402
 
 __all__ = [
     "__version__",
     "csjm",
+    "model",
     "so3",
     "vjm",
     "StiffnessError",
@@ -47,7 +53,10 @@ __all__ = [
     "MissingFileError",
     "RobotModelError",
     "IdentificationError",
+    "ModelFileError",
     "InternalError",
+    "ConvergenceError",
+    "CancelledError",
     "ArgumentTypeError",
     "OutputPathError",
 ]

@@ -13,6 +13,7 @@ _Path = Union[str, os.PathLike[str]]
 
 __all__ = [
     "Robot",
+    "StiffnessModel",
     "__version__",
     "_panic_for_tests",
     "csjm_diagnose",
@@ -33,9 +34,14 @@ __all__ = [
     "so3_right_jacobian",
     "so3_right_jacobian_inverse",
     "so3_vee",
+    "vjm_compensate",
+    "vjm_compensate_model_file",
+    "vjm_design",
     "vjm_diagnose",
+    "vjm_identify_model",
     "vjm_identify_timed",
     "vjm_read_csv",
+    "vjm_read_poses",
     "vjm_seed_study",
     "vjm_simulate",
     "vjm_to_csv",
@@ -119,6 +125,60 @@ def vjm_identify_timed(
     model: _Model,
     repeats: int = 1,
 ) -> List[float]: ...
+def vjm_identify_model(
+    robot: Robot,
+    q: _F64,
+    wrench: _F64,
+    displacement: _F64,
+    model: _Model,
+    rotation: Optional[_F64] = None,
+    noise_sigma: Optional[_F64] = None,
+    noise_scale_known: bool = False,
+    nonnegative: bool = False,
+    dense: bool = False,
+    method: str = "auto",
+    data_file: Optional[str] = None,
+    robust_covariance: bool = False,
+) -> Tuple[str, StiffnessModel]: ...
+def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
+def vjm_compensate(
+    robot: Robot,
+    model: _Model,
+    compliance: _F64,
+    q: _F64,
+    wrench: Optional[_F64] = None,
+    payload: Optional[Tuple[float, Sequence[float]]] = None,
+    match_orientation: bool = False,
+    with_kc: bool = True,
+    max_iterations: int = 50,
+    position_tol: float = 1e-9,
+    rotation_tol: float = 1e-9,
+    check_limits: bool = True,
+) -> Tuple[_F64, _F64, List[str]]: ...
+def vjm_compensate_model_file(
+    robot: Robot,
+    path: str,
+    q: _F64,
+    wrench: Optional[_F64] = None,
+    payload: Optional[Tuple[float, Sequence[float]]] = None,
+    match_orientation: Optional[bool] = None,
+    with_kc: bool = True,
+    max_iterations: int = 50,
+    position_tol: float = 1e-9,
+    rotation_tol: float = 1e-9,
+    check_limits: bool = True,
+) -> Tuple[_F64, _F64, List[str]]: ...
+def vjm_design(
+    robot: Robot,
+    model: _Model,
+    poses: int = 24,
+    wrenches_per_pose: int = 4,
+    seed: int = 0,
+    margin: float = 0.1,
+    pool_size: int = 300,
+    force: float = 80.0,
+    moment: float = 3.0,
+) -> str: ...
 def vjm_seed_study(robot: Robot, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> str: ...
 def vjm_diagnose(
     robot: Robot,
@@ -134,6 +194,7 @@ def vjm_diagnose(
     split_seed: Optional[int] = None,
     max_findings: Optional[int] = None,
     progress: Optional[Callable[[str, int, int], Any]] = None,
+    allow_outside_limits: bool = False,
 ) -> str: ...
 
 @final
@@ -178,3 +239,26 @@ class Robot:
         model: _Model,
         with_kc: bool = False,
     ) -> _F64: ...
+
+@final
+class StiffnessModel:
+    @staticmethod
+    def load(path: _Path, robot: Robot) -> StiffnessModel: ...
+    def save(self, path: _Path) -> None: ...
+    def to_json(self) -> str: ...
+    def to_dict(self) -> Any: ...
+    @property
+    def content_sha256(self) -> str: ...
+    @property
+    def labels(self) -> List[str]: ...
+    @property
+    def has_rotations(self) -> bool: ...
+    @property
+    def rank(self) -> int: ...
+    def measurement_stddev(self) -> List[float]: ...
+    def predict(
+        self,
+        q: _F64,
+        wrench: Optional[_F64] = None,
+        payload: Optional[Tuple[float, float, float, float]] = None,
+    ) -> Dict[str, Any]: ...

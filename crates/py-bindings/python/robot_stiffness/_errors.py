@@ -20,7 +20,10 @@ __all__ = [
     "MissingFileError",
     "RobotModelError",
     "IdentificationError",
+    "ModelFileError",
     "InternalError",
+    "ConvergenceError",
+    "CancelledError",
     "ArgumentTypeError",
     "OutputPathError",
     "reworded",
@@ -59,6 +62,12 @@ class IdentificationError(StiffnessError, ValueError):
     """Identification cannot proceed: too few measurements, a singular problem..."""
 
 
+class ModelFileError(StiffnessError, ValueError):
+    """A stiffness model file cannot be used: edited after it was saved (content hash), written
+    for another schema version, not a model file, or describing another robot (URDF content,
+    base, tip, joints). The message names the file and what differs."""
+
+
 class ArgumentTypeError(StiffnessError, TypeError):
     """An argument has the wrong type (a string where a number is expected, a float where an
     integer is, CSV text where a path is...); the message names the argument."""
@@ -76,6 +85,17 @@ class InternalError(StiffnessError, RuntimeError):
     """A bug inside the Rust core (a caught panic). Please report it with the inputs."""
 
 
+class ConvergenceError(StiffnessError, RuntimeError):
+    """An iterative computation hit its iteration cap (almost always: non-finite or extreme
+    input reached a solver). The message names the computation and the cap."""
+
+
+class CancelledError(StiffnessError, RuntimeError):
+    """A long computation was cancelled without a Python exception to re-raise.
+
+    Ctrl-C during a long call raises the ordinary ``KeyboardInterrupt`` and an exception raised
+    by a ``progress`` callback propagates as itself; this class covers a cancel with neither
+    cause."""
 @contextlib.contextmanager
 def reworded(names: Mapping[str, str]) -> Iterator[None]:
     """Within the block, a :class:`StiffnessError` whose message names a term of another

@@ -260,6 +260,7 @@ def diagnose(
     split_seed: Optional[int] = None,
     max_findings: Optional[int] = None,
     progress: Optional[ProgressCallback] = None,
+    allow_outside_limits: bool = False,
 ) -> Diagnosis:
     """Show what the baseline model gets wrong on ``data``, name the cause, extend the model
     and measure the gain on held-out rows.
@@ -268,14 +269,17 @@ def diagnose(
     ``baseline``: a model spec (default the traditional VJM). Findings are selected by
     Benjamini–Hochberg at false-discovery rate ``fdr`` (default 0.01) and confirmed on held-out
     poses (the ``set`` column, or ``test_fraction`` of the poses drawn with ``split_seed``).
-    ``progress(stage, done, total)`` is called during long runs.
+    ``progress(stage, done, total)`` is called during long runs; an exception it raises stops
+    the run and propagates (so does Ctrl-C). Joint angles outside the robot's limits are refused
+    (naming row and joint) unless ``allow_outside_limits=True``.
     """
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     m = as_measurements(data, robot.n_joints)
     blame = contextlib.nullcontext() if isinstance(data, (str, os.PathLike)) else blame_rows()
     with blame:
-        text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress)
+        text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
+                            bool(allow_outside_limits))
     raw = json.loads(text)
     return Diagnosis(
         baseline=raw["baseline"],
@@ -288,7 +292,8 @@ def diagnose(
 
 
 def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
-                   split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback]) -> str:
+                   split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback],
+                   allow_outside_limits: bool = False) -> str:
     return str(_core.vjm_diagnose(
         robot._inner,
         f64(m.q, "q"),
@@ -303,6 +308,7 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
         split_seed=split_seed,
         max_findings=max_findings,
         progress=progress,
+        allow_outside_limits=allow_outside_limits,
     ))
 
 

@@ -29,7 +29,7 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequence, Tuple
 
-from . import __version__
+from . import __version__, cli_model
 from . import _cli_types as T
 from ._errors import DataFileError, StiffnessError, reworded
 from ._interrupt import (
@@ -301,6 +301,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from .vjm import read_measurements
 
     json_out = out.file(args.json, "--json") if args.json is not None else None
+    save_out = cli_model.claim_save(args, out)
     robot = _robot(args)
     with _data_file(args.data):
         data = in_worker(read_measurements, args.data, robot.n_joints)
@@ -313,10 +314,13 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         rotation=data.rotation if args.use_rotations else None,
         nonnegative=args.nonnegative,
         method=args.method,
+        data_file=args.data,
+        robust_covariance=save_out is not None,
     )
     doc = res.to_dict()
     if json_out is not None:
         json_out.write_text(_json_text(doc))
+    cli_model.write_model(save_out, res)
     out.commit()
     print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements")
     for label, c, s, ok in zip(res.labels, res.compliance, res.stderr, res.identifiable):
@@ -378,6 +382,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             fdr=args.fdr,
             split_seed=args.split_seed,
             progress=_progress(show),
+            allow_outside_limits=getattr(args, "allow_outside_limits", False),
         )
     finally:
         if show:
@@ -584,6 +589,7 @@ effects (--effect NAME:key=value,...):
     iv.add_argument("--method", choices=("auto", "normal_equations", "qr"), default="auto",
                     help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")
     iv.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
+    cli_model.add_save_option(iv)
     iv.set_defaults(func=cmd_identify_vjm)
     ic = ide_sub.add_parser(
         "csjm",
@@ -621,6 +627,9 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("--report", metavar="DIR", help=REPORT_HELP)
     dv.add_argument("--force", action="store_true", help=FORCE_HELP)
     dv.add_argument("--quiet", action="store_true", help="no progress display")
+    dv.add_argument("--allow-outside-limits", action="store_true",
+                    help="accept joint angles outside the URDF limits (refused by default: degrees or a wrong "
+                    "joint order?)")
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
         "csjm",
@@ -639,6 +648,8 @@ effects (--effect NAME:key=value,...):
     dc.add_argument("--force", action="store_true", help=FORCE_HELP)
     dc.set_defaults(func=cmd_diagnose_csjm)
 
+    cli_model.add_commands(sub, sys.modules[__name__])  # predict
+
     # demo
     demo = sub.add_parser(
         "demo",
@@ -653,6 +664,9 @@ effects (--effect NAME:key=value,...):
     demo.add_argument("--seed", type=T.seed, default=1, help="campaign seed (default 1)")
     demo.add_argument("--quiet", action="store_true", help="no progress display")
     demo.set_defaults(func=cmd_demo, baseline=None, fdr=None, split_seed=None)
+    from .cli_use import register as register_use_commands  # design, compensate
+
+    register_use_commands(sub, _add_robot_args, FORCE_HELP)
     return p
 
 
@@ -708,7 +722,8 @@ def _outcome(e: BaseException, out: Outputs) -> Tuple[int, Optional[str]]:
 
 def _run(args: argparse.Namespace) -> int:
     cancel.clear()
-    out = Outputs(inputs=[getattr(args, "data", None), getattr(args, "urdf", None)])
+    inputs = [getattr(args, k, None) for k in ("data", "urdf", "model_file")]
+    out = Outputs(inputs=inputs)
     with signals_raise():
         try:
             return int(args.func(args, out))

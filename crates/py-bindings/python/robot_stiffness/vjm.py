@@ -39,7 +39,7 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import checked
 from ._arrays import f64
-from ._errors import ArgumentTypeError, ShapeError
+from ._errors import ArgumentTypeError, InvalidValueError, ShapeError
 from ._vjm_data import (
     Campaign,
     Diagnosis,
@@ -48,6 +48,15 @@ from ._vjm_data import (
     read_measurements,
     seed_study,
     simulate,
+)
+from .model import StiffnessModel
+from ._use_model import (  # planning and compensation (docs/use-the-model.md)
+    Compensation,
+    Plan,
+    PlannedCombination,
+    compensate,
+    compensate_with_model_file,
+    design,
 )
 from ._tables import (
     DISPLACEMENT,
@@ -72,6 +81,12 @@ __all__ = [
     "simulate",
     "diagnose",
     "seed_study",
+    "design",
+    "Plan",
+    "PlannedCombination",
+    "compensate",
+    "compensate_with_model_file",
+    "Compensation",
 ]
 
 #: ``"traditional"``, ``"extended"`` or a sequence of spring labels like ``["J1z", "J2x"]``.
@@ -124,7 +139,8 @@ class Identification:
     intervals; ``identifiable`` (bool). ``rank`` is the number of identifiable combinations,
     listed in ``combinations``; ``aliases`` groups parameter labels that alias each other.
     ``method`` is the streaming reduction that produced it (``"normal_equations"`` or ``"qr"``).
-    ``raw`` is the core's full result as a JSON-ready dict.
+    ``raw`` is the core's full result as a JSON-ready dict. ``stiffness_model`` is the
+    :class:`~robot_stiffness.model.StiffnessModel` to predict with (or :meth:`save`).
     """
 
     model: str
@@ -143,9 +159,20 @@ class Identification:
     singular_values: Array
     method: str
     raw: Dict[str, Any] = field(repr=False)
+    stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
+
+    @checked
+    def save(self, path: PathLike) -> None:
+        """Writes the stiffness model file (``docs/model-file.md``) to ``path``, atomically; read
+        it back with :meth:`robot_stiffness.model.StiffnessModel.load`."""
+        if self.stiffness_model is None:
+            raise InvalidValueError(
+                "this identification carries no stiffness model (it was not made by Robot.identify)"
+            )
+        self.stiffness_model.save(path)
 
     @classmethod
-    def _from_json(cls, text: str) -> "Identification":
+    def _from_json(cls, text: str, model: Optional["StiffnessModel"] = None) -> "Identification":
         raw = json.loads(text)
         params = raw["parameters"]
         labels = [f"J{p['joint']}{p['axis']}" for p in params]
@@ -180,6 +207,7 @@ class Identification:
             singular_values=np.array(raw["singular_values"], dtype=np.float64),
             method=str(raw["method"]),
             raw=raw,
+            stiffness_model=model,
         )
 
     def to_dict(self) -> Dict[str, Any]:
@@ -323,6 +351,8 @@ class Robot:
         nonnegative: bool = False,
         dense: bool = False,
         method: str = "auto",
+        data_file: Optional[PathLike] = None,
+        robust_covariance: bool = False,
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
@@ -338,7 +368,12 @@ class Robot:
         the streaming one (same answer to ~1e-10). ``method`` picks the streaming reduction:
         ``"auto"`` (normal equations, re-read through QR when the column-scaled design's condition
         number exceeds 1e4), ``"normal_equations"`` or ``"qr"``; ``Identification.method`` says
-        which one produced the result.
+        which one produced the result. ``data_file``: the measurement file the arrays were read
+        from; its path and SHA-256 are recorded in the saved model (``Identification.save``).
+        ``robust_covariance``: give the stiffness model the cluster-robust covariance (valid for
+        force-sensor noise, which is correlated within a measurement; one more pass over the data,
+        about 10 µs per measurement) instead of the identification's own; the CLI's ``--save``
+        uses it. See ``docs/model-file.md``.
 
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
@@ -361,13 +396,17 @@ class Robot:
         q_arr = f64(q, "q")
         # A table's cells are named by column and row; arrays keep the core's array/row/column.
         with blame_rows() if from_table else contextlib.nullcontext():
-            text = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
-                                  noise_scale_known, nonnegative, dense, method)
-        return Identification._from_json(text)
+            text, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
+                                              noise_scale_known, nonnegative, dense, method, data_file,
+                                              robust_covariance)
+        return Identification._from_json(text, StiffnessModel(core_model, self))
 
     def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
-                  noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str) -> str:
-        return str(self._inner.identify(
+                  noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str,
+                  data_file: Any, robust_covariance: bool) -> Tuple[str, Any]:
+        # One call identifies and builds the stiffness model from the same arrays.
+        text, core_model = _core.vjm_identify_model(
+            self._inner,
             q_arr,
             f64(wrench, "wrench"),
             f64(displacement, "displacement"),
@@ -378,7 +417,10 @@ class Robot:
             nonnegative=bool(nonnegative),
             dense=bool(dense),
             method=str(method),
-        ))
+            data_file=None if data_file is None else os.fspath(data_file),
+            robust_covariance=bool(robust_covariance),
+        )
+        return str(text), core_model
 
     @checked
     def predict_deflection(

@@ -37,6 +37,10 @@ use crate::identification::load::gravity_moment;
 use crate::identification::{CsjmDataset, CsjmMeasurement, IdentificationError};
 use crate::so3;
 
+/// Largest load increment a simulated CSJM campaign accepts, N·m: far beyond what a
+/// cable-driven joint of the prototype's size carries (its weight makes ≈ 1 N·m).
+pub const MAX_PLAUSIBLE_INCREMENT: f64 = 100.0;
+
 /// Largest number of fixed-point iterations on the cables' sliding directions per load step.
 pub const MAX_FRICTION_ITERATIONS: usize = 8;
 
@@ -155,10 +159,13 @@ impl CsjmCampaignSpec {
                 format!("at least 3 needed, got {}", self.increments),
             );
         }
-        if !(self.max_increment.is_finite() && self.max_increment > 0.0) {
+        if !(self.max_increment > 0.0 && self.max_increment <= MAX_PLAUSIBLE_INCREMENT) {
             return bad(
                 "max_increment",
-                format!("must be finite and > 0 N·m, got {}", self.max_increment),
+                format!(
+                    "must be > 0 and at most {MAX_PLAUSIBLE_INCREMENT} N·m, got {}",
+                    self.max_increment
+                ),
             );
         }
         for (i, f) in self.effects.cable_friction.iter().enumerate() {

@@ -363,7 +363,11 @@ impl CampaignConfig {
         {
             return bad(
                 "tracker",
-                format!("noise terms must be finite and ≥ 0, lever arm > 0: {t:?}"),
+                format!(
+                    "noise terms must be finite and ≥ 0, lever arm > 0: constant {} m, per metre {}, \
+                     distance {} m, lever arm {} m",
+                    t.constant, t.per_metre, t.distance, t.lever_arm
+                ),
             );
         }
         let m = &self.moment_noise;
@@ -371,7 +375,13 @@ impl CampaignConfig {
             && m.full_scale >= 0.0
             && m.fraction_95.iter().all(|x| x.is_finite() && *x >= 0.0))
         {
-            return bad("moment_noise", format!("must be finite and ≥ 0: {m:?}"));
+            return bad(
+                "moment_noise",
+                format!(
+                    "must be finite and ≥ 0: full scale {} N·m, 95 % fractions {:?}",
+                    m.full_scale, m.fraction_95
+                ),
+            );
         }
         if !(self.hysteresis_moment.is_finite() && self.hysteresis_moment >= 0.0) {
             return bad(

@@ -77,7 +77,7 @@ pub enum IdentificationError {
     #[error(
         "data row {row} (line {line}): r11..r33 is not a rotation matrix: orthogonality error \
          ‖RᵀR − I‖_F = {orthogonality_error:.3e} exceeds the tolerance {tol:.3e} \
-         (pass RotationPolicy::Project to project measured matrices onto SO(3) instead)"
+         (to project measured matrices onto SO(3) instead, pass project=True)"
     )]
     NotARotation {
         /// 1-based data row.

@@ -5,6 +5,7 @@ mod csjm_diagnose;
 mod finite_differences;
 mod identification;
 mod kinetostatics;
+mod robustness;
 mod simulator;
 mod so3;
 mod stiffness;

@@ -84,6 +84,9 @@ pub struct Engine<'a> {
     /// Per row: √diag Σ, m.
     pub sigma_axis: Vec<[f64; 3]>,
     pub m: usize,
+    /// Polled per candidate while scoring: once cancelled, scoring stops early (the result is
+    /// incomplete) and the caller returns `Cancelled` at its next check.
+    pub cancel: stiffness_core::Cancel,
 }
 
 impl<'a> Engine<'a> {
@@ -259,24 +262,24 @@ impl<'a> Engine<'a> {
 
     /// Mean relative translation error ‖d_pred − d‖/‖d‖ over `rows`.
     pub fn mean_rel_error(&self, fit: &Fit, rows: &[usize]) -> f64 {
-        if rows.is_empty() {
-            return f64::NAN;
-        }
-        rows.iter()
-            .map(|&i| {
+        // Rows with zero measured displacement have no relative error (0/0); they are left out
+        // rather than counted as perfect. NaN when no row is left.
+        let (sum, count) = rows
+            .iter()
+            .filter_map(|&i| {
                 let d = self.kin[i].displacement;
                 let p = fit.pred[i];
                 let e =
                     ((d[0] - p[0]).powi(2) + (d[1] - p[1]).powi(2) + (d[2] - p[2]).powi(2)).sqrt();
                 let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                if n > 0.0 {
-                    e / n
-                } else {
-                    0.0
-                }
+                (n > 0.0).then_some(e / n)
             })
-            .sum::<f64>()
-            / rows.len() as f64
+            .fold((0.0, 0usize), |(s, c), r| (s + r, c + 1));
+        if count == 0 {
+            f64::NAN
+        } else {
+            sum / count as f64
+        }
     }
 
     /// Nested-model scores of every candidate in `pool` against `fit` on the training rows.
@@ -300,6 +303,7 @@ impl<'a> Engine<'a> {
         let sse0: f64 = r.iter().map(|v| v * v).sum();
         let n_obs = y.len();
         pool.iter()
+            .take_while(|_| !self.cancel.is_cancelled())
             .map(|cand| {
                 let cc = self.design(&[Term::Cand(*cand)], &self.train, &fit.lin);
                 let orth = orthogonalise(&basis, &cc);

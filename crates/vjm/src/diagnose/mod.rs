@@ -38,6 +38,7 @@ pub use stiffness_core::stats;
 pub mod structure;
 
 use serde::Serialize;
+use stiffness_core::{Cancel, Monitor};
 
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, DatasetError, SetLabel};
@@ -96,6 +97,10 @@ pub struct DiagnoseOptions {
     pub alias_alpha: f64,
     /// Level of the per-pose ANOVA that sets `unexplained` (default 0.01).
     pub unexplained_alpha: f64,
+    /// Accept joint angles outside the URDF limits (default `false`: such a row is refused,
+    /// naming row and joint, since it usually means degrees or a wrong joint order).
+    /// Continuous joints have no limits.
+    pub allow_outside_limits: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -110,6 +115,7 @@ impl Default for DiagnoseOptions {
             alias_cosine: 0.99,
             alias_alpha: 0.05,
             unexplained_alpha: 0.01,
+            allow_outside_limits: false,
         }
     }
 }
@@ -140,6 +146,9 @@ pub enum DiagnoseError {
         /// Baseline parameters.
         params: usize,
     },
+    /// The run was cancelled through its [`Cancel`] token.
+    #[error("diagnosis cancelled")]
+    Cancelled(#[from] stiffness_core::Cancelled),
     /// An option is out of range.
     #[error("option `{name}`: {message}")]
     InvalidOption {
@@ -160,6 +169,21 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
     diagnose_with_progress(chain, data, opts, &mut |_| {})
+}
+
+/// [`diagnose`] under a [`Monitor`]: progress goes to its sink, and its token is polled per
+/// stage, per scored candidate and per selection step, so that a cancel ends the run within
+/// one candidate fit with [`DiagnoseError::Cancelled`].
+pub fn diagnose_monitored(
+    chain: &SerialChain,
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    monitor: &Monitor<'_>,
+) -> Result<Diagnosis, DiagnoseError> {
+    run_diagnosis(chain, data, opts, monitor.cancel_token(), &mut |p| {
+        // A cancel requested by the sink is seen at the check that follows every report.
+        let _ = monitor.report(p);
+    })
 }
 
 fn axis_index(a: SpringAxis) -> usize {
@@ -214,6 +238,7 @@ fn prepare<'a>(
     chain: &'a SerialChain,
     data: &Dataset,
     opts: &DiagnoseOptions,
+    cancel: &Cancel,
 ) -> Result<Prepared<'a>, DiagnoseError> {
     check_options(opts)?;
     let n = chain.n_joints();
@@ -222,6 +247,9 @@ fn prepare<'a>(
             data: data.n_joints(),
             chain: n,
         });
+    }
+    if !opts.allow_outside_limits {
+        data.check_joint_limits(chain)?;
     }
     let baseline_model = match &opts.baseline {
         Some(m) => {
@@ -260,13 +288,17 @@ fn prepare<'a>(
     let zeros = vec![0.0; m];
     let kin: Vec<RowKinematics> = (0..data.len())
         .map(|i| {
+            // Polled every few thousand rows: the kinematics of a million rows take seconds.
+            if i % 4096 == 0 {
+                cancel.check()?;
+            }
             let q = data.q(i).to_vec();
             let pose = crate::testbed::kinematics::deflected_pose(chain, &q, &zeros);
             let w = data.wrench(i);
             let wv = nalgebra::DVector::from_column_slice(&w);
             let tau: Vec<f64> = (pose.jacobian.transpose() * wv).iter().cloned().collect();
             let tau_sigma = candidates::torque_sigma(&pose.jacobian, &opts.noise.wrench_sigma);
-            RowKinematics {
+            Ok(RowKinematics {
                 q,
                 jacobian: pose.jacobian,
                 tau,
@@ -274,9 +306,9 @@ fn prepare<'a>(
                 displacement: data.displacement(i),
                 tip: [pose.tip.x, pose.tip.y, pose.tip.z],
                 tau_sigma,
-            }
+            })
         })
-        .collect();
+        .collect::<Result<_, stiffness_core::Cancelled>>()?;
     let tau_scale: Vec<f64> = (0..n)
         .map(|j| {
             (train
@@ -297,7 +329,9 @@ fn prepare<'a>(
         white: Vec::new(),
         sigma_axis: Vec::new(),
         m,
+        cancel: cancel.clone(),
     };
+    cancel.check()?;
     // Baseline: a first fit with tracker noise only gives the compliance that propagates the
     // force-sensor noise; then the weighted fit.
     let base_terms: Vec<Term> = baseline_model
@@ -314,6 +348,7 @@ fn prepare<'a>(
     eng.set_noise(opts.noise.displacement_sigma, &[0.0; 6], &zeros);
     let lin0 = eng.linearisation(zeros.clone());
     let pre = eng.fit(&base_terms, &lin0);
+    cancel.check()?;
     let c_pre = eng.compliances(&pre);
     eng.set_noise(
         opts.noise.displacement_sigma,
@@ -349,7 +384,7 @@ pub fn detectability(
             message: format!("{} rows, the data have {}", signal.len(), data.len()),
         });
     }
-    let p = prepare(chain, data, opts)?;
+    let p = prepare(chain, data, opts, &Cancel::new())?;
     Ok(p.eng.orthogonal_energy(&p.base_fit, signal))
 }
 
@@ -360,6 +395,18 @@ pub fn diagnose_with_progress(
     opts: &DiagnoseOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Diagnosis, DiagnoseError> {
+    run_diagnosis(chain, data, opts, &Cancel::new(), progress)
+}
+
+/// The diagnosis proper: `progress` after each stage and selection step, `cancel` polled after
+/// each of them and per scored candidate.
+fn run_diagnosis(
+    chain: &SerialChain,
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    cancel: &Cancel,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Diagnosis, DiagnoseError> {
     let Prepared {
         eng,
         baseline_model,
@@ -367,23 +414,26 @@ pub fn diagnose_with_progress(
         groups,
         in_model,
         base_fit,
-    } = prepare(chain, data, opts)?;
+    } = prepare(chain, data, opts, cancel)?;
     let pose_id = |i: usize| data.pose(i).unwrap_or(groups[i] as i64);
     progress(Progress {
         stage: "kinematics",
         done: 1,
         total: 1,
     });
+    cancel.check()?;
 
     progress(Progress {
         stage: "baseline",
         done: 1,
         total: 1,
     });
+    cancel.check()?;
 
     // Forward selection.
     let mut pool = catalogue(&in_model);
     let first_scores = eng.score(&base_fit, &pool);
+    cancel.check()?;
     let scores_report: Vec<CandidateScore> = first_scores
         .iter()
         .map(|s| CandidateScore {
@@ -413,6 +463,7 @@ pub fn diagnose_with_progress(
         });
         let mut accepted = None;
         for &k in &order {
+            cancel.check()?;
             let s = testable[k];
             let mut terms = current.terms.clone();
             terms.push(Term::Cand(s.cand));
@@ -445,6 +496,7 @@ pub fn diagnose_with_progress(
         };
         let mut aliases = Vec::new();
         for b in &testable {
+            cancel.check()?;
             if b.cand == a.cand {
                 continue;
             }
@@ -498,14 +550,17 @@ pub fn diagnose_with_progress(
             done: step,
             total: opts.max_findings,
         });
+        cancel.check()?;
         if pool.is_empty() {
             break;
         }
         scores = eng.score(&current, &pool);
+        cancel.check()?;
     }
 
     // Extended model: refit all terms together (re-linearised from the baseline).
     let ext_terms = current.terms.clone();
+    cancel.check()?;
     let ext_fit = if findings.is_empty() {
         base_fit.clone()
     } else {

@@ -25,10 +25,8 @@ pub(crate) fn nnls(a: &DMatrix<f64>, b: &DVector<f64>, rtol: f64) -> Result<Vec<
         for _inner in 0..(3 * n + 10) {
             let idx: Vec<usize> = (0..n).filter(|&j| passive[j]).collect();
             let sub = DMatrix::from_fn(a.nrows(), idx.len(), |i, k| a[(i, idx[k])]);
-            let svd = stiffness_core::decompose::svd(sub, true, true, "SVD of the NNLS subproblem")
-                .map_err(|e| VjmError::Numerical {
-                    message: e.to_string(),
-                })?;
+            let svd =
+                stiffness_core::decompose::svd(sub, true, true, "SVD of the NNLS subproblem")?;
             let eps = rtol * svd.singular_values.max();
             let s = svd.solve(b, eps).map_err(|e| VjmError::Numerical {
                 message: format!("NNLS subproblem: {e}"),

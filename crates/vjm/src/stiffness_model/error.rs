@@ -69,6 +69,15 @@ pub enum ModelError {
         /// What does not fit.
         message: String,
     },
+    /// A pose table (the input of a prediction) cannot be used: missing column, unparsable or
+    /// non-finite cell, wrong joint count.
+    #[error("{path}: {message}")]
+    Table {
+        /// The file as given.
+        path: String,
+        /// What is wrong, naming the line and column.
+        message: String,
+    },
     /// A payload that is not a finite, non-negative mass at a finite point.
     #[error("invalid payload: {message}")]
     Payload {

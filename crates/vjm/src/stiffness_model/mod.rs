@@ -15,9 +15,31 @@
 //! [`EstimateRecord`]), so for any pose and load whose regressor lies in the row space of the
 //! identification's design the prediction is the same whatever the aliased springs really
 //! are. A row that excites a direction outside that space is flagged, not silently predicted.
+//!
+//! ```
+//! use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+//! use vjm::{identify, DataSource, IdentifyOptions, Load, SerialChain, StiffnessModel, VirtualJointModel};
+//! let chain = SerialChain::bundled();
+//! let spec = CampaignSpec { n_poses: 10, noise: false, ..Default::default() };
+//! let data = simulate(&chain, &TrueModel::nominal(7), &spec)?.dataset;
+//! let (model, opts) = (VirtualJointModel::extended(7), IdentifyOptions::default());
+//! let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
+//! let id = identify(&chain, &model, q, w, d, None, &opts)?;
+//! assert!(id.rank < 21); // the extended model aliases on the Panda
+//! let sm = StiffnessModel::from_identification(&id, &chain, &model, &opts, DataSource::in_memory(data.len()))?
+//!     .with_robust_covariance(&chain, q, w, d, None)?;
+//! let text = sm.to_json();
+//! let back = StiffnessModel::from_json(&text, "model.json")?;
+//! back.check_robot(&chain, "model.json")?;
+//! let p = back.predict(&chain, data.q(0), Load::Wrench(&data.wrench(0)))?;
+//! let truth = data.displacement(0);
+//! assert!(p[0].identified && (p[0].deflection[0] - truth[0]).abs() < 1e-9 * truth[0].abs().max(1e-6));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod error;
 mod file;
+mod pose_table;
 mod predict;
 mod robust;
 
@@ -25,6 +47,7 @@ use serde::{Deserialize, Serialize};
 
 pub use error::ModelError;
 pub use file::MODEL_SCHEMA;
+pub use pose_table::PoseTable;
 pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
 pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
@@ -163,7 +186,7 @@ pub struct NoiseRecord {
     /// `true`: `noise_sigma` were the true standard deviations (σ² = 1).
     pub noise_scale_known: bool,
     /// σ² of the whitened residuals used for the covariance: the variance of a new
-    /// measurement's axis k is σ²·noise_sigma[k]² under this model. `None` when unknown.
+    /// measurement's axis k is `σ²·noise_sigma[k]²` under this model. `None` when unknown.
     pub sigma2: Option<f64>,
     /// Degrees of freedom, equations − rank.
     pub dof: usize,

@@ -57,10 +57,16 @@ impl PointMass {
     /// tip orientation.
     pub fn wrench(&self, chain: &SerialChain, q: &[f64]) -> Result<[f64; 6], VjmError> {
         let tip = chain.forward_kinematics(q)?;
-        let r = tip.rotation * nalgebra::Vector3::from(self.centre);
+        Ok(self.wrench_at(tip.rotation.to_rotation_matrix().matrix()))
+    }
+
+    /// The same wrench for a tip frame of orientation `tip_rotation` (base ← tip), for callers
+    /// that already evaluated the kinematics.
+    pub fn wrench_at(&self, tip_rotation: &nalgebra::Matrix3<f64>) -> [f64; 6] {
+        let r = tip_rotation * nalgebra::Vector3::from(self.centre);
         let f = nalgebra::Vector3::new(0.0, 0.0, -self.mass * GRAVITY);
         let m = r.cross(&f);
-        Ok([f.x, f.y, f.z, m.x, m.y, m.z])
+        [f.x, f.y, f.z, m.x, m.y, m.z]
     }
 }
 

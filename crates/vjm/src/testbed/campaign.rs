@@ -11,8 +11,10 @@ use super::effects::{ForceSensorNoise, TrackerNoise};
 use super::kinematics::deflected_pose;
 use super::truth::{Effect, TrueModel};
 use super::TestbedError;
+use stiffness_core::{Monitor, Progress};
+
 use crate::chain::SerialChain;
-use crate::dataset::Dataset;
+use crate::dataset::{Dataset, DatasetError, MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
 use crate::model::SpringAxis;
 
 /// How to generate a campaign. Defaults: 40 poses × 4 wrenches, forces 10–80 N, moments up to
@@ -94,14 +96,37 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
             expected: 3 * n,
         });
     }
-    if let Some(c) = truth.compliance.iter().position(|c| !c.is_finite()) {
+    if let Some(c) = truth
+        .compliance
+        .iter()
+        .position(|c| !(c.is_finite() && *c >= 0.0))
+    {
+        // A negative compliance is an unstable spring: refused like a NaN, naming the spring.
         return Err(TestbedError::InvalidTruth {
-            message: format!("compliance {c} is not finite"),
+            message: format!(
+                "compliance of spring J{}{} must be finite and ≥ 0 rad/(N·m), got {}",
+                c / 3 + 1,
+                ["z", "x", "y"][c % 3],
+                truth.compliance[c]
+            ),
         });
     }
     for e in &truth.effects {
         let joint = match e {
-            Effect::JointTilt { joint, axis, .. } => {
+            Effect::JointTilt {
+                joint,
+                axis,
+                compliance,
+            } => {
+                if !(compliance.is_finite() && *compliance >= 0.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "joint_tilt at joint {}: compliance must be finite and ≥ 0 rad/(N·m), \
+                             got {compliance}",
+                            joint + 1
+                        ),
+                    });
+                }
                 if *axis == SpringAxis::Z {
                     return Err(TestbedError::InvalidTruth {
                         message: format!(
@@ -174,6 +199,24 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 }
                 None
             }
+            Effect::WrenchBias { bias } => {
+                if !bias.iter().all(|b| b.is_finite()) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!("wrench_bias must be finite, got {bias:?}"),
+                    });
+                }
+                None
+            }
+            Effect::FrameMisalignment { rotation } => {
+                if !rotation.iter().all(|r| r.is_finite()) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "frame_misalignment rotation must be finite, got {rotation:?}"
+                        ),
+                    });
+                }
+                None
+            }
             _ => None,
         };
         if let Some(j) = joint {
@@ -230,6 +273,18 @@ pub fn simulate(
     truth: &TrueModel,
     spec: &CampaignSpec,
 ) -> Result<Campaign, TestbedError> {
+    simulate_monitored(chain, truth, spec, &Monitor::none())
+}
+
+/// [`simulate`] under a [`Monitor`]: its token is polled per pose draw and every
+/// [`CHECK_EVERY_ROWS`] simulated rows ([`TestbedError::Cancelled`]); progress is reported per
+/// block of rows (stage `"simulate"`).
+pub fn simulate_monitored(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    spec: &CampaignSpec,
+    monitor: &Monitor<'_>,
+) -> Result<Campaign, TestbedError> {
     check_truth(chain, truth)?;
     if spec.n_poses < 2 || spec.wrenches_per_pose == 0 {
         return Err(TestbedError::InvalidSpec {
@@ -241,13 +296,15 @@ pub fn simulate(
         });
     }
     let (f_lo, f_hi) = spec.force_range;
-    let ordered = f_lo >= 0.0 && f_hi >= f_lo && f_hi.is_finite();
-    let moment_ok = spec.moment_max.is_finite() && spec.moment_max >= 0.0;
+    // The recorded loads must pass the same plausibility caps as a user's file.
+    let ordered = f_lo >= 0.0 && f_hi >= f_lo && f_hi <= MAX_PLAUSIBLE_FORCE;
+    let moment_ok = spec.moment_max >= 0.0 && spec.moment_max <= MAX_PLAUSIBLE_MOMENT;
     if !ordered || !moment_ok {
         return Err(TestbedError::InvalidSpec {
             field: "force_range/moment_max",
             message: format!(
-                "force range ({f_lo}, {f_hi}) N and moment max {} N·m must be finite and ordered",
+                "force range ({f_lo}, {f_hi}) N and moment max {} N·m must be ordered, ≥ 0 and at \
+                 most {MAX_PLAUSIBLE_FORCE} N and {MAX_PLAUSIBLE_MOMENT} N·m",
                 spec.moment_max
             ),
         });
@@ -258,6 +315,7 @@ pub fn simulate(
     let mut attempts = 0usize;
     while q_all.len() < spec.n_poses * n {
         attempts += 1;
+        monitor.check()?;
         if attempts > 2000 * spec.n_poses {
             return Err(TestbedError::NoPose { attempts });
         }
@@ -306,7 +364,7 @@ pub fn simulate(
             poses.push(p as i64);
         }
     }
-    let campaign = simulate_at(chain, truth, &q_rows, &wrenches, &poses, spec)?;
+    let campaign = simulate_at_monitored(chain, truth, &q_rows, &wrenches, &poses, spec, monitor)?;
     // Hold out whole poses, reproducibly.
     let labels = campaign
         .dataset
@@ -346,6 +404,22 @@ pub fn simulate_at(
     poses: &[i64],
     spec: &CampaignSpec,
 ) -> Result<Campaign, TestbedError> {
+    simulate_at_monitored(chain, truth, q, wrenches, poses, spec, &Monitor::none())
+}
+
+/// Rows simulated between two polls of the cancellation token (a few ms of work).
+pub const CHECK_EVERY_ROWS: usize = 1024;
+
+/// [`simulate_at`] under a [`Monitor`] (see [`simulate_monitored`]).
+pub fn simulate_at_monitored(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    q: &[f64],
+    wrenches: &[[f64; 6]],
+    poses: &[i64],
+    spec: &CampaignSpec,
+    monitor: &Monitor<'_>,
+) -> Result<Campaign, TestbedError> {
     check_truth(chain, truth)?;
     let n = chain.n_joints();
     let rows = wrenches.len();
@@ -372,6 +446,13 @@ pub fn simulate_at(
     let mut true_d = Vec::with_capacity(rows);
     let mut tips = Vec::with_capacity(rows);
     for i in 0..rows {
+        if i % CHECK_EVERY_ROWS == 0 {
+            monitor.report(Progress {
+                stage: "simulate",
+                done: i,
+                total: rows,
+            })?;
+        }
         let qi = &q[i * n..(i + 1) * n];
         let (d, tip) = truth.displacement(chain, qi, &wrenches[i]);
         let (mut dm, mut wm) = truth.measured(d, wrenches[i]);
@@ -405,11 +486,51 @@ pub fn simulate_at(
         tips.push([tip.x, tip.y, tip.z]);
     }
     let dataset = Dataset::new(n, q.to_vec(), wrec, disp, None, Some(poses.to_vec()), None)
-        .map_err(TestbedError::Dataset)?;
+        .map_err(blame_the_simulation)?;
     Ok(Campaign {
         dataset,
         applied_wrench: applied,
         true_displacement: true_d,
         tip: tips,
     })
+}
+
+/// The dataset checks exist for users' files; when simulated data fail them the cause is the
+/// simulation's own input (the true model, the loads), which the error must name instead of a
+/// line and column of a file the user never wrote.
+fn blame_the_simulation(e: DatasetError) -> TestbedError {
+    match e {
+        DatasetError::Implausible {
+            line,
+            column,
+            value,
+            limit,
+            unit,
+            ..
+        } => TestbedError::InvalidTruth {
+            message: format!(
+                "the simulated {column} of row {} is {value} {unit}, beyond the plausible {limit} \
+                 {unit}: the true model's compliances or effects are implausibly large for these \
+                 loads",
+                line - 1
+            ),
+        },
+        DatasetError::NonFinite { line, column, .. } => TestbedError::InvalidTruth {
+            message: format!(
+                "the simulation produced a non-finite {column} at row {} (a load beyond what the \
+                 true model can carry?)",
+                line - 1
+            ),
+        },
+        DatasetError::NoDisplacement { .. } => TestbedError::InvalidTruth {
+            message: "the true model produces no displacement at all (every compliance 0 and no \
+                      noise)"
+                .into(),
+        },
+        DatasetError::NoLoad { .. } => TestbedError::InvalidSpec {
+            field: "force_range/moment_max",
+            message: "every simulated load is zero".into(),
+        },
+        other => TestbedError::Dataset(other),
+    }
 }

@@ -19,7 +19,10 @@ pub mod outside;
 mod seed_study;
 mod truth;
 
-pub use campaign::{inverse_condition, simulate, simulate_at, Campaign, CampaignSpec};
+pub use campaign::{
+    inverse_condition, simulate, simulate_at, simulate_at_monitored, simulate_monitored, Campaign,
+    CampaignSpec, CHECK_EVERY_ROWS,
+};
 pub use effects::{ForceSensorNoise, HarmonicDriveSpring, TrackerNoise};
 pub use seed_study::{seed_study, SeedStudy, SEED_TABLE_I_DEG, SEED_WRENCHES};
 pub use truth::{Effect, TrueModel, NOMINAL_TORSION};
@@ -61,6 +64,9 @@ pub enum TestbedError {
     /// Building the dataset failed (e.g. a displacement larger than plausible).
     #[error("simulated data rejected: {0}")]
     Dataset(DatasetError),
+    /// The simulation was cancelled through its token.
+    #[error("simulation cancelled")]
+    Cancelled(#[from] stiffness_core::Cancelled),
     /// Fitting in the seed study failed.
     #[error("seed study fit failed: {message}")]
     Fit {

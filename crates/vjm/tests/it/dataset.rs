@@ -190,7 +190,7 @@ fn other_structural_errors() {
         DatasetError::Empty
     ));
     // A set column with only training rows cannot be split.
-    let text = format!("{HEADER},set\n0,0,1,1,1,0,0,0,0,0,0,train\n");
+    let text = format!("{HEADER},set\n0,0,1,1,1,0,0,0,1e-4,0,0,train\n");
     let d = read(&text).unwrap();
     assert!(matches!(
         d.split(0.25, 0),

@@ -30,9 +30,15 @@ pub fn synthetic(
     for i in 0..count {
         let mut fi = [0.0; 6];
         fi.copy_from_slice(&f[6 * i..6 * i + 6]);
-        let x = predict_deflection(chain, model, c, &q[n * i..n * (i + 1)], &fi, false).unwrap();
-        d.extend(&x[..3]);
-        r.extend(&x[3..]);
+        // J·diag(c)·Jᵀ·f, i.e. `predict_deflection` without K_C, written out because some tests
+        // use negative compliances on purpose (NNLS), which `predict_deflection` refuses.
+        let j = vjm::jacobian(chain, model, &q[n * i..n * (i + 1)]).unwrap();
+        let tau = j.transpose() * nalgebra::DVector::from_column_slice(&fi);
+        let theta =
+            nalgebra::DVector::from_iterator(tau.len(), tau.iter().zip(c).map(|(t, c)| t * c));
+        let x = j * theta;
+        d.extend(x.iter().take(3));
+        r.extend(x.iter().skip(3).take(3));
     }
     (q, f, d, r)
 }

@@ -9,6 +9,7 @@ mod identification;
 mod kinematics;
 mod lsq;
 mod pinocchio;
+mod planning;
 mod prediction;
 mod robustness;
 mod stiffness_model;

@@ -107,3 +107,382 @@ fn from_joints_refuses_non_finite_origins_and_nan_limits() {
     continuous.3 = (f64::NEG_INFINITY, f64::INFINITY);
     SerialChain::from_joints("b", "t", vec![continuous], Isometry3::identity()).unwrap();
 }
+
+// ---------------------------------------------------------------- cancellation
+
+mod cancellation {
+    use std::sync::Mutex;
+    use std::time::Instant;
+
+    use stiffness_core::{Cancel, Monitor, Progress};
+    use vjm::diagnose::{diagnose, diagnose_monitored, DiagnoseError, DiagnoseOptions};
+    use vjm::testbed::{simulate, Campaign, CampaignSpec, TrueModel};
+    use vjm::SerialChain;
+
+    fn campaign(chain: &SerialChain) -> Campaign {
+        let spec = CampaignSpec {
+            n_poses: 30,
+            wrenches_per_pose: 4,
+            seed: 3,
+            ..Default::default()
+        };
+        simulate(chain, &TrueModel::nominal(7), &spec).unwrap()
+    }
+
+    #[test]
+    fn a_sink_that_cancels_ends_diagnose_with_cancelled_at_once() {
+        let chain = SerialChain::bundled();
+        let data = campaign(&chain).dataset;
+        let cancel = Cancel::new();
+        let stages = Mutex::new(Vec::new());
+        let sink = |p: Progress| {
+            stages.lock().unwrap().push(p.stage);
+            if p.stage == "baseline" {
+                cancel.cancel();
+            }
+        };
+        let monitor = Monitor::new(cancel.clone()).with_progress(&sink);
+        let result = diagnose_monitored(&chain, &data, &DiagnoseOptions::default(), &monitor);
+        assert!(
+            matches!(result, Err(DiagnoseError::Cancelled(_))),
+            "{result:?}"
+        );
+        assert_eq!(*stages.lock().unwrap(), ["kinematics", "baseline"]);
+        assert_eq!(
+            DiagnoseError::Cancelled(stiffness_core::Cancelled).to_string(),
+            "diagnosis cancelled"
+        );
+    }
+
+    #[test]
+    fn a_cancelled_token_stops_diagnose_and_an_idle_one_changes_nothing() {
+        let chain = SerialChain::bundled();
+        let data = campaign(&chain).dataset;
+        let opts = DiagnoseOptions::default();
+        let start = Instant::now();
+        let full = diagnose(&chain, &data, &opts).unwrap();
+        let full_time = start.elapsed();
+        // Cancelled before it starts: nothing is computed.
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let start = Instant::now();
+        let r = diagnose_monitored(&chain, &data, &opts, &Monitor::new(cancel));
+        assert!(matches!(r, Err(DiagnoseError::Cancelled(_))));
+        assert!(
+            start.elapsed() < full_time,
+            "{:?} vs {full_time:?}",
+            start.elapsed()
+        );
+        // Not cancelled: the same answer as the plain call.
+        let same = diagnose_monitored(&chain, &data, &opts, &Monitor::none()).unwrap();
+        assert_eq!(same.to_json(), full.to_json());
+    }
+}
+
+mod simulation_cancel {
+    use stiffness_core::{Cancel, Monitor, Progress};
+    use vjm::testbed::{simulate, simulate_monitored, CampaignSpec, TestbedError, TrueModel};
+    use vjm::SerialChain;
+
+    #[test]
+    fn simulate_reports_progress_and_stops_when_cancelled() {
+        let chain = SerialChain::bundled();
+        let spec = CampaignSpec {
+            n_poses: 600,
+            wrenches_per_pose: 4,
+            seed: 2,
+            ..Default::default()
+        };
+        let truth = TrueModel::nominal(7);
+        let cancel = Cancel::new();
+        let reports = std::sync::Mutex::new(Vec::new());
+        let sink = |p: Progress| {
+            reports.lock().unwrap().push(p.done);
+            if p.done >= 1024 {
+                cancel.cancel();
+            }
+        };
+        let r = simulate_monitored(
+            &chain,
+            &truth,
+            &spec,
+            &Monitor::new(cancel.clone()).with_progress(&sink),
+        );
+        assert!(
+            matches!(r, Err(TestbedError::Cancelled(_))),
+            "{:?}",
+            r.err()
+        );
+        assert_eq!(*reports.lock().unwrap(), [0, 1024]);
+        // Unmonitored and monitored-but-idle runs agree.
+        let a = simulate(&chain, &truth, &spec).unwrap();
+        let b = simulate_monitored(&chain, &truth, &spec, &Monitor::none()).unwrap();
+        assert_eq!(a.dataset, b.dataset);
+    }
+}
+
+// ---------------------------------------------------------------- messages
+
+mod messages {
+    use vjm::dataset::Dataset;
+
+    #[test]
+    fn an_empty_file_says_it_has_no_header() {
+        let err = Dataset::from_reader("".as_bytes(), 7).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("no header"), "{msg}");
+        assert!(!msg.contains("q1..q0"), "{msg}");
+    }
+
+    #[test]
+    fn a_header_without_rows_says_no_data_rows() {
+        let header = "q1,q2,fx,fy,fz,mx,my,mz,dx,dy,dz\n";
+        let msg = Dataset::from_reader(header.as_bytes(), 2)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("no data rows"), "{msg}");
+    }
+
+    #[test]
+    fn a_wrong_joint_count_names_found_and_expected_columns() {
+        let text = "fx,fy,fz,mx,my,mz,dx,dy,dz\n1,2,3,4,5,6,1e-4,0,0\n";
+        let msg = Dataset::from_reader(text.as_bytes(), 7)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("no joint columns") && msg.contains("q1..q7") && !msg.contains("q1..q0"),
+            "{msg}"
+        );
+        let text = "q1,q2,q3,fx,fy,fz,mx,my,mz,dx,dy,dz\n0,0,0,1,2,3,4,5,6,1e-4,0,0\n";
+        let msg = Dataset::from_reader(text.as_bytes(), 7)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("3 joint columns") && msg.contains("q1..q7"),
+            "{msg}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------- one validation layer
+
+mod validation {
+    use vjm::dataset::{Dataset, DatasetError, MAX_PLAUSIBLE_FORCE};
+    use vjm::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
+    use vjm::testbed::{simulate, CampaignSpec, Effect, TestbedError, TrueModel};
+    use vjm::{predict_deflection, SerialChain, SpringAxis, VirtualJointModel};
+
+    const HEADER: &str = "q1,q2,fx,fy,fz,mx,my,mz,dx,dy,dz";
+
+    fn arrays(wrench: [f64; 6], disp: [f64; 3]) -> Result<Dataset, DatasetError> {
+        Dataset::new(
+            2,
+            vec![0.1, 0.2],
+            wrench.to_vec(),
+            disp.to_vec(),
+            None,
+            None,
+            None,
+        )
+    }
+
+    #[test]
+    fn an_implausible_load_cell_is_refused_in_files_and_arrays_alike() {
+        let text = format!("{HEADER}\n0,0,1,2,3,0,0,0,1e-4,0,0\n0,0,1e308,2,3,0,0,0,1e-4,0,0\n");
+        let file = Dataset::from_reader(text.as_bytes(), 2).unwrap_err();
+        let msg = file.to_string();
+        assert!(msg.contains("line 3") && msg.contains("'fx'"), "{msg}");
+        let arr = arrays([0.0, 0.0, 0.0, 0.0, 2e4, 0.0], [1e-4, 0.0, 0.0]).unwrap_err();
+        let msg = arr.to_string();
+        assert!(msg.contains("'my'") && msg.contains("N·m"), "{msg}");
+        // At the cap itself, accepted.
+        arrays(
+            [MAX_PLAUSIBLE_FORCE, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [1e-4, 0.0, 0.0],
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn data_without_load_or_without_displacement_are_refused() {
+        let err = arrays([0.0; 6], [1e-4, 0.0, 0.0]).unwrap_err();
+        assert!(matches!(err, DatasetError::NoLoad { rows: 1 }), "{err}");
+        assert!(err.to_string().contains("no load"), "{err}");
+        let text = format!("{HEADER}\n0,0,1,2,3,0,0,0,0,0,0\n0,0,4,5,6,0,0,0,0,0,0\n");
+        let err = Dataset::from_reader(text.as_bytes(), 2).unwrap_err();
+        assert!(
+            matches!(err, DatasetError::NoDisplacement { rows: 2 }),
+            "{err}"
+        );
+    }
+
+    fn panda_campaign() -> (SerialChain, Dataset) {
+        let chain = SerialChain::bundled();
+        let spec = CampaignSpec {
+            n_poses: 24,
+            wrenches_per_pose: 4,
+            seed: 5,
+            ..Default::default()
+        };
+        let c = simulate(&chain, &TrueModel::nominal(7), &spec).unwrap();
+        (chain, c.dataset)
+    }
+
+    fn with_q(data: &Dataset, row: usize, joint: usize, value: f64) -> Dataset {
+        let mut q = data.q_flat().to_vec();
+        q[row * 7 + joint] = value;
+        let poses = (0..data.len()).map(|i| data.pose(i).unwrap()).collect();
+        Dataset::new(
+            7,
+            q,
+            data.wrench_flat().to_vec(),
+            data.displacement_flat().to_vec(),
+            None,
+            Some(poses),
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn joint_angles_outside_the_limits_are_refused_unless_allowed() {
+        let (chain, data) = panda_campaign();
+        // Joint 4 of the Panda lives in [−3.07, −0.07] rad; 1.0 rad is outside (degrees-like
+        // values and sign errors land there).
+        let bad = with_q(&data, 5, 3, 1.0);
+        let err = diagnose(&chain, &bad, &DiagnoseOptions::default()).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            matches!(
+                err,
+                DiagnoseError::Dataset(DatasetError::OutsideLimits { line: 7, .. })
+            ),
+            "{msg}"
+        );
+        assert!(msg.contains("q4") && msg.contains("panda_joint4"), "{msg}");
+        assert!(msg.contains("--allow-outside-limits"), "{msg}");
+        let allowed = DiagnoseOptions {
+            allow_outside_limits: true,
+            ..Default::default()
+        };
+        diagnose(&chain, &bad, &allowed).unwrap();
+    }
+
+    #[test]
+    fn rows_with_zero_displacement_do_not_count_as_perfect_predictions() {
+        let (chain, data) = panda_campaign();
+        // Zero the displacement of the first rows (a tracker dropout written as 0).
+        let mut disp = data.displacement_flat().to_vec();
+        for v in disp.iter_mut().take(3 * 8) {
+            *v = 0.0;
+        }
+        let poses = (0..data.len()).map(|i| data.pose(i).unwrap()).collect();
+        let d = Dataset::new(
+            7,
+            data.q_flat().to_vec(),
+            data.wrench_flat().to_vec(),
+            disp,
+            None,
+            Some(poses),
+            None,
+        )
+        .unwrap();
+        let diag = diagnose(&chain, &d, &DiagnoseOptions::default()).unwrap();
+        // The mean relative error over held-out rows, recomputed from the per-row report over
+        // the rows that have a displacement.
+        let rel: Vec<f64> = diag
+            .rows
+            .iter()
+            .filter(|r| r.set == vjm::dataset::SetLabel::Test)
+            .filter_map(|r| {
+                let n = r.measured.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let e = (0..3)
+                    .map(|k| (r.measured[k] - r.baseline[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                (n > 0.0).then_some(e / n)
+            })
+            .collect();
+        let zero_test_rows = diag
+            .rows
+            .iter()
+            .filter(|r| r.set == vjm::dataset::SetLabel::Test && r.measured == [0.0; 3])
+            .count();
+        assert!(
+            zero_test_rows > 0,
+            "the test needs zeroed rows among the held-out ones"
+        );
+        let expect = rel.iter().sum::<f64>() / rel.len() as f64;
+        let got = diag.baseline.test_mean_rel_error;
+        assert!((got - expect).abs() < 1e-12 * expect, "{got} vs {expect}");
+    }
+
+    #[test]
+    fn negative_compliances_are_refused_by_predict_and_the_testbed() {
+        let chain = SerialChain::bundled();
+        let model = VirtualJointModel::traditional(7);
+        let mut c = [1e-4; 7];
+        c[2] = -1e-5;
+        let err = predict_deflection(
+            &chain,
+            &model,
+            &c,
+            &[0.0; 7],
+            &[0.0, 0.0, -10.0, 0.0, 0.0, 0.0],
+            false,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("J3z"), "{err}");
+        let spec = CampaignSpec {
+            n_poses: 4,
+            wrenches_per_pose: 2,
+            ..Default::default()
+        };
+        let mut truth = TrueModel::nominal(7);
+        truth.compliance[4] = -1.0;
+        let err = simulate(&chain, &truth, &spec).unwrap_err();
+        assert!(matches!(err, TestbedError::InvalidTruth { .. }), "{err}");
+        assert!(err.to_string().contains("J2x"), "{err}");
+        let tilt = TrueModel::nominal(7).with_effect(Effect::JointTilt {
+            joint: 2,
+            axis: SpringAxis::X,
+            compliance: f64::NAN,
+        });
+        let msg = simulate(&chain, &tilt, &spec).unwrap_err().to_string();
+        assert!(
+            msg.contains("joint_tilt at joint 3") && !msg.contains("dx"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn an_implausible_campaign_load_blames_the_spec_not_a_file_column() {
+        let chain = SerialChain::bundled();
+        let spec = CampaignSpec {
+            n_poses: 4,
+            wrenches_per_pose: 2,
+            force_range: (0.0, 1e9),
+            ..Default::default()
+        };
+        let err = simulate(&chain, &TrueModel::nominal(7), &spec).unwrap_err();
+        let msg = err.to_string();
+        assert!(matches!(err, TestbedError::InvalidSpec { .. }), "{msg}");
+        assert!(!msg.contains("'dx'") && !msg.contains("line"), "{msg}");
+        // A huge true compliance: the simulated displacement is implausible, and the error says
+        // that the true model is the cause.
+        let mut truth = TrueModel::nominal(7);
+        truth.compliance[0] = 10.0;
+        let msg = simulate(
+            &chain,
+            &truth,
+            &CampaignSpec {
+                n_poses: 4,
+                wrenches_per_pose: 2,
+                ..Default::default()
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(msg.contains("true model") && !msg.contains("line"), "{msg}");
+    }
+}

@@ -9,11 +9,11 @@ use std::path::{Path, PathBuf};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use vjm::dataset::{Dataset, SetLabel};
-use vjm::stiffness_model::{Load, IDENTIFIED_TOL};
+use vjm::stiffness_model::IDENTIFIED_TOL;
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
 use vjm::{
-    identify, DataSource, IdentifyOptions, ModelError, PointMass, SerialChain, StiffnessModel,
-    VirtualJointModel,
+    identify, DataSource, IdentifyOptions, Load, ModelError, PointMass, SerialChain,
+    StiffnessModel, VirtualJointModel,
 };
 
 /// example-robot-data's `ur5_robot.urdf` (the `example-robot-data` wheel installs it under a
@@ -219,11 +219,11 @@ fn a_pose_outside_what_the_data_saw_is_flagged() {
 
 #[test]
 fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
-    let chain = SerialChain::bundled();
+    let (chain, sm, _) = panda_model();
     let q = [0.3, -0.2, 0.1, -1.9, 0.4, 1.5, 0.7];
     let c = [0.05, -0.02, 0.1];
-    let p = PointMass::new(2.5, c).unwrap();
-    let w = p.wrench(&chain, &q).unwrap();
+    let payload = Load::Payload(PointMass::new(2.5, c).unwrap());
+    let p = sm.predict(&chain, &q, payload).unwrap()[0];
     // Independently: the mass's base-frame position from the tip pose, moment r × F.
     let tip = chain.forward_kinematics(&q).unwrap();
     let at = tip.transform_point(&nalgebra::Point3::from(c)) - tip.translation.vector;
@@ -236,20 +236,31 @@ fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
     let want = [f[0], f[1], f[2], m[0], m[1], m[2]];
     for k in 0..6 {
         assert!(
-            (w[k] - want[k]).abs() < 1e-12,
+            (p.wrench[k] - want[k]).abs() < 1e-12,
             "component {k}: {} vs {}",
-            w[k],
+            p.wrench[k],
             want[k]
         );
     }
-    for bad in [f64::NAN, -1.0, f64::INFINITY] {
-        assert!(matches!(
-            PointMass::new(bad, c),
-            Err(ModelError::Payload { .. })
-        ));
+    // The payload's prediction is the prediction under its wrench.
+    let by_wrench = sm.predict(&chain, &q, Load::Wrench(&p.wrench)).unwrap()[0];
+    assert_eq!(by_wrench.deflection[..3], p.deflection[..3]);
+    for (mass, com, what) in [
+        (
+            f64::NAN,
+            c,
+            "the mass must be a finite number ≥ 0 kg, got NaN",
+        ),
+        (-1.0, c, "the mass must be a finite number ≥ 0 kg, got -1"),
+        (
+            1.0,
+            [0.0, f64::INFINITY, 0.0],
+            "the centre of mass cy must be finite",
+        ),
+    ] {
+        let err = PointMass::new(mass, com).unwrap_err();
+        assert!(err.to_string().contains(what), "{err}");
     }
-    let err = PointMass::new(1.0, [0.0, f64::NAN, 0.0]).unwrap_err();
-    assert!(err.to_string().contains("cy"), "{err}");
 }
 
 /// A small identified Panda model (noise-free campaign, extended model, aliases).
@@ -279,9 +290,9 @@ fn save_load_predict_is_bitwise_identical() {
     let back = StiffnessModel::load(&path, &chain).unwrap();
     assert_eq!(back, sm);
     let q = data.q_flat();
-    let payload = PointMass::new(3.0, [0.0, 0.05, 0.08]).unwrap();
-    let a = sm.predict(&chain, q, Load::Payload(payload)).unwrap();
-    let b = back.predict(&chain, q, Load::Payload(payload)).unwrap();
+    let payload = Load::Payload(PointMass::new(3.0, [0.0, 0.05, 0.08]).unwrap());
+    let a = sm.predict(&chain, q, payload).unwrap();
+    let b = back.predict(&chain, q, payload).unwrap();
     for (x, y) in a.iter().zip(&b) {
         for k in 0..6 {
             assert_eq!(x.deflection[k].to_bits(), y.deflection[k].to_bits());

@@ -128,7 +128,9 @@ fn non_rotation_reports_row_line_and_orthogonality_error() {
     }
     let message = read(&file(&rows)).unwrap_err().to_string();
     assert!(
-        message.contains("data row 3") && message.contains("line 4") && message.contains("Project"),
+        message.contains("data row 3")
+            && message.contains("line 4")
+            && message.contains("project=True"),
         "{message}"
     );
 

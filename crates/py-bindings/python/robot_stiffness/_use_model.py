@@ -1,0 +1,236 @@
+"""Using a VJM stiffness model: plan a campaign (:func:`design`) and compensate the deflection
+of a trajectory (:func:`compensate`, :func:`compensate_with_model_file`).
+
+See ``docs/use-the-model.md`` for the methods, the stopping rule and the noise model.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._arguments import checked
+from ._arrays import f64
+from ._errors import ArgumentTypeError
+
+Array = npt.NDArray[np.float64]
+ModelSpec = Union[str, Sequence[str]]
+
+
+@dataclass(frozen=True)
+class PlannedCombination:
+    """One identifiable combination of compliances and its predicted standard error."""
+
+    #: As the identification prints it, e.g. ``J1y + 1.000000*J2z``.
+    label: str
+    #: Predicted standard error of the identification's estimate, rad/(N·m).
+    stderr: float
+    #: ``(label, coefficient)`` per term; the first term has coefficient 1.
+    terms: Tuple[Tuple[str, float], ...]
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned VJM campaign (rows = poses × wrenches per pose)."""
+
+    #: Joint positions per row, (rows, n), rad.
+    q: Array
+    #: Wrench per row, (rows, 6), N and N·m at the tip point, base frame.
+    wrench: Array
+    #: Pose index per row (0-based).
+    pose: npt.NDArray[np.int64]
+    #: Number of identifiable combinations.
+    rank: int
+    #: Every identifiable combination with its predicted standard error.
+    combinations: Tuple[PlannedCombination, ...]
+    #: The largest predicted standard error, rad/(N·m).
+    worst_stderr: float
+    #: The noise model assumed (tracker, force sensor, prior compliance).
+    noise: Dict[str, Any]
+
+    def csv_text(self) -> str:
+        """The plan as a VJM measurement file with empty ``dx,dy,dz`` (fill them in)."""
+        n = self.q.shape[1]
+        head = [f"q{j + 1}" for j in range(n)] + ["fx", "fy", "fz", "mx", "my", "mz", "pose", "dx", "dy", "dz"]
+        lines = [",".join(head)]
+        for qi, wi, p in zip(self.q, self.wrench, self.pose):
+            vals = [repr(float(x)) for x in qi] + [repr(float(x)) for x in wi] + [str(int(p)), "", "", ""]
+            lines.append(",".join(vals))
+        return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class Compensation:
+    """Corrected joint targets and per-row outcome of :func:`compensate`."""
+
+    #: Corrected joint targets, (N, n), rad.
+    q: Array
+    #: Predicted remaining position error of the loaded tip, (N,), m.
+    position_error: Array
+    #: Predicted remaining orientation error, (N,), rad.
+    rotation_error: Array
+    #: Predicted deflection without compensation, (N,), m.
+    deflection: Array
+    #: Predicted rotation without compensation, (N,), rad.
+    rotation_deflection: Array
+    #: Inverse condition number of the task Jacobian at the corrected targets, (N,).
+    inverse_condition: Array
+    #: Gauss–Newton steps per row, (N,).
+    iterations: npt.NDArray[np.int64]
+    #: First joint (0-based) outside its limits, −1 when none, (N,).
+    limit_joint: npt.NDArray[np.int64]
+    #: ``converged``, ``outside_limits``, ``near_singular``, ``not_converged`` or ``unstable``.
+    status: Tuple[str, ...]
+
+
+def _model(model: ModelSpec) -> Union[str, List[str]]:
+    if isinstance(model, str):
+        return model
+    labels = list(model) if isinstance(model, (list, tuple)) else None
+    if labels is not None and all(isinstance(s, str) for s in labels):
+        return [str(s) for s in labels]
+    raise ArgumentTypeError(
+        "model must be \"traditional\", \"extended\" or a sequence of spring labels like [\"J1z\", \"J2x\"]"
+    )
+
+
+def _robot_inner(robot: Any) -> Any:
+    from .vjm import Robot
+
+    if not isinstance(robot, Robot):
+        raise ArgumentTypeError(f"robot must be a robot_stiffness.vjm.Robot, got {type(robot).__name__}")
+    return robot._inner
+
+
+def _payload(payload: Any) -> Optional[Tuple[float, List[float]]]:
+    if payload is None:
+        return None
+    try:
+        values = [float(v) for v in payload]
+    except (TypeError, ValueError):
+        raise ArgumentTypeError("payload must be (mass,) or (mass, cx, cy, cz): kg and m in the tip frame") from None
+    if len(values) not in (1, 4):
+        raise ArgumentTypeError(f"payload must be (mass,) or (mass, cx, cy, cz), got {len(values)} values")
+    centre = values[1:] if len(values) == 4 else [0.0, 0.0, 0.0]
+    return values[0], centre
+
+
+def _compensation(q: Array, rows: Array, status: List[str]) -> Compensation:
+    return Compensation(
+        q=q,
+        position_error=rows[:, 0],
+        rotation_error=rows[:, 1],
+        deflection=rows[:, 2],
+        rotation_deflection=rows[:, 3],
+        inverse_condition=rows[:, 4],
+        iterations=rows[:, 5].astype(np.int64),
+        limit_joint=rows[:, 6].astype(np.int64),
+        status=tuple(status),
+    )
+
+
+def _q_and_wrench(q: Any, wrench: Any) -> Tuple[Array, Optional[Array]]:
+    arr = f64(q, "q")
+    if arr.ndim == 1:
+        arr = arr.reshape(1, -1)
+    w = None
+    if wrench is not None:
+        w = f64(wrench, "wrench")
+        if w.ndim == 1:
+            w = w.reshape(1, -1)
+    return arr, w
+
+
+@checked
+def compensate(
+    robot: Any,
+    q: Any,
+    compliance: Any,
+    model: ModelSpec = "extended",
+    wrench: Any = None,
+    payload: Any = None,
+    match_orientation: bool = False,
+    with_kc: bool = True,
+) -> Compensation:
+    """Corrected joint targets so that the loaded tip reaches the nominal unloaded tip.
+
+    ``q``: nominal targets (N, n) rad; ``compliance``: (m,) rad/(N·m) for the springs of
+    ``model`` (for aliased springs any vector reproducing the identifiable combinations, e.g. the
+    minimum-norm solution); the load is ``wrench`` (N, 6) N and N·m at the tip point, base frame,
+    or ``payload`` ``(mass,)`` / ``(mass, cx, cy, cz)`` kg and m in the tip frame (gravity along −z
+    of the base). ``match_orientation`` matches the tip orientation too; ``with_kc`` includes the
+    complementary stiffness K_C in the deflection.
+    """
+    inner = _robot_inner(robot)
+    arr, w = _q_and_wrench(q, wrench)
+    out = _core.vjm_compensate(
+        inner, _model(model), f64(compliance, "compliance"), arr, w, _payload(payload),
+        bool(match_orientation), bool(with_kc),
+    )
+    return _compensation(*out)
+
+
+@checked
+def compensate_with_model_file(
+    robot: Any,
+    path: str,
+    q: Any,
+    wrench: Any = None,
+    payload: Any = None,
+    match_orientation: Optional[bool] = None,
+    with_kc: bool = True,
+) -> Compensation:
+    """:func:`compensate` with the springs and compliances of a saved model file (``identify vjm
+    --save``); the file's robot and content hash are checked. ``match_orientation`` defaults to
+    whether the model was identified with rotations."""
+    inner = _robot_inner(robot)
+    arr, w = _q_and_wrench(q, wrench)
+    out = _core.vjm_compensate_model_file(
+        inner, str(path), arr, w, _payload(payload), match_orientation, bool(with_kc)
+    )
+    return _compensation(*out)
+
+
+@checked
+def design(
+    robot: Any,
+    model: ModelSpec = "extended",
+    poses: int = 24,
+    wrenches_per_pose: int = 4,
+    seed: int = 0,
+    margin: float = 0.1,
+    pool_size: int = 300,
+) -> Plan:
+    """Plans a campaign: ``poses`` poses inside the joint limits (``margin`` rad inside) and
+    ``wrenches_per_pose`` wrenches each (80 N, 3 N·m), chosen greedily to minimise the worst
+    predicted standard error of the identifiable combinations of ``model``, under the testbed's
+    laser-tracker and force/torque-sensor noise with its nominal compliances as the prior."""
+    inner = _robot_inner(robot)
+    text = _core.vjm_design(inner, _model(model), int(poses), int(wrenches_per_pose), int(seed), float(margin),
+                            int(pool_size))
+    doc = json.loads(text)
+    labels = robot.labels(model)
+    n = robot.n_joints
+    combos = tuple(
+        PlannedCombination(
+            label=c["label"],
+            stderr=float(c["stderr"]),
+            terms=tuple((labels[t["param"]], float(t["coefficient"])) for t in c["terms"]),
+        )
+        for c in doc["combinations"]
+    )
+    return Plan(
+        q=np.asarray(doc["q"], dtype=np.float64).reshape(-1, n),
+        wrench=np.asarray(doc["wrench"], dtype=np.float64).reshape(-1, 6),
+        pose=np.asarray(doc["pose"], dtype=np.int64),
+        rank=int(doc["rank"]),
+        combinations=combos,
+        worst_stderr=float(doc["worst_stderr"]) if math.isfinite(doc["worst_stderr"]) else math.inf,
+        noise=doc["noise"],
+    )

@@ -1,0 +1,203 @@
+"""CLI commands that use a saved stiffness model: ``identify vjm … --save MODEL.json`` and
+``predict vjm MODEL.json POSES.csv --out PRED.csv``.
+
+Hooked into :func:`robot_stiffness.cli.build_parser` by :func:`add_commands` (the ``predict``
+command) and :func:`add_save_option` (``--save`` on ``identify vjm``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any, List, Optional
+
+import numpy as np
+
+
+BUNDLED_URDF_PATH = "bundled:panda_arm.urdf"
+
+PREDICT_EPILOG = """\
+POSES.csv: a header and one row per pose: q1..qn (rad) and either fx,fy,fz,mx,my,mz (N, N·m, at
+the tip point, base frame) or --payload. Other columns (dx, pose, set, ...) are ignored, so a
+measurement file works.
+
+PRED.csv: q1..qn, the wrench used fx..mz, the predicted deflection dx,dy,dz (m) and rx,ry,rz (rad)
+in the base frame, their standard deviations sdx,sdy,sdz,srx,sry,srz, and identified. The standard
+deviations are those of the predicted true deflection (parameter uncertainty), not of a new
+measurement. Rotations are empty when the model was identified without rotations. A row with
+identified=false excites a direction the identification data could not see: its values are a
+minimum-norm guess and its standard deviations are empty.
+
+The robot defaults to the one recorded in the model file (its URDF path, base and tip); --urdf,
+--base, --tip override it. Either way the model file is checked against it (URDF SHA-256, links,
+joints, content hash) and refused if it does not match or was edited.
+
+Example:
+  robot-stiffness identify vjm campaign.csv --model extended --save model.json
+  robot-stiffness predict vjm model.json poses.csv --payload 5,0,0,0.1 --out pred.csv
+"""
+
+
+def add_save_option(parser: argparse.ArgumentParser) -> None:
+    """``--save MODEL.json`` on ``identify vjm``."""
+    parser.add_argument(
+        "--save",
+        metavar="MODEL.json",
+        help="write the stiffness model file (for predict; see docs/model-file.md)",
+    )
+
+
+def claim_save(args: argparse.Namespace, out: Any) -> Any:
+    """Reserves the ``--save`` output (before any work, so a bad path fails first); None without."""
+    return out.file(args.save, "--save") if getattr(args, "save", None) is not None else None
+
+
+def write_model(staged: Any, result: Any) -> None:
+    """Fills the reserved ``--save`` output with the model file of ``result`` (an Identification)."""
+    if staged is not None:
+        staged.write_text(result.stiffness_model.to_json())
+
+
+# The running CLI module (robot_stiffness.cli, or __main__ under `python -m`): its helpers and
+# its CliError, which its main loop reports as one line.
+_CLI: Any = None
+
+
+def add_commands(sub: Any, cli: Any) -> None:
+    """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser;
+    ``cli`` is the calling CLI module (for its robot options, input checks and CliError)."""
+    global _CLI
+    _CLI = cli
+    _add_robot_args = cli._add_robot_args
+
+    pre = sub.add_parser(
+        "predict",
+        help="predict tip deflections with a saved stiffness model",
+        description="Predict tip deflections (with standard deviations) from a model saved by identify --save.",
+    )
+    pre_sub = pre.add_subparsers(dest="kind", metavar="KIND")
+    pre_sub.required = True
+    pv = pre_sub.add_parser(
+        "vjm",
+        help="a serial arm",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Predict the tip deflection of a serial arm for each pose of POSES.csv under its wrench or "
+        "a payload, from a saved VJM stiffness model.",
+        epilog=PREDICT_EPILOG,
+    )
+    # dest model_file / data: the command's inputs, which no output may overwrite (cli._run).
+    pv.add_argument("model_file", metavar="MODEL.json", help="stiffness model file (identify vjm --save)")
+    pv.add_argument("data", metavar="POSES.csv", help="poses (q1..qn) and optionally fx..mz")
+    pv.add_argument("--out", required=True, metavar="PRED.csv", help="predictions to write")
+    pv.add_argument(
+        "--payload",
+        metavar="MASS[,cx,cy,cz]",
+        help="a point mass in kg at (cx,cy,cz) m in the tip frame (default at the tip point), gravity "
+        "9.80665 m/s² along −z of the base frame; instead of the fx..mz columns",
+    )
+    _add_robot_args(pv)
+    pv.set_defaults(func=cmd_predict_vjm)
+
+
+def _parse_payload(text: str) -> List[float]:
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) not in (1, 4):
+        raise _CLI.CliError(f"--payload {text!r}: expected MASS or MASS,cx,cy,cz (kg, m in the tip frame)")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise _CLI.CliError(f"--payload {text!r}: expected numbers, MASS or MASS,cx,cy,cz (kg, m)") from None
+    return values + [0.0] * (4 - len(values))
+
+
+def _recorded_robot(path: str) -> Optional[dict]:
+    """The ``robot`` record of a model file, or None when the file cannot be read as one (the
+    loader then reports what is wrong)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            doc = json.load(f)
+        robot = doc["model"]["robot"]
+        return robot if isinstance(robot, dict) else None
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _robot_for(args: argparse.Namespace) -> Any:
+    from .vjm import Robot
+
+    if args.urdf is not None or args.base is not None or args.tip is not None:
+        return _CLI._robot(args)
+    rec = _recorded_robot(args.model_file)
+    if rec is None:
+        return Robot.bundled()
+    urdf, base, tip = rec.get("urdf"), rec.get("base"), rec.get("tip")
+    if urdf == BUNDLED_URDF_PATH:
+        return Robot.bundled(tip)
+    if not urdf:
+        raise _CLI.CliError(f"{args.model_file} records no URDF path: give --urdf, --base and --tip")
+    if not Path(urdf).is_file():
+        raise _CLI.CliError(
+            f"{args.model_file} was identified on {urdf}, which does not exist here: give --urdf, --base and --tip"
+        )
+    return Robot.from_urdf(urdf, str(base), str(tip))
+
+
+def _cell(v: float) -> str:
+    return "" if not math.isfinite(v) else repr(float(v))
+
+
+def predictions_csv(n_joints: int, q: np.ndarray, pred: Any) -> str:
+    """The PRED.csv text (see ``predict vjm --help``)."""
+    header = [f"q{j}" for j in range(1, n_joints + 1)]
+    header += ["fx", "fy", "fz", "mx", "my", "mz", "dx", "dy", "dz", "rx", "ry", "rz"]
+    header += ["sdx", "sdy", "sdz", "srx", "sry", "srz", "identified"]
+    lines = [",".join(header)]
+    for i in range(q.shape[0]):
+        cells = [_cell(v) for v in q[i]]
+        cells += [_cell(v) for v in pred.wrench[i]]
+        cells += [_cell(v) for v in pred.deflection[i]]
+        cells += [_cell(v) for v in pred.stddev[i]]
+        cells.append("true" if pred.identified[i] else "false")
+        lines.append(",".join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
+    from . import _core
+    from .model import StiffnessModel
+
+    staged = out.file(args.out, "--out")
+    _CLI._check_input(args.model_file, "MODEL.json")
+    _CLI._check_input(args.data, "POSES.csv")
+    payload = None if args.payload is None else _parse_payload(args.payload)
+    robot = _robot_for(args)
+    model = StiffnessModel.load(args.model_file, robot)
+    q, wrench = _core.vjm_read_poses(args.data, robot._inner)
+    if payload is not None and wrench is not None:
+        raise _CLI.CliError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
+    if payload is None and wrench is None:
+        raise _CLI.CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
+    pred = model.predict(q, wrench=wrench, payload=payload)
+    staged.write_text(predictions_csv(robot.n_joints, q, pred))
+    out.commit()
+    n = q.shape[0]
+    bad = np.flatnonzero(~pred.identified)
+    d = np.linalg.norm(pred.deflection[:, :3], axis=1)
+    print(
+        f"wrote {args.out}: {n} rows predicted with {args.model_file} "
+        f"({len(model.labels)} springs, rank {model.rank}); largest |d| {np.max(d) * 1e3:.3f} mm"
+    )
+    if not model.has_rotations:
+        print("rotations unavailable: the model was identified without rotations (rx..rz, srx..srz empty)")
+    if bad.size:
+        print(
+            f"warning: {bad.size} of {n} rows excite directions the identification data could not see "
+            f"(first: line {bad[0] + 2} of {args.data}); they are marked identified=false, their values are "
+            "a minimum-norm guess without standard deviations",
+            file=sys.stderr,
+        )
+    return 0
+

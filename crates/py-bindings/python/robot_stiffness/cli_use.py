@@ -1,0 +1,178 @@
+"""Subcommands that use a VJM model: ``design vjm`` (plan a campaign) and ``compensate vjm``
+(corrected joint targets for a trajectory under load). Registered on the main parser by
+:func:`register`; see ``docs/use-the-model.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any, List, Optional, Tuple
+
+import numpy as np
+
+from . import _cli_types as T
+from ._errors import DataFileError
+from ._interrupt import in_worker
+from ._outputs import Outputs
+
+NOISE_LINE = (
+    "noise model: laser tracker ±(15 µm + 6 µm/m·L) as 2σ per axis on each of the two readings "
+    "(tracker at (2.5, 0, 0.5) m), force/torque sensor 1 % of 100 N / 10 N·m as 2σ, entering "
+    "through the testbed's nominal compliances; estimator: identify vjm with its defaults"
+)
+
+
+def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
+    """Adds ``design`` and ``compensate`` to the subcommand set ``sub``."""
+    des = sub.add_parser("design", help="plan a measurement campaign (poses and wrenches)",
+                         description="Plan where and how to measure for a VJM identification.")
+    des_sub = des.add_subparsers(dest="kind", metavar="KIND")
+    des_sub.required = True
+    dv = des_sub.add_parser(
+        "vjm",
+        help="poses and wrenches that minimise the worst predicted standard error",
+        description="Poses inside the joint limits and, per pose, wrenches (80 N, 3 N·m) chosen greedily to "
+        "minimise the worst predicted standard error of the identifiable combinations. Prints the predicted "
+        "standard error of every combination; PLAN.csv is a measurement file with empty dx,dy,dz.",
+    )
+    add_robot_args(dv)
+    dv.add_argument("--model", default="extended",
+                    help="traditional, extended or labels like J1z,J2x (default extended)")
+    dv.add_argument("--poses", type=T.count(1, 10000), default=24, help="number of poses (default 24)")
+    dv.add_argument("--wrenches-per-pose", type=T.count(1, 100), default=4, help="wrenches per pose (default 4)")
+    dv.add_argument("--margin", type=T.positive_float(3.2, "rad"), default=0.1,
+                    help="stay this far inside every joint limit, rad (default 0.1)")
+    dv.add_argument("--pool", type=T.count(1, 100000), default=300, help="candidate poses drawn (default 300)")
+    dv.add_argument("--seed", type=T.seed, default=0, help="seed of the candidate poses (default 0)")
+    dv.add_argument("--out", required=True, metavar="PLAN.csv", help="the planned rows (dx,dy,dz empty)")
+    dv.set_defaults(func=cmd_design_vjm)
+
+    com = sub.add_parser("compensate", help="corrected joint targets for a trajectory under load",
+                         description="Compensate the deflection of a trajectory with a saved model.")
+    com_sub = com.add_subparsers(dest="kind", metavar="KIND")
+    com_sub.required = True
+    cv = com_sub.add_parser(
+        "vjm",
+        help="joint targets so that the loaded tip reaches the nominal unloaded tip",
+        description="For each row of TRAJ.csv (q1..qn nominal targets; fx..mz the expected load, or --payload) "
+        "write corrected targets q1..qn, the predicted remaining error and a status (converged, "
+        "outside_limits, near_singular, not_converged, unstable).",
+    )
+    cv.add_argument("model_file", metavar="MODEL.json", help="model file written by identify vjm --save")
+    cv.add_argument("data", metavar="TRAJ.csv", help="trajectory: q1..qn and fx,fy,fz,mx,my,mz (or --payload)")
+    add_robot_args(cv)
+    cv.add_argument("--payload", metavar="MASS[,cx,cy,cz]",
+                    help="the load is a point mass (kg) at (cx, cy, cz) m in the tip frame, gravity along −z of the base")
+    cv.add_argument("--position-only", action="store_true",
+                    help="match the position only (default: also the orientation when the model has rotations)")
+    cv.add_argument("--no-kc", action="store_true", help="leave out the complementary stiffness K_C")
+    cv.add_argument("--out", required=True, metavar="COMP.csv", help="corrected targets and per-row outcome")
+    cv.add_argument("--plot", metavar="FILE.png", help="deflection along the trajectory before/after (PNG)")
+    cv.set_defaults(func=cmd_compensate_vjm)
+
+
+def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
+    from .cli import _robot
+    from .vjm import design
+
+    plan_out = out.file(args.out, "--out")
+    robot = _robot(args)
+    model: Any = args.model if args.model in ("traditional", "extended") else args.model.split(",")
+    plan = in_worker(design, robot, model=model, poses=args.poses, wrenches_per_pose=args.wrenches_per_pose,
+                     seed=args.seed, margin=args.margin, pool_size=max(args.pool, args.poses))
+    plan_out.write_text(plan.csv_text())
+    out.commit()
+    print(f"Planned {len(plan.pose)} measurements ({args.poses} poses × {args.wrenches_per_pose} wrenches) "
+          f"for the {args.model} model: rank {plan.rank}.")
+    print(NOISE_LINE + ".")
+    print("Predicted standard error of every identifiable combination (rad/(N·m)):")
+    for c in plan.combinations:
+        print(f"  {c.label:<40} {c.stderr:.3e}")
+    print(f"worst: {plan.worst_stderr:.3e}; written {args.out}")
+    return 0
+
+
+def _comp_csv(q: np.ndarray, comp: Any) -> str:
+    n = q.shape[1]
+    head = [f"q{j + 1}" for j in range(n)] + [f"q{j + 1}_nominal" for j in range(n)] + [
+        "position_error", "rotation_error", "deflection", "rotation_deflection", "inverse_condition",
+        "iterations", "limit_joint", "status"]
+    lines = [",".join(head)]
+    for i in range(q.shape[0]):
+        lim = int(comp.limit_joint[i])
+        vals = [repr(float(x)) for x in comp.q[i]] + [repr(float(x)) for x in q[i]] + [
+            repr(float(comp.position_error[i])), repr(float(comp.rotation_error[i])), repr(float(comp.deflection[i])),
+            repr(float(comp.rotation_deflection[i])), repr(float(comp.inverse_condition[i])),
+            str(int(comp.iterations[i])), "" if lim < 0 else str(lim + 1), comp.status[i]]
+        lines.append(",".join(vals))
+    return "\n".join(lines) + "\n"
+
+
+def plot_compensation(path: Any, comp: Any) -> None:
+    """Predicted tip deflection along the trajectory before and after compensation (log scale)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    rows = np.arange(len(comp.deflection))
+    ax.semilogy(rows, np.maximum(comp.deflection * 1e3, 1e-12), label="without compensation")
+    ax.semilogy(rows, np.maximum(comp.position_error * 1e3, 1e-12), label="with compensation (predicted)")
+    ax.set_xlabel("trajectory row")
+    ax.set_ylabel("tip position error (mm)")
+    ax.set_title("Deflection along the trajectory")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, format="png", dpi=110)
+    plt.close(fig)
+
+
+def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
+    from pathlib import Path
+
+    from . import _core
+    from ._errors import InvalidValueError, MissingFileError
+    from .cli import CliError, _check_input
+    from .cli_model import _parse_payload, _robot_for
+    from .vjm import compensate_with_model_file
+
+    for path, what in ((args.model_file, "MODEL.json"), (args.data, "TRAJ.csv")):
+        _check_input(path, what)
+        if not Path(path).exists():
+            raise MissingFileError(f"{what} {path}: file not found")
+    for flag, value in (("--out", args.out), ("--plot", args.plot)):
+        if value is not None and Path(value).exists() and Path(value).resolve() == Path(args.model_file).resolve():
+            raise CliError(f"{flag} is the model file MODEL.json; choose another output name")
+    comp_out = out.file(args.out, "--out")
+    plot_out = out.file(args.plot, "--plot") if args.plot is not None else None
+    payload = None if args.payload is None else _parse_payload(args.payload)
+    robot = _robot_for(args)  # the robot the model file records, unless --urdf/--base/--tip
+    q, wrench = _core.vjm_read_poses(args.data, robot._inner)
+    if payload is not None and wrench is not None:
+        raise InvalidValueError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
+    if payload is None and wrench is None:
+        raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
+    comp = in_worker(
+        compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
+        match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
+    )
+    comp_out.write_text(_comp_csv(q, comp))
+    if plot_out is not None:
+        plot_compensation(plot_out.tmp, comp)
+    out.commit()
+    counts: dict = {}
+    for s in comp.status:
+        counts[s] = counts.get(s, 0) + 1
+    ok = np.array([s == "converged" for s in comp.status])
+    before = float(np.mean(comp.deflection)) * 1e3
+    after = float(np.max(comp.position_error[ok])) * 1e3 if ok.any() else math.nan
+    summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+    print(f"Compensated {len(comp.status)} rows: {summary}. Mean predicted deflection {before:.4f} mm; "
+          f"largest predicted remaining error of the converged rows {after:.2e} mm. Written {args.out}"
+          + (f" and {args.plot}" if args.plot else "") + ".")
+    bad = [i for i, s in enumerate(comp.status) if s != "converged"]
+    for i in bad[:5]:
+        print(f"  row {i + 1}: {comp.status[i]}" + (f" (joint {comp.limit_joint[i] + 1})" if comp.limit_joint[i] >= 0 else ""))
+    return 0

@@ -1,0 +1,200 @@
+"""Stiffness model files: an identification saved for later use, and predictions from it.
+
+A :class:`StiffnessModel` is what :meth:`robot_stiffness.vjm.Identification.save` writes and
+:meth:`StiffnessModel.load` reads back: the robot (URDF path and SHA-256 of its text, base, tip,
+joints), the springs, the identifiable combinations, the parameter vector used for prediction
+with its covariance, the null space (what the data could not see), the noise model and the data
+it came from. Loading refuses a file edited after it was saved, written for another schema
+version, or describing another robot (:class:`~robot_stiffness.ModelFileError`). The file format
+is documented field by field in ``docs/model-file.md``.
+
+Predictions use only what the data identified: with aliased springs (on a UR5, J1y + J2z is all
+the data can see) the prediction is still exact for every pose and load whose regressor lies in
+the identified row space; a row that excites a direction the data never saw is flagged
+(``identified`` False, no standard deviation) instead of being silently predicted.
+
+Example::
+
+    >>> from robot_stiffness.vjm import Robot, simulate
+    >>> from robot_stiffness.model import StiffnessModel
+    >>> robot = Robot.bundled()
+    >>> data = simulate(robot, [], n_poses=12, seed=3).measurements
+    >>> ident = robot.identify(data.q, data.wrench, data.displacement, model="extended")
+    >>> pred = ident.stiffness_model.predict(data.q[:2], payload=(2.0, 0.0, 0.0, 0.05))
+    >>> pred.deflection.shape, bool(pred.identified.all())
+    ((2, 6), True)
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Union, cast
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._arguments import checked, real
+from ._arrays import f64
+from ._errors import InvalidValueError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .vjm import Robot
+
+__all__ = ["StiffnessModel", "Prediction", "STANDARD_GRAVITY", "Payload"]
+
+Array = npt.NDArray[np.float64]
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: Standard gravity (m/s²) acting along −z of the base frame on a payload (vjm::STANDARD_GRAVITY).
+STANDARD_GRAVITY = 9.80665
+
+#: A payload: a mass in kg (at the tip point), or ``(mass, cx, cy, cz)`` with the centre of
+#: mass in m in the tip frame.
+Payload = Union[float, Sequence[float]]
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Predicted tip deflections, one row per pose (base frame).
+
+    ``deflection`` (N, 6): ``[dx, dy, dz, rx, ry, rz]`` in m and rad (rotation vector); the
+    rotations are NaN when the model was identified without rotations. ``stddev`` (N, 6): the
+    standard deviation of the predicted **true** deflection from the parameter covariance,
+    √(a V aᵀ) — not of a new measurement (add :meth:`StiffnessModel.measurement_stddev` in
+    quadrature for that); NaN where unavailable. ``wrench`` (N, 6): the wrench used (N, N·m, at
+    the tip point, base frame). ``identified`` (N,): the row lies in what the data identified.
+    ``excitation`` (N,): how far it leaves that space (sine of the angle; ~1e-15 when inside).
+    """
+
+    deflection: Array
+    stddev: Array
+    wrench: Array
+    identified: npt.NDArray[np.bool_]
+    excitation: Array
+
+
+_PAYLOAD_NAMES = ("payload mass (kg)", "payload cx (m)", "payload cy (m)", "payload cz (m)")
+
+
+def _payload(payload: Payload) -> tuple:
+    """``(mass, cx, cy, cz)`` from a mass or a sequence of 1 or 4 real numbers."""
+    scalar = isinstance(payload, (str, bytes)) or not hasattr(payload, "__len__")
+    items: List[Any] = [payload] if scalar else list(cast(Sequence[Any], payload))
+    if len(items) not in (1, 4):
+        raise InvalidValueError(
+            f"payload must be a mass in kg or (mass, cx, cy, cz), got {len(items)} numbers"
+        )
+    values = [real(v, name) for v, name in zip(items, _PAYLOAD_NAMES)]
+    if values[0] < 0:
+        raise InvalidValueError(f"payload mass must be ≥ 0 kg, got {values[0]}")
+    return tuple(values + [0.0] * (4 - len(values)))
+
+
+class StiffnessModel:
+    """A saved stiffness model bound to the robot it describes (immutable).
+
+    Obtain one from :attr:`robot_stiffness.vjm.Identification.stiffness_model` or :meth:`load`.
+    """
+
+    __slots__ = ("_inner", "_robot")
+
+    def __init__(self, inner: Any, robot: "Robot") -> None:
+        """Wraps a ``robot_stiffness._core.StiffnessModel``; use :meth:`load` instead."""
+        if not isinstance(inner, _core.StiffnessModel):
+            raise TypeError("use StiffnessModel.load(path, robot) or Identification.stiffness_model")
+        self._inner = inner
+        self._robot = robot
+
+    @classmethod
+    @checked
+    def load(cls, path: PathLike, robot: Robot) -> "StiffnessModel":
+        """Reads the model file at ``path`` for ``robot``.
+
+        Raises :class:`~robot_stiffness.ModelFileError` naming the file when it was edited after
+        it was saved (content hash), has another schema version, is not a model file, or was
+        identified on another robot (URDF content, base or tip link, joints);
+        :class:`~robot_stiffness.MissingFileError` when it cannot be read.
+        """
+        return cls(_core.StiffnessModel.load(os.fspath(path), robot._inner), robot)
+
+    @checked
+    def save(self, path: PathLike) -> None:
+        """Writes the model file to ``path`` atomically (a failure leaves ``path`` untouched)."""
+        self._inner.save(os.fspath(path))
+
+    def to_json(self) -> str:
+        """The model file's text."""
+        return str(self._inner.to_json())
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The model's content as a dict (``robot``, ``springs``, ``identification``,
+        ``estimate``, ``noise``, ``data``, ``created_by``; see ``docs/model-file.md``)."""
+        return dict(self._inner.to_dict())
+
+    @property
+    def robot(self) -> "Robot":
+        """The robot the model is bound to."""
+        return self._robot
+
+    @property
+    def labels(self) -> List[str]:
+        """Spring labels in parameter order, e.g. ``["J1z", "J1x", ...]``."""
+        return list(self._inner.labels)
+
+    @property
+    def rank(self) -> int:
+        """Number of identifiable combinations."""
+        return int(self._inner.rank)
+
+    @property
+    def has_rotations(self) -> bool:
+        """Whether the model predicts rotations (identified with measured rotations)."""
+        return bool(self._inner.has_rotations)
+
+    @property
+    def content_sha256(self) -> str:
+        """SHA-256 of the model content, as stored in the file."""
+        return str(self._inner.content_sha256)
+
+    def measurement_stddev(self) -> Array:
+        """Standard deviations (6,) of a new measurement's noise ``[dx..rz]`` (m, rad) under the
+        model's noise model, σ·noise_sigma; NaN when unknown or not modelled (rotations)."""
+        return np.asarray(self._inner.measurement_stddev(), dtype=np.float64)
+
+    @checked
+    def predict(
+        self,
+        q: Any,
+        wrench: Any = None,
+        payload: Optional[Payload] = None,
+    ) -> Prediction:
+        """Predicted tip deflections and their standard deviations.
+
+        ``q``: joint angles in rad, (n,) or (N, n). The load is either ``wrench`` — (6,) or
+        (N, 6), ``[fx, fy, fz, mx, my, mz]`` in N and N·m at the tip point, base frame — or
+        ``payload`` — a mass in kg, or ``(mass, cx, cy, cz)`` with the centre of mass in m in
+        the tip frame, under gravity 9.80665 m/s² along −z of the base frame. Returns a
+        :class:`Prediction` with one row per configuration.
+        """
+        arr = f64(q, "q")
+        if arr.ndim == 1:
+            arr = arr.reshape(1, -1)
+        w = None
+        if wrench is not None:
+            w = f64(wrench, "wrench")
+            if w.ndim == 1:
+                w = np.broadcast_to(w.reshape(1, -1), (arr.shape[0], w.shape[0])).copy()
+        p = None if payload is None else _payload(payload)
+        d = self._inner.predict(arr, wrench=w, payload=p)
+        return Prediction(
+            deflection=d["deflection"],
+            stddev=d["stddev"],
+            wrench=d["wrench"],
+            identified=d["identified"],
+            excitation=d["excitation"],
+        )
+
+    def __repr__(self) -> str:
+        return repr(self._inner)

@@ -1,0 +1,243 @@
+//! Bindings of `vjm::stiffness_model`: the saved stiffness model (typed, not JSON text),
+//! identification straight into a model, predictions, and the pose-table reader.
+
+use std::sync::Arc;
+
+use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use vjm::{Load, PointMass, SerialChain, StiffnessModel};
+
+use crate::convert::{batch, to_numpy, to_numpy_bool};
+use crate::errors::{run, value_error, PyResultExt};
+use crate::vjm::{IdentifyArgs, PyRobot};
+
+/// A stiffness model bound to the robot it describes (immutable).
+#[pyclass(frozen, module = "robot_stiffness._core", name = "StiffnessModel")]
+#[derive(Debug, Clone)]
+pub struct PyStiffnessModel {
+    model: Arc<StiffnessModel>,
+    chain: Arc<SerialChain>,
+}
+
+#[pymethods]
+impl PyStiffnessModel {
+    /// Reads a model file and checks it against `robot` (content hash, URDF, links, joints).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: std::path::PathBuf, robot: &PyRobot) -> PyResult<Self> {
+        let chain = robot.chain.clone();
+        let model = run(py, || StiffnessModel::load(&path, &chain))?.py()?;
+        Ok(Self {
+            model: Arc::new(model),
+            chain,
+        })
+    }
+
+    /// Writes the model file atomically.
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        let model = &self.model;
+        run(py, || model.save(&path))?.py()
+    }
+
+    /// The file text (pretty JSON with schema and content hash).
+    fn to_json(&self) -> String {
+        self.model.to_json()
+    }
+
+    /// The model's records as a dict (the `model` object of the file).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = serde_json::to_string(&*self.model).map_err(|e| {
+            crate::errors::internal_error(format!("cannot serialise the model: {e}"))
+        })?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// SHA-256 of the model content (as stored in the file).
+    #[getter]
+    fn content_sha256(&self) -> String {
+        self.model.content_sha256()
+    }
+
+    /// Spring labels in parameter order.
+    #[getter]
+    fn labels(&self) -> Vec<String> {
+        self.model.springs().labels.clone()
+    }
+
+    /// Whether the model predicts rotations.
+    #[getter]
+    fn has_rotations(&self) -> bool {
+        self.model.has_rotations()
+    }
+
+    /// Number of identifiable combinations.
+    #[getter]
+    fn rank(&self) -> usize {
+        self.model.identification().rank
+    }
+
+    /// Standard deviations of a new measurement's noise `[dx..rz]` under the noise model.
+    fn measurement_stddev(&self) -> Vec<f64> {
+        self.model.measurement_stddev().to_vec()
+    }
+
+    /// Predictions for q (N, n) under wrench (N, 6) or a payload `(mass, cx, cy, cz)`.
+    /// Returns a dict of arrays: deflection (N, 6), stddev (N, 6), wrench (N, 6),
+    /// identified (N,), excitation (N,).
+    #[pyo3(signature = (q, wrench = None, payload = None))]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+        wrench: Option<PyReadonlyArrayDyn<'py, f64>>,
+        payload: Option<(f64, f64, f64, f64)>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.chain.n_joints();
+        let q = batch(&q, "q", &[n])?;
+        let w = wrench
+            .as_ref()
+            .map(|w| batch(w, "wrench", &[6]))
+            .transpose()?;
+        let payload = payload
+            .map(|(mass, cx, cy, cz)| PointMass::new(mass, [cx, cy, cz]))
+            .transpose()
+            .py()?;
+        let load = match (&w, payload) {
+            (Some(w), None) => {
+                if w.rows != q.rows {
+                    return Err(crate::errors::shape_error(format!(
+                        "wrench has {} rows (dimension 0) but q has {}: one row per pose",
+                        w.rows, q.rows
+                    )));
+                }
+                Load::Wrench(&w.data)
+            }
+            (None, Some(p)) => Load::Payload(p),
+            (Some(_), Some(_)) => {
+                return Err(value_error("give either wrench or payload, not both"))
+            }
+            (None, None) => {
+                return Err(value_error(
+                    "a load is needed: wrench (N, 6) or payload (mass, cx, cy, cz)",
+                ))
+            }
+        };
+        let (model, chain) = (&self.model, &self.chain);
+        let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
+        let rows = pred.len();
+        let flat = |f: &dyn Fn(&vjm::Prediction) -> [f64; 6]| -> Vec<f64> {
+            pred.iter().flat_map(f).collect()
+        };
+        let out = PyDict::new(py);
+        out.set_item(
+            "deflection",
+            to_numpy(py, flat(&|p| p.deflection), &[rows, 6])?,
+        )?;
+        out.set_item("stddev", to_numpy(py, flat(&|p| p.stddev), &[rows, 6])?)?;
+        out.set_item("wrench", to_numpy(py, flat(&|p| p.wrench), &[rows, 6])?)?;
+        out.set_item(
+            "identified",
+            to_numpy_bool(py, pred.iter().map(|p| p.identified).collect(), &[rows])?,
+        )?;
+        out.set_item(
+            "excitation",
+            to_numpy(py, pred.iter().map(|p| p.excitation).collect(), &[rows])?,
+        )?;
+        Ok(out)
+    }
+
+    fn __repr__(&self) -> String {
+        let r = self.model.robot();
+        format!(
+            "StiffnessModel(model={:?}, rank={}/{}, base={:?}, tip={:?}, rotations={})",
+            self.model.springs().model,
+            self.model.identification().rank,
+            self.model.identification().n_params,
+            r.base,
+            r.tip,
+            self.model.has_rotations()
+        )
+    }
+}
+
+/// Identification that also returns the stiffness model: `(result JSON, StiffnessModel)`.
+/// `data_file` is the measurement file the arrays came from (hashed into the model);
+/// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
+#[pyfunction]
+#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_identify_model<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q: PyReadonlyArrayDyn<'py, f64>,
+    wrench: PyReadonlyArrayDyn<'py, f64>,
+    displacement: PyReadonlyArrayDyn<'py, f64>,
+    model: &Bound<'py, PyAny>,
+    rotation: Option<PyReadonlyArrayDyn<'py, f64>>,
+    noise_sigma: Option<PyReadonlyArrayDyn<'py, f64>>,
+    noise_scale_known: bool,
+    nonnegative: bool,
+    dense: bool,
+    method: &str,
+    data_file: Option<String>,
+    robust_covariance: bool,
+) -> PyResult<(String, PyStiffnessModel)> {
+    let args = IdentifyArgs {
+        q,
+        wrench,
+        displacement,
+        rotation,
+        noise_sigma,
+        noise_scale_known,
+        nonnegative,
+        dense,
+        method,
+    };
+    let (id, built) = robot.identify_with(
+        py,
+        model,
+        args,
+        Some(data_file.as_deref()),
+        robust_covariance,
+    )?;
+    let text = serde_json::to_string(&id)
+        .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))?;
+    let built = built.ok_or_else(|| crate::errors::internal_error("no model was built"))?;
+    Ok((
+        text,
+        PyStiffnessModel {
+            model: Arc::new(built),
+            chain: robot.chain.clone(),
+        },
+    ))
+}
+
+/// Reads a pose table (q1..qn, optional fx..mz) for `robot`: `(q (N, n), wrench (N, 6) or None)`.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn vjm_read_poses<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    robot: &PyRobot,
+) -> PyResult<(
+    Bound<'py, PyArrayDyn<f64>>,
+    Option<Bound<'py, PyArrayDyn<f64>>>,
+)> {
+    let n = robot.chain.n_joints();
+    let table = run(py, || vjm::stiffness_model::PoseTable::read_csv(&path, n))?.py()?;
+    let rows = table.len();
+    let q = to_numpy(py, table.q, &[rows, n])?;
+    let w = table
+        .wrench
+        .map(|w| to_numpy(py, w, &[rows, 6]))
+        .transpose()?;
+    Ok((q, w))
+}
+
+/// Registers the class and functions on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyStiffnessModel>()?;
+    m.add_function(wrap_pyfunction!(vjm_identify_model, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_read_poses, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,210 @@
+//! Bindings of the uses of a VJM model: compensation (`vjm::compensate`) and measurement
+//! planning (`vjm::plan_measurements`). Every batch runs in Rust with the GIL released.
+
+use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
+use pyo3::prelude::*;
+use vjm::{CompensateOptions, Load, NoiseModel, PlanSpec, PointMass};
+
+use crate::convert::{batch, fixed, to_numpy, Rows};
+use crate::errors::{run, value_error, PyResultExt};
+use crate::vjm::{parse_model, PyRobot};
+
+/// The per-row numbers of a compensation, columns of the (N, 7) array returned.
+const ROW_COLUMNS: [&str; 7] = [
+    "position_error",
+    "rotation_error",
+    "deflection",
+    "rotation_deflection",
+    "inverse_condition",
+    "iterations",
+    "limit_joint",
+];
+
+/// Corrected joint targets: returns `(q (N, n), rows (N, 7), status list)`; the columns of
+/// `rows` are `position_error, rotation_error, deflection, rotation_deflection,
+/// inverse_condition, iterations, limit_joint` (0-based joint, −1 when none).
+#[pyfunction]
+#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_compensate<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    model: &Bound<'py, PyAny>,
+    compliance: PyReadonlyArrayDyn<'py, f64>,
+    q: PyReadonlyArrayDyn<'py, f64>,
+    wrench: Option<PyReadonlyArrayDyn<'py, f64>>,
+    payload: Option<(f64, [f64; 3])>,
+    match_orientation: bool,
+    with_kc: bool,
+    max_iterations: usize,
+    position_tol: f64,
+    rotation_tol: f64,
+    check_limits: bool,
+) -> PyResult<CompensationArrays<'py>> {
+    let chain = &robot.chain;
+    let n = chain.n_joints();
+    let model = parse_model(n, model)?;
+    let c = fixed(&compliance, "compliance", &[model.n_params()])?;
+    let q = batch(&q, "q", &[n])?;
+    let w = match &wrench {
+        Some(w) => Some(batch(w, "wrench", &[6])?),
+        None => None,
+    };
+    let load = load_of(&q, w.as_ref(), payload)?;
+    let mut opts = CompensateOptions::default();
+    opts.match_orientation = match_orientation;
+    opts.with_kc = with_kc;
+    opts.max_iterations = max_iterations;
+    opts.position_tol = position_tol;
+    opts.rotation_tol = rotation_tol;
+    opts.check_limits = check_limits;
+    let out = run(py, || {
+        vjm::compensate(chain, &model, &c, &q.data, load, &opts)
+    })?
+    .py()?;
+    arrays(py, out, n)
+}
+
+/// `(q, rows, status)` as returned to Python.
+type CompensationArrays<'py> = (
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Vec<&'static str>,
+);
+
+/// The load from exactly one of a wrench array (as many rows as `q`) and a payload.
+fn load_of<'a>(
+    q: &Rows<'_>,
+    w: Option<&'a Rows<'a>>,
+    payload: Option<(f64, [f64; 3])>,
+) -> PyResult<Load<'a>> {
+    let pm = match payload {
+        Some((mass, centre)) => Some(
+            // The payload's own check (finite, mass ≥ 0); its message names the value.
+            PointMass::new(mass, centre).py()?,
+        ),
+        None => None,
+    };
+    let load = match (&w, pm) {
+        (Some(w), None) => {
+            if w.rows != q.rows {
+                return Err(crate::errors::shape_error(format!(
+                    "wrench has {} rows (dimension 0) but q has {}: one row per target",
+                    w.rows, q.rows
+                )));
+            }
+            Load::Wrench(&w.data)
+        }
+        (None, Some(pm)) => Load::Payload(pm),
+        _ => {
+            return Err(value_error(
+                "give exactly one of wrench (N, 6) and payload (mass, [cx, cy, cz])",
+            ))
+        }
+    };
+    Ok(load)
+}
+
+/// The result arrays of a compensation.
+fn arrays(py: Python<'_>, out: vjm::Compensation, n: usize) -> PyResult<CompensationArrays<'_>> {
+    let rows = out.rows.len();
+    let mut table = Vec::with_capacity(ROW_COLUMNS.len() * rows);
+    for r in &out.rows {
+        table.extend_from_slice(&[
+            r.position_error,
+            r.rotation_error,
+            r.deflection,
+            r.rotation_deflection,
+            r.inverse_condition,
+            r.iterations as f64,
+            r.limit_joint.map_or(-1.0, |j| j as f64),
+        ]);
+    }
+    let status = out.rows.iter().map(|r| r.status.as_str()).collect();
+    Ok((
+        to_numpy(py, out.q, &[rows, n])?,
+        to_numpy(py, table, &[rows, ROW_COLUMNS.len()])?,
+        status,
+    ))
+}
+
+/// [`vjm_compensate`] with the springs and compliances of a model file (robot and content
+/// hash checked on load). `match_orientation` defaults to whether the model has rotations.
+#[pyfunction]
+#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_compensate_model_file<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    path: &str,
+    q: PyReadonlyArrayDyn<'py, f64>,
+    wrench: Option<PyReadonlyArrayDyn<'py, f64>>,
+    payload: Option<(f64, [f64; 3])>,
+    match_orientation: Option<bool>,
+    with_kc: bool,
+    max_iterations: usize,
+    position_tol: f64,
+    rotation_tol: f64,
+    check_limits: bool,
+) -> PyResult<CompensationArrays<'py>> {
+    let chain = &robot.chain;
+    let n = chain.n_joints();
+    // The inputs first (a bad payload is named even when the file is also bad), then the file.
+    let q = batch(&q, "q", &[n])?;
+    let w = match &wrench {
+        Some(w) => Some(batch(w, "wrench", &[6])?),
+        None => None,
+    };
+    let load = load_of(&q, w.as_ref(), payload)?;
+    let model = run(py, || vjm::StiffnessModel::load(path, chain))?.py()?;
+    let mut opts = CompensateOptions::default();
+    opts.match_orientation = match_orientation.unwrap_or(model.has_rotations());
+    opts.with_kc = with_kc;
+    opts.max_iterations = max_iterations;
+    opts.position_tol = position_tol;
+    opts.rotation_tol = rotation_tol;
+    opts.check_limits = check_limits;
+    let out = run(py, || model.compensate(chain, &q.data, load, &opts))?.py()?;
+    arrays(py, out, n)
+}
+
+/// Plans a VJM campaign (JSON of `vjm::Plan`): `poses` poses × `wrenches_per_pose` wrenches,
+/// noise of the testbed's instruments with its nominal compliances as the prior.
+#[pyfunction]
+#[pyo3(signature = (robot, model, poses = 24, wrenches_per_pose = 4, seed = 0, margin = 0.1, pool_size = 300, force = 80.0, moment = 3.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn vjm_design(
+    py: Python<'_>,
+    robot: &PyRobot,
+    model: &Bound<'_, PyAny>,
+    poses: usize,
+    wrenches_per_pose: usize,
+    seed: u64,
+    margin: f64,
+    pool_size: usize,
+    force: f64,
+    moment: f64,
+) -> PyResult<String> {
+    let chain = &robot.chain;
+    let model = parse_model(chain.n_joints(), model)?;
+    let mut spec = PlanSpec::default();
+    spec.n_poses = poses;
+    spec.wrenches_per_pose = wrenches_per_pose;
+    spec.seed = seed;
+    spec.limit_margin = margin;
+    spec.pool_size = pool_size.max(poses);
+    spec.force = force;
+    spec.moment = moment;
+    let noise = NoiseModel::testbed(&model);
+    let plan = run(py, || vjm::plan_measurements(chain, &model, &spec, &noise))?.py()?;
+    serde_json::to_string(&plan)
+        .map_err(|e| crate::errors::internal_error(format!("cannot serialise the plan: {e}")))
+}
+
+/// Registers the functions on `m`.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(vjm_compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_design, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_compensate_model_file, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,190 @@
+//! Measurement planning: the predicted standard errors are what simulated campaigns at the
+//! planned rows show, and the plan beats as many random poses by ≥ 2× on the worst one.
+
+use vjm::testbed::{simulate, simulate_at, CampaignSpec, TrueModel};
+use vjm::{
+    identify, plan_measurements, predicted_stderr, IdentifyOptions, NoiseModel, Plan, PlanSpec,
+    SerialChain, VirtualJointModel,
+};
+
+fn default_plan() -> (SerialChain, VirtualJointModel, Plan) {
+    let chain = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let plan = plan_measurements(
+        &chain,
+        &model,
+        &PlanSpec::default(),
+        &NoiseModel::testbed(&model),
+    )
+    .unwrap();
+    (chain, model, plan)
+}
+
+/// Shape of the plan: 24 poses × 4 wrenches, inside the limits by the margin, every
+/// identifiable combination of the Panda's extended model (rank 15) with a positive error.
+#[test]
+fn plan_rows_are_a_campaign() {
+    let (chain, _, plan) = default_plan();
+    assert_eq!(plan.wrench.len(), 96);
+    assert_eq!(plan.q.len(), 96 * 7);
+    assert_eq!(plan.pose.len(), 96);
+    assert_eq!(plan.rank, 15);
+    assert_eq!(plan.combinations.len(), 15);
+    for (i, q) in plan.q.chunks_exact(7).enumerate() {
+        assert_eq!(plan.pose[i], i / 4);
+        for (j, (&x, &(lo, hi))) in q.iter().zip(chain.limits()).enumerate() {
+            assert!(
+                x >= lo + 0.1 - 1e-12 && x <= hi - 0.1 + 1e-12,
+                "row {i} joint {j}: {x}"
+            );
+        }
+    }
+    for w in &plan.wrench {
+        let f = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        assert!((f - 80.0).abs() < 1e-9, "{w:?}");
+    }
+    assert!(plan
+        .combinations
+        .iter()
+        .all(|c| c.stderr > 0.0 && c.stderr.is_finite()));
+    assert_eq!(
+        plan.worst_stderr,
+        plan.combinations
+            .iter()
+            .map(|c| c.stderr)
+            .fold(0.0, f64::max)
+    );
+}
+
+/// Over 200 simulated campaigns at the planned rows (the testbed's truth, tracker and F/T
+/// noise, the identification with its defaults) the spread of every combination's estimate is
+/// within ±25 % of the predicted standard error.
+#[test]
+fn predicted_standard_errors_match_simulated_campaigns() {
+    let (chain, model, plan) = default_plan();
+    let truth = TrueModel::nominal(7);
+    let poses: Vec<i64> = plan.pose.iter().map(|&p| p as i64).collect();
+    let k = plan.combinations.len();
+    let mut values: Vec<Vec<f64>> = vec![Vec::new(); k];
+    let campaigns = 200;
+    for seed in 0..campaigns {
+        let spec = CampaignSpec {
+            seed: 1000 + seed,
+            ..Default::default()
+        };
+        let c = simulate_at(&chain, &truth, &plan.q, &plan.wrench, &poses, &spec).unwrap();
+        let ds = &c.dataset;
+        let id = identify(
+            &chain,
+            &model,
+            ds.q_flat(),
+            ds.wrench_flat(),
+            ds.displacement_flat(),
+            None,
+            &IdentifyOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(id.rank, plan.rank);
+        for (j, comb) in id.combinations.iter().enumerate() {
+            assert_eq!(comb.label, plan.combinations[j].label);
+            values[j].push(comb.value);
+        }
+    }
+    let mut worst: f64 = 0.0;
+    for (j, v) in values.iter().enumerate() {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
+        let ratio = sd / plan.combinations[j].stderr;
+        println!(
+            "{:<28} predicted {:.3e} observed {:.3e} ratio {ratio:.3}",
+            plan.combinations[j].label, plan.combinations[j].stderr, sd
+        );
+        worst = worst.max((ratio - 1.0).abs());
+    }
+    println!("worst |observed/predicted − 1| over {campaigns} campaigns: {worst:.3}");
+    assert!(worst <= 0.25, "{worst}");
+}
+
+/// The plan's worst predicted standard error is at least 2× smaller than that of testbed
+/// campaigns with as many random poses and wrenches per pose (5 seeds), on the same
+/// combinations and with the same noise model.
+#[test]
+fn plan_beats_random_poses() {
+    let (chain, model, plan) = default_plan();
+    let truth = TrueModel::nominal(7);
+    let terms: Vec<Vec<(usize, f64)>> = plan
+        .combinations
+        .iter()
+        .map(|c| c.terms.iter().map(|t| (t.param, t.coefficient)).collect())
+        .collect();
+    let noise = NoiseModel::testbed(&model);
+    for seed in 0..5 {
+        let spec = CampaignSpec {
+            n_poses: 24,
+            wrenches_per_pose: 4,
+            noise: false,
+            seed: 500 + seed,
+            ..Default::default()
+        };
+        let c = simulate(&chain, &truth, &spec).unwrap();
+        let se = predicted_stderr(
+            &chain,
+            &model,
+            c.dataset.q_flat(),
+            &c.applied_wrench,
+            plan.rank,
+            &terms,
+            &noise,
+        )
+        .unwrap();
+        let worst = se.iter().copied().fold(0.0, f64::max);
+        println!(
+            "seed {seed}: random worst {worst:.3e}, planned {:.3e}, ratio {:.2}",
+            plan.worst_stderr,
+            worst / plan.worst_stderr
+        );
+        assert!(
+            worst >= 2.0 * plan.worst_stderr,
+            "{worst} vs {}",
+            plan.worst_stderr
+        );
+    }
+}
+
+#[test]
+fn plan_errors_name_the_option() {
+    let chain = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let noise = NoiseModel::testbed(&model);
+    let mut spec = PlanSpec::default();
+    spec.n_poses = 0;
+    let e = plan_measurements(&chain, &model, &spec, &noise)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("poses"), "{e}");
+    let mut spec = PlanSpec::default();
+    spec.limit_margin = f64::NAN;
+    let e = plan_measurements(&chain, &model, &spec, &noise)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("margin"), "{e}");
+    let mut spec = PlanSpec::default();
+    spec.limit_margin = 2.0;
+    let e = plan_measurements(&chain, &model, &spec, &noise)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("margin") && e.contains("panda_joint2"), "{e}");
+    let mut spec = PlanSpec::default();
+    spec.min_tip_height = 5.0;
+    spec.pool_size = 30;
+    let e = plan_measurements(&chain, &model, &spec, &noise)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("acceptable poses"), "{e}");
+    let mut bad = noise.clone();
+    bad.prior_compliance.pop();
+    let e = plan_measurements(&chain, &model, &PlanSpec::default(), &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("prior compliance"), "{e}");
+}
