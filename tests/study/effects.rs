@@ -10,7 +10,7 @@ use vjm::{jacobian, SerialChain, SpringAxis, VirtualJointModel};
 /// largest torques on every arm of the study.
 pub const EFFECT_JOINT: usize = 1;
 
-/// One hidden effect with its magnitude in the unit printed by [`Hidden::magnitude`].
+/// One hidden effect with its magnitude (with its unit: [`Hidden::magnitude`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Hidden {
     /// Nothing: the torsion-only truth.

@@ -184,7 +184,7 @@ def test_cli_identify_save_then_predict(saved, panda, tmp_path):
     lines = (saved / "p.csv").read_text().splitlines()
     header = lines[0].split(",")
     assert header[:7] == [f"q{j}" for j in range(1, 8)] and header[-1] == "identified"
-    rows = [l.split(",") for l in lines[1:]]
+    rows = [line.split(",") for line in lines[1:]]
     col = {h: i for i, h in enumerate(header)}
     model = StiffnessModel.load(saved / "m.json", panda)
     q = np.array([[float(r[col[f"q{j}"]]) for j in range(1, 8)] for r in rows])

@@ -39,7 +39,7 @@ def test_design_returns_a_typed_plan_that_is_a_measurement_file(robot, plan, tmp
     assert plan.rank == len(plan.combinations) == 15
     assert all(isinstance(c, vjm.PlannedCombination) and c.stderr > 0 for c in plan.combinations)
     assert plan.worst_stderr == max(c.stderr for c in plan.combinations)
-    lo = np.array([l for l, _ in robot.limits])
+    lo = np.array([lower for lower, _ in robot.limits])
     hi = np.array([h for _, h in robot.limits])
     assert np.all(plan.q >= lo + 0.1 - 1e-12) and np.all(plan.q <= hi - 0.1 + 1e-12)
     # Fill in dx, dy, dz (noise-free, a known truth): a valid file the identification reads and

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import Any, List, Optional, Tuple
+from typing import Any
 
 import numpy as np
 
