@@ -1,5 +1,5 @@
 //! Bindings of the uses of a VJM model: compensation (`vjm::compensate`) and measurement
-//! planning (`vjm::plan_measurements`). Every batch runs in Rust with the GIL released.
+//! planning (`vjm::design`). Every batch runs in Rust with the GIL released.
 
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
@@ -196,7 +196,7 @@ pub fn vjm_design(
     spec.force = force;
     spec.moment = moment;
     let noise = NoiseModel::testbed(&model);
-    let plan = run(py, || vjm::plan_measurements(chain, &model, &spec, &noise))?.py()?;
+    let plan = run(py, || vjm::design(chain, &model, &spec, &noise))?.py()?;
     serde_json::to_string(&plan)
         .map_err(|e| crate::errors::internal_error(format!("cannot serialise the plan: {e}")))
 }

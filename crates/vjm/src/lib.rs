@@ -65,9 +65,7 @@ pub use compensate::{
     compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
     CompensationStatus, CompensationWorkspace,
 };
-pub use design::plan::{
-    plan_measurements, predicted_stderr, NoiseModel, Plan, PlanSpec, PlannedCombination,
-};
+pub use design::plan::{design, predicted_stderr, NoiseModel, Plan, PlanSpec, PlannedCombination};
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
 pub use hashing::{kinematics_sha256, sha256_hex};

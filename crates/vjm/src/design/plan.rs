@@ -50,7 +50,7 @@ impl NoiseModel {
     }
 }
 
-/// What [`plan_measurements`] is asked for. Defaults: 24 poses × 4 wrenches, forces of 80 N
+/// What [`design`] is asked for. Defaults: 24 poses × 4 wrenches, forces of 80 N
 /// and moments of 3 N·m (the testbed campaign's largest), poses 0.1 rad inside the limits and
 /// away from singularities (the testbed's filters), a pool of 300 candidate poses.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -103,7 +103,7 @@ pub struct PlannedCombination {
     pub stderr: f64,
 }
 
-/// The result of [`plan_measurements`].
+/// The result of [`design`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Plan {
     /// Joint positions per measurement row, rows×n row-major, rad.
@@ -424,7 +424,7 @@ fn check_spec(spec: &PlanSpec) -> Result<(), VjmError> {
 /// under `noise` — the sum of their logarithms until every combination is determined, then the
 /// largest (minimax). Returns the rows and the predicted standard error of every combination,
 /// as [`crate::identify`] (defaults) would estimate it from the planned rows.
-pub fn plan_measurements(
+pub fn design(
     chain: &SerialChain,
     model: &VirtualJointModel,
     spec: &PlanSpec,

@@ -3,14 +3,14 @@
 
 use vjm::testbed::{simulate, simulate_at, CampaignSpec, TrueModel};
 use vjm::{
-    identify, plan_measurements, predicted_stderr, IdentifyOptions, NoiseModel, Plan, PlanSpec,
-    SerialChain, VirtualJointModel,
+    design, identify, predicted_stderr, IdentifyOptions, NoiseModel, Plan, PlanSpec, SerialChain,
+    VirtualJointModel,
 };
 
 fn default_plan() -> (SerialChain, VirtualJointModel, Plan) {
     let chain = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
-    let plan = plan_measurements(
+    let plan = design(
         &chain,
         &model,
         &PlanSpec::default(),
@@ -158,32 +158,32 @@ fn plan_errors_name_the_option() {
     let noise = NoiseModel::testbed(&model);
     let mut spec = PlanSpec::default();
     spec.n_poses = 0;
-    let e = plan_measurements(&chain, &model, &spec, &noise)
+    let e = design(&chain, &model, &spec, &noise)
         .unwrap_err()
         .to_string();
     assert!(e.contains("poses"), "{e}");
     let mut spec = PlanSpec::default();
     spec.limit_margin = f64::NAN;
-    let e = plan_measurements(&chain, &model, &spec, &noise)
+    let e = design(&chain, &model, &spec, &noise)
         .unwrap_err()
         .to_string();
     assert!(e.contains("margin"), "{e}");
     let mut spec = PlanSpec::default();
     spec.limit_margin = 2.0;
-    let e = plan_measurements(&chain, &model, &spec, &noise)
+    let e = design(&chain, &model, &spec, &noise)
         .unwrap_err()
         .to_string();
     assert!(e.contains("margin") && e.contains("panda_joint2"), "{e}");
     let mut spec = PlanSpec::default();
     spec.min_tip_height = 5.0;
     spec.pool_size = 30;
-    let e = plan_measurements(&chain, &model, &spec, &noise)
+    let e = design(&chain, &model, &spec, &noise)
         .unwrap_err()
         .to_string();
     assert!(e.contains("acceptable poses"), "{e}");
     let mut bad = noise.clone();
     bad.prior_compliance.pop();
-    let e = plan_measurements(&chain, &model, &PlanSpec::default(), &bad)
+    let e = design(&chain, &model, &PlanSpec::default(), &bad)
         .unwrap_err()
         .to_string();
     assert!(e.contains("prior compliance"), "{e}");
