@@ -145,20 +145,7 @@ pub fn select_configurations(
         infos.push(info);
     }
     let total: DMatrix<f64> = infos.iter().fold(DMatrix::zeros(m, m), |a, b| a + b);
-    // Column norms for scaling; a column of pure rounding (a torsion about an axis through
-    // the tip point) is zeroed rather than blown up to unit norm (see lsq::SolveOptions).
-    let norms: Vec<f64> = (0..m).map(|k| total[(k, k)].max(0.0).sqrt()).collect();
-    let nmax = norms.iter().copied().fold(0.0, f64::max);
-    let scale: Vec<f64> = norms
-        .iter()
-        .map(|&s| {
-            if s > crate::lsq::ZERO_COLUMN_RTOL * nmax {
-                1.0 / s
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let scale = column_scale(&total);
     let scaled = |a: &DMatrix<f64>| DMatrix::from_fn(m, m, |i, j| a[(i, j)] * scale[i] * scale[j]);
     let eig = symmetric_eigen(
         scaled(&total),
@@ -240,6 +227,26 @@ pub fn select_configurations(
         pool_condition_number: cond(&pool_reduced),
         rank: r,
     })
+}
+
+/// Per-parameter scaling `1/‖column‖` from an information matrix `AᵀA` (its diagonal holds the
+/// squared column norms). A column of pure rounding (a torsion about an axis through the tip
+/// point) gets 0 rather than being blown up to unit norm, the rule of `lsq::ZERO_COLUMN_RTOL`.
+pub(crate) fn column_scale(info: &DMatrix<f64>) -> Vec<f64> {
+    let norms: Vec<f64> = (0..info.nrows())
+        .map(|k| info[(k, k)].max(0.0).sqrt())
+        .collect();
+    let nmax = norms.iter().copied().fold(0.0, f64::max);
+    norms
+        .iter()
+        .map(|&s| {
+            if s > crate::lsq::ZERO_COLUMN_RTOL * nmax {
+                1.0 / s
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// Capped symmetric eigen-decomposition (nalgebra's own loops forever on NaN).

@@ -266,18 +266,7 @@ fn scaled_eigen(
     info: &DMatrix<f64>,
 ) -> Result<(Vec<f64>, SymmetricEigen<f64, nalgebra::Dyn>), VjmError> {
     let m = info.nrows();
-    let norms: Vec<f64> = (0..m).map(|k| info[(k, k)].max(0.0).sqrt()).collect();
-    let nmax = norms.iter().copied().fold(0.0, f64::max);
-    let scale: Vec<f64> = norms
-        .iter()
-        .map(|&s| {
-            if s > crate::lsq::ZERO_COLUMN_RTOL * nmax {
-                1.0 / s
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let scale = super::column_scale(info);
     let scaled = DMatrix::from_fn(m, m, |a, b| info[(a, b)] * scale[a] * scale[b]);
     let eig = super::symmetric_eigen(scaled, "eigen-decomposition of the scaled information")?;
     Ok((scale, eig))
