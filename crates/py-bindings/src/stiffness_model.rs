@@ -81,6 +81,42 @@ impl PyStiffnessModel {
         self.model.measurement_stddev().to_vec()
     }
 
+    /// Corrected joint targets for q (N, n) under wrench (N, 6) or a payload
+    /// `(mass, [cx, cy, cz])`, with this model's springs and compliances: `(q, rows, status)`
+    /// as `vjm_compensate`. `match_orientation` defaults to whether the model has rotations.
+    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true))]
+    #[allow(clippy::too_many_arguments)]
+    fn compensate<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+        wrench: Option<PyReadonlyArrayDyn<'py, f64>>,
+        payload: Option<(f64, [f64; 3])>,
+        match_orientation: Option<bool>,
+        with_kc: bool,
+        max_iterations: usize,
+        position_tol: f64,
+        rotation_tol: f64,
+        check_limits: bool,
+    ) -> PyResult<crate::use_model::CompensationArrays<'py>> {
+        let n = self.chain.n_joints();
+        let q = batch(&q, "q", &[n])?;
+        let w = wrench
+            .as_ref()
+            .map(|w| batch(w, "wrench", &[6]))
+            .transpose()?;
+        let load = crate::use_model::load_of(&q, w.as_ref(), payload)?;
+        let opts = crate::use_model::ModelCompensation {
+            match_orientation,
+            with_kc,
+            max_iterations,
+            position_tol,
+            rotation_tol,
+            check_limits,
+        };
+        crate::use_model::compensate_with_model(py, &self.model, &self.chain, &q.data, load, &opts)
+    }
+
     /// Predictions for q (N, n) under wrench (N, 6) or a payload `(mass, cx, cy, cz)`.
     /// Returns a dict of arrays: deflection (N, 6), stddev (N, 6), wrench (N, 6),
     /// identified (N,), excitation (N,).

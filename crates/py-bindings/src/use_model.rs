@@ -66,14 +66,14 @@ pub fn vjm_compensate<'py>(
 }
 
 /// `(q, rows, status)` as returned to Python.
-type CompensationArrays<'py> = (
+pub(crate) type CompensationArrays<'py> = (
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<f64>>,
     Vec<&'static str>,
 );
 
 /// The load from exactly one of a wrench array (as many rows as `q`) and a payload.
-fn load_of<'a>(
+pub(crate) fn load_of<'a>(
     q: &Rows<'_>,
     w: Option<&'a Rows<'a>>,
     payload: Option<(f64, [f64; 3])>,
@@ -157,15 +157,47 @@ pub fn vjm_compensate_model_file<'py>(
     };
     let load = load_of(&q, w.as_ref(), payload)?;
     let model = run(py, || vjm::StiffnessModel::load(path, chain))?.py()?;
+    let opts = ModelCompensation {
+        match_orientation,
+        with_kc,
+        max_iterations,
+        position_tol,
+        rotation_tol,
+        check_limits,
+    };
+    compensate_with_model(py, &model, chain, &q.data, load, &opts)
+}
+
+/// The options of a compensation through a stiffness model (Python keywords).
+pub(crate) struct ModelCompensation {
+    pub match_orientation: Option<bool>,
+    pub with_kc: bool,
+    pub max_iterations: usize,
+    pub position_tol: f64,
+    pub rotation_tol: f64,
+    pub check_limits: bool,
+}
+
+/// Compensation through `model` (its springs and compliances; its robot checked against
+/// `chain`): the one path of `vjm_compensate_model_file` and `StiffnessModel.compensate`.
+/// `match_orientation` defaults to whether the model has rotations.
+pub(crate) fn compensate_with_model<'py>(
+    py: Python<'py>,
+    model: &vjm::StiffnessModel,
+    chain: &vjm::SerialChain,
+    q: &[f64],
+    load: Load<'_>,
+    o: &ModelCompensation,
+) -> PyResult<CompensationArrays<'py>> {
     let mut opts = CompensateOptions::default();
-    opts.match_orientation = match_orientation.unwrap_or(model.has_rotations());
-    opts.with_kc = with_kc;
-    opts.max_iterations = max_iterations;
-    opts.position_tol = position_tol;
-    opts.rotation_tol = rotation_tol;
-    opts.check_limits = check_limits;
-    let out = run(py, || model.compensate(chain, &q.data, load, &opts))?.py()?;
-    arrays(py, out, n)
+    opts.match_orientation = o.match_orientation.unwrap_or(model.has_rotations());
+    opts.with_kc = o.with_kc;
+    opts.max_iterations = o.max_iterations;
+    opts.position_tol = o.position_tol;
+    opts.rotation_tol = o.rotation_tol;
+    opts.check_limits = o.check_limits;
+    let out = run(py, || model.compensate(chain, q, load, &opts))?.py()?;
+    arrays(py, out, chain.n_joints())
 }
 
 /// Plans a VJM campaign (JSON of `vjm::Plan`): `poses` poses × `wrenches_per_pose` wrenches,

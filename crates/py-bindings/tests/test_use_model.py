@@ -167,3 +167,21 @@ def test_cli_compensate_with_a_saved_model(robot, plan, tmp_path):
     proc = run_cli(["compensate", "vjm", "model.json", "traj.csv", "--tip", "panda_hand_tcp", "--out", "c2.csv"],
                    cwd=tmp_path)
     assert proc.returncode == 1 and "another robot" in proc.stderr and not (tmp_path / "c2.csv").exists()
+
+
+def test_stiffness_model_compensate_is_the_model_file_compensation(robot, plan, tmp_path):
+    # One concept, one name: StiffnessModel.compensate (Python) = StiffnessModel::compensate
+    # (Rust) = `compensate vjm MODEL.json` = vjm.compensate_with_model_file on the saved file.
+    camp = vjm.simulate(robot, [], n_poses=16, wrenches_per_pose=4, seed=8)
+    m = camp.measurements
+    ident = robot.identify(m.q, m.wrench, m.displacement, model="extended")
+    ident.save(tmp_path / "model.json")
+    model = ident.stiffness_model
+    a = model.compensate(plan.q, payload=(5.0, 0.0, 0.0, 0.1))
+    b = vjm.compensate_with_model_file(robot, str(tmp_path / "model.json"), plan.q, payload=(5.0, 0.0, 0.0, 0.1))
+    assert a.status == b.status and all(s == "converged" for s in a.status)
+    np.testing.assert_array_equal(a.q, b.q)
+    # The corrected targets differ from the nominal ones by the deflection's worth (rad).
+    assert np.max(np.abs(a.q - plan.q)) > 1e-5
+    with pytest.raises(StiffnessError, match="payload"):
+        model.compensate(plan.q, payload=(math.nan,))

@@ -264,3 +264,15 @@ class StiffnessModel:
         wrench: Optional[_F64] = None,
         payload: Optional[Tuple[float, float, float, float]] = None,
     ) -> Dict[str, Any]: ...
+    def compensate(
+        self,
+        q: _F64,
+        wrench: Optional[_F64] = None,
+        payload: Optional[Tuple[float, Sequence[float]]] = None,
+        match_orientation: Optional[bool] = None,
+        with_kc: bool = True,
+        max_iterations: int = 50,
+        position_tol: float = 1e-9,
+        rotation_tol: float = 1e-9,
+        check_limits: bool = True,
+    ) -> Tuple[_F64, _F64, List[str]]: ...

@@ -38,6 +38,7 @@ from . import _core
 from ._arguments import checked, real
 from ._arrays import f64
 from ._errors import InvalidValueError
+from ._use_model import Compensation, _compensation, _q_and_wrench
 
 if TYPE_CHECKING:  # pragma: no cover
     from .vjm import Robot
@@ -195,6 +196,32 @@ class StiffnessModel:
             identified=d["identified"],
             excitation=d["excitation"],
         )
+
+    @checked
+    def compensate(
+        self,
+        q: Any,
+        wrench: Any = None,
+        payload: Optional[Payload] = None,
+        match_orientation: Optional[bool] = None,
+        with_kc: bool = True,
+    ) -> Compensation:
+        """Corrected joint targets so that the tip, loaded, reaches where the nominal targets
+        put it unloaded — :func:`robot_stiffness.vjm.compensate` with this model's springs and
+        compliances (the same concept as ``robot-stiffness compensate vjm MODEL.json``).
+
+        ``q``: nominal targets in rad, (n,) or (N, n). The load as for :meth:`predict`.
+        ``match_orientation`` defaults to whether the model was identified with rotations;
+        ``with_kc`` includes the complementary stiffness K_C. See ``docs/use-the-model.md``.
+        """
+        arr, w = _q_and_wrench(q, wrench)
+        p = None
+        if payload is not None:
+            mass, cx, cy, cz = _payload(payload)
+            p = (mass, [cx, cy, cz])
+        out = self._inner.compensate(arr, wrench=w, payload=p, match_orientation=match_orientation,
+                                     with_kc=bool(with_kc))
+        return _compensation(*out)
 
     def __repr__(self) -> str:
         return repr(self._inner)
