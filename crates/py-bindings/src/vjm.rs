@@ -333,10 +333,18 @@ impl PyRobot {
             check_rows(q.rows, &[("rotation", r.rows)])?;
         }
         // The same checks as a measurement file (units, magnitudes, information, joint limits):
-        // the Python API must not accept what the command line refuses.
-        vjm::dataset::check_values(n, &q.data, &w.data, &d.data, r.as_ref().map(|r| &*r.data))
-            .map_err(crate::errors::IntoPyErr::into_py_err)?;
-        if !a.allow_outside_limits {
+        // the Python API must not accept what the command line refuses. A non-finite value is
+        // left to identify's own check, which names the array, its row and column.
+        let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
+        let all_finite = finite(&q.data)
+            && finite(&w.data)
+            && finite(&d.data)
+            && r.as_ref().is_none_or(|r| finite(&r.data));
+        if all_finite {
+            vjm::dataset::check_values(n, &q.data, &w.data, &d.data, r.as_ref().map(|r| &*r.data))
+                .map_err(crate::errors::IntoPyErr::into_py_err)?;
+        }
+        if all_finite && !a.allow_outside_limits {
             vjm::dataset::check_joint_limits(&self.chain, &q.data)
                 .map_err(crate::errors::IntoPyErr::into_py_err)?;
         }
