@@ -6,10 +6,10 @@ use std::sync::Arc;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vjm::{Load, PointMass, SerialChain, StiffnessModel};
+use vjm::{SerialChain, StiffnessModel};
 
 use crate::convert::{batch, to_numpy, to_numpy_bool};
-use crate::errors::{run, value_error, PyResultExt};
+use crate::errors::{run, PyResultExt};
 use crate::vjm::{IdentifyArgs, PyRobot};
 
 /// A stiffness model bound to the robot it describes (immutable).
@@ -134,30 +134,8 @@ impl PyStiffnessModel {
             .as_ref()
             .map(|w| batch(w, "wrench", &[6]))
             .transpose()?;
-        let payload = payload
-            .map(|(mass, cx, cy, cz)| PointMass::new(mass, [cx, cy, cz]))
-            .transpose()
-            .py()?;
-        let load = match (&w, payload) {
-            (Some(w), None) => {
-                if w.rows != q.rows {
-                    return Err(crate::errors::shape_error(format!(
-                        "wrench has {} rows (dimension 0) but q has {}: one row per pose",
-                        w.rows, q.rows
-                    )));
-                }
-                Load::Wrench(&w.data)
-            }
-            (None, Some(p)) => Load::Payload(p),
-            (Some(_), Some(_)) => {
-                return Err(value_error("give either wrench or payload, not both"))
-            }
-            (None, None) => {
-                return Err(value_error(
-                    "a load is needed: wrench (N, 6) or payload (mass, cx, cy, cz)",
-                ))
-            }
-        };
+        let payload = payload.map(|(mass, cx, cy, cz)| (mass, [cx, cy, cz]));
+        let load = crate::use_model::load_of(&q, w.as_ref(), payload)?;
         let (model, chain) = (&self.model, &self.chain);
         let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
         let rows = pred.len();

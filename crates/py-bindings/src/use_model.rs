@@ -72,7 +72,8 @@ pub(crate) type CompensationArrays<'py> = (
     Vec<&'static str>,
 );
 
-/// The load from exactly one of a wrench array (as many rows as `q`) and a payload.
+/// The load from exactly one of a wrench array (as many rows as `q`) and a payload: the one
+/// parsing of prediction and compensation loads.
 pub(crate) fn load_of<'a>(
     q: &Rows<'_>,
     w: Option<&'a Rows<'a>>,
@@ -89,16 +90,21 @@ pub(crate) fn load_of<'a>(
         (Some(w), None) => {
             if w.rows != q.rows {
                 return Err(crate::errors::shape_error(format!(
-                    "wrench has {} rows (dimension 0) but q has {}: one row per target",
+                    "wrench has {} rows (dimension 0) but q has {}: one row per configuration",
                     w.rows, q.rows
                 )));
             }
             Load::Wrench(&w.data)
         }
         (None, Some(pm)) => Load::Payload(pm),
-        _ => {
+        (Some(_), Some(_)) => {
             return Err(value_error(
-                "give exactly one of wrench (N, 6) and payload (mass, [cx, cy, cz])",
+                "give exactly one of wrench (N, 6) and payload (mass, cx, cy, cz), not both",
+            ))
+        }
+        (None, None) => {
+            return Err(value_error(
+                "a load is needed: exactly one of wrench (N, 6) and payload (mass, cx, cy, cz)",
             ))
         }
     };
