@@ -34,6 +34,8 @@
 
 pub mod cancel;
 pub mod decompose;
+pub mod engine;
+pub mod lsq;
 mod fast_math;
 pub mod so3;
 mod so3_error;
