@@ -15,7 +15,7 @@ use crate::vjm_data::dataset_from_arrays;
 /// `progress`, when given, is called as `progress(stage, done, total)` on the calling thread;
 /// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false))]
+#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false, tracker_sigma = None, force_sigma = None, moment_sigma = None, per_row = true))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_diagnose<'py>(
     py: Python<'py>,
@@ -33,14 +33,33 @@ pub fn vjm_diagnose<'py>(
     max_findings: Option<usize>,
     progress: Option<Py<PyAny>>,
     allow_outside_limits: bool,
+    tracker_sigma: Option<f64>,
+    force_sigma: Option<f64>,
+    moment_sigma: Option<f64>,
+    per_row: bool,
 ) -> PyResult<String> {
     let chain = &robot.chain;
     let n = chain.n_joints();
     let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
     let mut opts = DiagnoseOptions {
         allow_outside_limits,
+        per_row,
         ..DiagnoseOptions::default()
     };
+    // A noise level given by the user makes it known (the verdict adds the goodness of fit);
+    // levels not given keep the default assumption.
+    if let Some(v) = tracker_sigma {
+        opts.noise.displacement_sigma = v;
+        opts.noise_known = true;
+    }
+    if let Some(v) = force_sigma {
+        opts.noise.wrench_sigma[..3].fill(v);
+        opts.noise_known = true;
+    }
+    if let Some(v) = moment_sigma {
+        opts.noise.wrench_sigma[3..].fill(v);
+        opts.noise_known = true;
+    }
     if let Some(b) = &baseline {
         opts.baseline = Some(parse_model(n, b)?);
     }

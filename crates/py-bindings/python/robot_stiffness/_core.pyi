@@ -196,6 +196,10 @@ def vjm_diagnose(
     max_findings: Optional[int] = None,
     progress: Optional[Callable[[str, int, int], Any]] = None,
     allow_outside_limits: bool = False,
+    tracker_sigma: Optional[float] = None,
+    force_sigma: Optional[float] = None,
+    moment_sigma: Optional[float] = None,
+    per_row: bool = True,
 ) -> str: ...
 
 @final

@@ -261,6 +261,10 @@ def diagnose(
     max_findings: Optional[int] = None,
     progress: Optional[ProgressCallback] = None,
     allow_outside_limits: bool = False,
+    tracker_sigma: Optional[float] = None,
+    force_sigma: Optional[float] = None,
+    moment_sigma: Optional[float] = None,
+    per_row: bool = True,
 ) -> Diagnosis:
     """Show what the baseline model gets wrong on ``data``, name the cause, extend the model
     and measure the gain on held-out rows.
@@ -272,6 +276,12 @@ def diagnose(
     ``progress(stage, done, total)`` is called during long runs; an exception it raises stops
     the run and propagates (so does Ctrl-C). Joint angles outside the robot's limits are refused
     (naming row and joint) unless ``allow_outside_limits=True``.
+
+    ``tracker_sigma`` (m), ``force_sigma`` (N) and ``moment_sigma`` (N·m) are the instruments'
+    per-axis noise standard deviations. Given, they are taken as the true noise level and the
+    verdict adds a χ² goodness-of-fit test; not given, a default assumption sets only the relative
+    weights and ``unexplained`` rests on the lack-of-fit test, which needs no noise level.
+    ``per_row=False`` leaves out the per-row predictions (large campaigns).
     """
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
@@ -279,7 +289,7 @@ def diagnose(
     blame = contextlib.nullcontext() if isinstance(data, (str, os.PathLike)) else blame_rows()
     with blame:
         text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
-                            bool(allow_outside_limits))
+                              bool(allow_outside_limits), tracker_sigma, force_sigma, moment_sigma, bool(per_row))
     raw = json.loads(text)
     return Diagnosis(
         baseline=raw["baseline"],
@@ -293,7 +303,9 @@ def diagnose(
 
 def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
                    split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback],
-                   allow_outside_limits: bool = False) -> str:
+                   allow_outside_limits: bool = False, tracker_sigma: Optional[float] = None,
+                   force_sigma: Optional[float] = None, moment_sigma: Optional[float] = None,
+                   per_row: bool = True) -> str:
     return str(_core.vjm_diagnose(
         robot._inner,
         f64(m.q, "q"),
@@ -309,6 +321,10 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
         max_findings=max_findings,
         progress=progress,
         allow_outside_limits=allow_outside_limits,
+        tracker_sigma=tracker_sigma,
+        force_sigma=force_sigma,
+        moment_sigma=moment_sigma,
+        per_row=per_row,
     ))
 
 

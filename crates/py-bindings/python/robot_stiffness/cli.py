@@ -384,6 +384,9 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             split_seed=args.split_seed,
             progress=_progress(show),
             allow_outside_limits=getattr(args, "allow_outside_limits", False),
+            tracker_sigma=getattr(args, "tracker_sigma", None),
+            force_sigma=getattr(args, "force_sigma", None),
+            moment_sigma=getattr(args, "moment_sigma", None),
         )
     finally:
         if show:
@@ -634,6 +637,13 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("--allow-outside-limits", action="store_true",
                     help="accept joint angles outside the URDF limits (refused by default: degrees or a wrong "
                     "joint order?)")
+    dv.add_argument("--tracker-sigma", type=T.positive_float(0.01, "m"), default=None, metavar="M",
+                    help="the tracker's per-axis displacement noise, m, at most 0.01 (given: the verdict adds a "
+                    "goodness-of-fit test against it; not given: it rests on the lack-of-fit test alone)")
+    dv.add_argument("--force-sigma", type=T.nonnegative_float(1e3, "N"), default=None, metavar="N",
+                    help="the force sensor's per-axis noise, N, at most 1000")
+    dv.add_argument("--moment-sigma", type=T.nonnegative_float(1e2, "N·m"), default=None, metavar="NM",
+                    help="the force sensor's per-axis moment noise, N·m, at most 100")
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
         "csjm",

@@ -205,17 +205,29 @@ fn scale3(v: [f64; 3], a: f64) -> [f64; 3] {
     [v[0] * a, v[1] * a, v[2] * a]
 }
 
-/// `J_t C Jᵀ` (3×6) of a row for compliances `c` (3n).
-pub fn compliance_map(row: &RowKinematics, c: &[f64]) -> DMatrix<f64> {
-    let m = c.len();
-    let jt = row.jacobian.rows(0, 3);
-    let mut jc = DMatrix::zeros(3, m);
-    for s in 0..m {
+/// `J_t C Jᵀ` (3×6) of a row for compliances `c` (3n): `Σ_s c_s J_t[:, s] J[:, s]ᵀ`, summed
+/// over the springs with a non-zero compliance only (no allocation).
+pub fn compliance_map3x6(row: &RowKinematics, c: &[f64]) -> nalgebra::Matrix3x6<f64> {
+    let mut g = nalgebra::Matrix3x6::zeros();
+    let j = &row.jacobian;
+    for (s, &cs) in c.iter().enumerate() {
+        if cs == 0.0 {
+            continue;
+        }
         for r in 0..3 {
-            jc[(r, s)] = jt[(r, s)] * c[s];
+            let a = cs * j[(r, s)];
+            for k in 0..6 {
+                g[(r, k)] += a * j[(k, s)];
+            }
         }
     }
-    jc * row.jacobian.transpose()
+    g
+}
+
+/// [`compliance_map3x6`] as a dynamic matrix.
+pub fn compliance_map(row: &RowKinematics, c: &[f64]) -> DMatrix<f64> {
+    let g = compliance_map3x6(row, c);
+    DMatrix::from_fn(3, 6, |r, k| g[(r, k)])
 }
 
 /// The raw (unwhitened) 3-vector of spring `s` (index into the 3n springs) for a row:
@@ -282,7 +294,7 @@ pub fn candidate_columns(
             out.push(scale3(col3(&row.jacobian, 3 * joint), 0.5 * sg));
         }
         Candidate::WrenchBias => {
-            let g = compliance_map(row, &lin.compliance);
+            let g = compliance_map3x6(row, &lin.compliance);
             out.extend((0..6).map(|k| [-g[(0, k)], -g[(1, k)], -g[(2, k)]]));
         }
         Candidate::FrameMisalignment => {

@@ -43,6 +43,7 @@
 //! ```
 
 pub mod candidates;
+mod final_pass;
 pub mod problem;
 pub mod report;
 pub mod rows;
@@ -356,7 +357,7 @@ fn prepare<'a>(
         Whitening {
             displacement_sigma: opts.noise.displacement_sigma,
             wrench_sigma: [0.0; 6],
-            propagate: zeros.clone(),
+            propagate_abs: zeros.clone(),
         },
         opts.noise.wrench_sigma,
         cancel.clone(),
@@ -374,7 +375,7 @@ fn prepare<'a>(
     let problem = pre_problem.with_whitening(Whitening {
         displacement_sigma: opts.noise.displacement_sigma,
         wrench_sigma: opts.noise.wrench_sigma,
-        propagate: c_pre.clone(),
+        propagate_abs: c_pre.iter().map(|v| v.abs()).collect(),
     });
     let base_fit = fit::fit(&problem, &base_terms, &Linearisation { compliance: c_pre })?;
     Ok(Prepared {
@@ -681,78 +682,64 @@ fn run_diagnosis(
         })
         .collect();
 
-    // The final pass: per-row predictions of both fits (one more pass when the extended
-    // model was re-linearised elsewhere), and the rows kept for the structure statistics.
+    // The final pass: relative errors, per-pose errors, the structure sample and (on request)
+    // the per-row predictions of both fits; one more pass when the extended model was
+    // re-linearised elsewhere.
     progress(Progress {
         stage: "residuals",
         done: 0,
         total: 1,
     });
     let n_rows = data.len();
-    let mut pred_base = vec![[0.0; 3]; n_rows];
-    let mut pred_ext = vec![[0.0; 3]; n_rows];
-    let mut sigma_axis = vec![[0.0; 3]; n_rows];
-    let n_train = labels.iter().filter(|l| **l == SetLabel::Train).count();
-    let stride = n_train.div_ceil(STRUCTURE_ROWS).max(1);
-    let mut sample: Vec<RowKinematics> = Vec::new();
-    let mut sample_index: Vec<usize> = Vec::new();
+    let stride = n_rows.div_ceil(STRUCTURE_ROWS).max(1);
     let same_lin = ext_fit.lin == base_fit.lin;
-    let mut train_seen = 0usize;
-    problem.for_each_row(&base_fit.lin, |i, row, _, sigma, cols| {
-        pred_base[i] = problem.predict(&base_fit, cols);
-        if same_lin {
-            pred_ext[i] = problem.predict(&ext_fit, cols);
-        }
-        sigma_axis[i] = *sigma;
-        if labels[i] == SetLabel::Train {
-            if train_seen % stride == 0 {
-                sample.push(row.clone());
-                sample_index.push(i);
-            }
-            train_seen += 1;
-        }
-    })?;
-    if !same_lin {
-        problem.for_each_row(&ext_fit.lin, |i, _, _, _, cols| {
-            pred_ext[i] = problem.predict(&ext_fit, cols);
-        })?;
-    }
-    let residuals_of = |pred: &[[f64; 3]]| -> Vec<[f64; 3]> {
-        sample_index
-            .iter()
-            .map(|&i| {
-                let d = data.displacement(i);
-                let p = pred[i];
-                [d[0] - p[0], d[1] - p[1], d[2] - p[2]]
-            })
-            .collect()
+    let fits: Vec<&Fit<Term, Linearisation>> = if same_lin {
+        vec![&base_fit, &ext_fit]
+    } else {
+        vec![&base_fit]
     };
+    let mut pass = final_pass::predictions_pass(&problem, &base_fit.lin, &fits, stride, opts.per_row)?;
+    let ext_totals = if same_lin {
+        pass.fits.pop().expect("two fits")
+    } else {
+        final_pass::predictions_pass(&problem, &ext_fit.lin, &[&ext_fit], stride, opts.per_row)?
+            .fits
+            .pop()
+            .expect("one fit")
+    };
+    let base_totals = pass.fits.pop().expect("the baseline");
+    let sample: Vec<RowKinematics> = pass.sample.iter().map(|(r, _)| r.clone()).collect();
+    let sample_sigma: Vec<[f64; 3]> = pass.sample.iter().map(|(_, s)| *s).collect();
     let sample_rows: Vec<usize> = (0..sample.len()).collect();
-    let sample_sigma: Vec<[f64; 3]> = sample_index.iter().map(|&i| sigma_axis[i]).collect();
-    let sample_groups: Vec<usize> = sample_index.iter().map(|&i| groups[i]).collect();
+    // The sampled rows' pose groups, in sample order (the sample is in row order).
+    let sample_groups: Vec<usize> = (0..n_rows)
+        .filter(|&i| labels[i] == SetLabel::Train && i % stride == 0)
+        .map(|i| groups[i])
+        .collect();
     let struct_base = residual_structure(
         &sample,
         &sample_rows,
-        &residuals_of(&pred_base),
+        &base_totals.sample_residuals,
         &sample_sigma,
         &sample_groups,
     );
     let struct_ext = residual_structure(
         &sample,
         &sample_rows,
-        &residuals_of(&pred_ext),
+        &ext_totals.sample_residuals,
         &sample_sigma,
         &sample_groups,
     );
-
-    let train_rows: Vec<usize> = (0..n_rows).filter(|&i| labels[i] == SetLabel::Train).collect();
-    let test_rows: Vec<usize> = (0..n_rows).filter(|&i| labels[i] == SetLabel::Test).collect();
-    let summary = |fit: &Fit<Term, Linearisation>, pred: &[[f64; 3]], name: String| ModelSummary {
-        model: name,
-        n_params: fit.n_params(),
-        test_mean_rel_error: mean_rel_error(data, pred, &test_rows),
-        train_mean_rel_error: mean_rel_error(data, pred, &train_rows),
-        parameters: parameters(&problem, fit),
+    let n_train = labels.iter().filter(|l| **l == SetLabel::Train).count();
+    let n_test = n_rows - n_train;
+    let summary = |fit: &Fit<Term, Linearisation>, t: &final_pass::FitTotals, name: String| {
+        ModelSummary {
+            model: name,
+            n_params: fit.n_params(),
+            test_mean_rel_error: t.test.mean(),
+            train_mean_rel_error: t.train.mean(),
+            parameters: parameters(&problem, fit),
+        }
     };
     let base_name = baseline_model.name().to_string();
     let ext_name = if findings.is_empty() {
@@ -765,24 +752,22 @@ fn run_diagnosis(
         }
         s
     };
-    let baseline = summary(&base_fit, &pred_base, base_name);
-    let extended = summary(&ext_fit, &pred_ext, ext_name);
+    let baseline = summary(&base_fit, &base_totals, base_name);
+    let extended = summary(&ext_fit, &ext_totals, ext_name);
     let gain = 1.0 - extended.test_mean_rel_error / baseline.test_mean_rel_error;
 
     // Per-pose errors and per-row results for the report.
-    let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
-    let mut pose_rows: Vec<Vec<usize>> = vec![Vec::new(); n_groups];
-    for (i, g) in groups.iter().enumerate() {
-        pose_rows[*g].push(i);
-    }
-    let per_pose: Vec<PoseError> = pose_rows
+    let per_pose: Vec<PoseError> = pass
+        .first_row
         .iter()
-        .filter(|rows| !rows.is_empty())
-        .map(|rows| PoseError {
-            pose: pose_id(rows[0]),
-            set: labels[rows[0]],
-            baseline: mean_rel_error(data, &pred_base, rows),
-            extended: mean_rel_error(data, &pred_ext, rows),
+        .enumerate()
+        .filter_map(|(g, first)| {
+            first.map(|i| PoseError {
+                pose: pose_id(i),
+                set: labels[i],
+                baseline: base_totals.per_pose[g].mean(),
+                extended: ext_totals.per_pose[g].mean(),
+            })
         })
         .collect();
     let rows = if opts.per_row {
@@ -791,8 +776,8 @@ fn run_diagnosis(
                 pose: pose_id(i),
                 set: labels[i],
                 measured: data.displacement(i),
-                baseline: pred_base[i],
-                extended: pred_ext[i],
+                baseline: base_totals.predictions[i],
+                extended: ext_totals.predictions[i],
             })
             .collect()
     } else {
@@ -827,8 +812,8 @@ fn run_diagnosis(
             .collect(),
         per_pose,
         rows,
-        n_train: train_rows.len(),
-        n_test: test_rows.len(),
+        n_train,
+        n_test,
         fdr: opts.fdr,
     })
 }
@@ -858,27 +843,6 @@ fn remaining_in_words(v: &VerdictTests) -> String {
                 lof.p_value
             ),
         },
-    }
-}
-
-/// Mean relative translation error ‖d_pred − d‖/‖d‖ over `rows`. Rows with zero measured
-/// displacement have no relative error (0/0); they are left out rather than counted as
-/// perfect. NaN when no row is left.
-fn mean_rel_error(data: &Dataset, pred: &[[f64; 3]], rows: &[usize]) -> f64 {
-    let (sum, count) = rows
-        .iter()
-        .filter_map(|&i| {
-            let d = data.displacement(i);
-            let p = pred[i];
-            let e = ((d[0] - p[0]).powi(2) + (d[1] - p[1]).powi(2) + (d[2] - p[2]).powi(2)).sqrt();
-            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            (n > 0.0).then_some(e / n)
-        })
-        .fold((0.0, 0usize), |(s, c), r| (s + r, c + 1));
-    if count == 0 {
-        f64::NAN
-    } else {
-        sum / count as f64
     }
 }
 

@@ -2,16 +2,15 @@
 //! catalogue candidates, lack-of-fit blocks), the whitening of each row, and the pass that
 //! compresses the whitened design.
 
-use std::cell::RefCell;
 use std::ops::Range;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use stiffness_core::engine::{Compressed, CompressedAccumulator, Fit, Problem, RowSet};
 use stiffness_core::{Cancel, Cancelled};
 
 use super::candidates::{
-    candidate_columns, compliance_map, spring_column, Alternative, Candidate, Linearisation,
+    candidate_columns, compliance_map3x6, spring_column, Alternative, Candidate, Linearisation,
     RowKinematics,
 };
 use super::rows::RowBuilder;
@@ -43,8 +42,8 @@ pub struct Whitening {
     pub displacement_sigma: f64,
     /// Per-axis wrench standard deviation, N and N·m.
     pub wrench_sigma: [f64; 6],
-    /// Compliances (3n) the wrench noise is propagated through.
-    pub propagate: Vec<f64>,
+    /// |compliance| (3n) the wrench noise is propagated through.
+    pub propagate_abs: Vec<f64>,
 }
 
 impl Whitening {
@@ -53,9 +52,7 @@ impl Whitening {
         let sd = self.displacement_sigma;
         let mut sigma = Matrix3::identity() * (sd * sd);
         if self.wrench_sigma.iter().any(|s| *s != 0.0) {
-            let cabs: Vec<f64> = self.propagate.iter().map(|v| v.abs()).collect();
-            let g = compliance_map(row, &cabs);
-            let g = nalgebra::Matrix3x6::from_fn(|r, k| g[(r, k)]);
+            let g = compliance_map3x6(row, &self.propagate_abs);
             let sw = Matrix6::from_diagonal(&nalgebra::Vector6::from_iterator(
                 self.wrench_sigma.iter().map(|s| s * s),
             ));
@@ -92,7 +89,7 @@ pub struct VjmProblem<'a> {
     alternatives: Vec<(Alternative, Range<usize>)>,
     m: usize,
     y: usize,
-    cache: RefCell<Vec<(Linearisation, Arc<Compressed>)>>,
+    cache: Mutex<Vec<(Linearisation, Arc<Compressed>)>>,
     pub(super) cancel: Cancel,
 }
 
@@ -142,7 +139,7 @@ impl<'a> VjmProblem<'a> {
             alternatives,
             m,
             y: next,
-            cache: RefCell::new(Vec::new()),
+            cache: Mutex::new(Vec::new()),
             cancel,
         }
     }
@@ -161,7 +158,7 @@ impl<'a> VjmProblem<'a> {
             alternatives: self.alternatives.clone(),
             m: self.m,
             y: self.y,
-            cache: RefCell::new(Vec::new()),
+            cache: Mutex::new(Vec::new()),
             cancel: self.cancel.clone(),
         }
     }
@@ -226,11 +223,21 @@ impl<'a> VjmProblem<'a> {
     pub fn for_each_row(
         &self,
         lin: &Linearisation,
+        visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
+    ) -> Result<(), Cancelled> {
+        self.for_each_row_in(lin, 0..self.data.len(), visit)
+    }
+
+    /// [`Self::for_each_row`] over the rows `range` only.
+    pub fn for_each_row_in(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
         mut visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
     ) -> Result<(), Cancelled> {
         let mut builder = self.builder();
         let mut cols = Vec::with_capacity(self.ncols());
-        for i in 0..self.data.len() {
+        for i in range {
             if i % CANCEL_EVERY == 0 {
                 self.cancel.check()?;
             }
@@ -241,7 +248,39 @@ impl<'a> VjmProblem<'a> {
         }
         Ok(())
     }
+
+    /// The compressed design of the rows `range` at `lin`.
+    fn compress_range(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+    ) -> Result<CompressedAccumulator, Cancelled> {
+        let p = self.ncols();
+        let mut acc = CompressedAccumulator::new(p);
+        let mut z = vec![[0.0; 3]; p];
+        let mut zrow = vec![0.0; p];
+        self.for_each_row_in(lin, range, |i, _, w, _, cols| {
+            for (zk, c) in z.iter_mut().zip(cols) {
+                let v = whiten(w, c);
+                *zk = [v.x, v.y, v.z];
+            }
+            let set = self.set_of(i);
+            for r in 0..3 {
+                for (dst, zk) in zrow.iter_mut().zip(&z) {
+                    *dst = zk[r];
+                }
+                acc.push(set, &zrow).expect("rows have the layout's width");
+            }
+        })?;
+        Ok(acc)
+    }
 }
+
+/// Rows below which a pass is not split over threads.
+const PARALLEL_ROWS: usize = 8192;
+/// The number of contiguous parts a large pass is split into, fixed (not the core count) so
+/// that the merged factors, hence every decision, are the same on every machine.
+const PARTS: usize = 2;
 
 fn whiten(w: &Matrix3<f64>, v: &[f64; 3]) -> Vector3<f64> {
     w * Vector3::new(v[0], v[1], v[2])
@@ -282,28 +321,41 @@ impl Problem for VjmProblem<'_> {
     }
 
     fn compress(&self, lin: &Linearisation) -> Result<Arc<Compressed>, Cancelled> {
-        if let Some((_, c)) = self.cache.borrow().iter().find(|(l, _)| l == lin) {
+        if let Some((_, c)) = self
+            .cache
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .find(|(l, _)| l == lin)
+        {
             return Ok(c.clone());
         }
-        let p = self.ncols();
-        let mut acc = CompressedAccumulator::new(p);
-        let mut z = vec![[0.0; 3]; p];
-        let mut zrow = vec![0.0; p];
-        self.for_each_row(lin, |i, _, w, _, cols| {
-            for (zk, c) in z.iter_mut().zip(cols) {
-                let v = whiten(w, c);
-                *zk = [v.x, v.y, v.z];
+        let n = self.data.len();
+        let acc = if n < PARALLEL_ROWS {
+            self.compress_range(lin, 0..n)?
+        } else {
+            let bounds: Vec<Range<usize>> = (0..PARTS)
+                .map(|k| k * n / PARTS..(k + 1) * n / PARTS)
+                .collect();
+            let parts: Vec<Result<CompressedAccumulator, Cancelled>> = std::thread::scope(|s| {
+                let handles: Vec<_> = bounds
+                    .iter()
+                    .map(|r| s.spawn(|| self.compress_range(lin, r.clone())))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            });
+            let mut it = parts.into_iter();
+            let mut acc = it.next().expect("PARTS ≥ 1")?;
+            for part in it {
+                acc.merge(part?).expect("parts have the same width");
             }
-            let set = self.set_of(i);
-            for r in 0..3 {
-                for (dst, zk) in zrow.iter_mut().zip(&z) {
-                    *dst = zk[r];
-                }
-                acc.push(set, &zrow).expect("rows have the layout's width");
-            }
-        })?;
+            acc
+        };
         let c = Arc::new(acc.finish());
-        let mut cache = self.cache.borrow_mut();
+        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if cache.len() >= CACHE {
             cache.remove(0);
         }
@@ -369,82 +421,127 @@ impl Problem for VjmProblem<'_> {
 
 /// The training design with a free offset per pose projected out (the per-pose-offset block
 /// of the lack-of-fit alternative, handled by its sufficient statistics instead of as G×3
-/// explicit columns): two passes, the first accumulating per pose `M_g = Σ WᵢᵀWᵢ` and
-/// `S_g = Σ Wᵢᵀ Zᵢ` (Zᵢ the 3×P whitened row block), the second folding the projected rows
-/// `Zᵢ − Wᵢ M_g⁻¹ S_g` into a triangular factor.
+/// explicit columns). One pass over contiguous runs of a pose's rows: per run, `M = Σ WᵢᵀWᵢ`
+/// and `S = Σ Wᵢᵀ Zᵢ` (Zᵢ the 3×P whitened row block), then the projected rows
+/// `Zᵢ − Wᵢ M⁻¹ S` are folded into a triangular factor. A pose whose rows are not
+/// contiguous in the file gets one offset per run (a drift between visits is then an offset
+/// too), and a run is cut every [`MAX_RUN`] rows so that memory stays bounded.
 #[derive(Debug, Clone)]
 pub struct WithinPose {
     /// R of the projected training design (P×P), every column of the layout and y.
     pub factor: stiffness_core::lsq::TriangularFactor,
-    /// Offsets projected out: 3 per training pose with a non-singular `M_g`.
+    /// Offsets projected out: 3 per run with a non-singular `M`.
     pub n_offsets: usize,
 }
+
+/// Longest run of rows given one offset.
+pub const MAX_RUN: usize = 4096;
 
 impl VjmProblem<'_> {
     /// The [`WithinPose`] factor at `lin`.
     pub fn within_pose(&self, lin: &Linearisation) -> Result<WithinPose, Cancelled> {
-        let p = self.ncols();
-        let n_groups = self.groups.iter().copied().max().map_or(0, |g| g + 1);
-        let mut m_g = vec![Matrix3::<f64>::zeros(); n_groups];
-        let mut s_g = vec![vec![Vector3::<f64>::zeros(); p]; n_groups];
-        let mut z = vec![Vector3::zeros(); p];
-        self.for_each_row(lin, |i, _, w, _, cols| {
-            if self.labels[i] != SetLabel::Train {
-                return;
-            }
-            let g = self.groups[i];
-            m_g[g] += w.transpose() * w;
-            for (k, c) in cols.iter().enumerate() {
-                z[k] = whiten(w, c);
-                s_g[g][k] += w.transpose() * z[k];
-            }
-        })?;
-        // B_g = M_g⁻¹ S_g (3×P per pose); a pose without training rows has M_g = 0 and no
-        // offset.
-        let mut n_offsets = 0;
-        let inv: Vec<Option<Matrix3<f64>>> = m_g
-            .iter()
-            .map(|m| {
-                let inv = if m.iter().all(|v| *v == 0.0) {
-                    None
-                } else {
-                    m.try_inverse()
-                };
-                if inv.is_some() {
-                    n_offsets += 3;
+        let n = self.data.len();
+        let parts = if n < PARALLEL_ROWS {
+            vec![0..n]
+        } else {
+            // Cut at a pose change, so that no run is split between parts.
+            let mut cuts = vec![0];
+            for k in 1..PARTS {
+                let mut b = k * n / PARTS;
+                while b < n && b > 0 && self.groups[b] == self.groups[b - 1] {
+                    b += 1;
                 }
-                inv
-            })
-            .collect();
-        let b_g: Vec<Vec<Vector3<f64>>> = s_g
-            .iter()
-            .zip(&inv)
-            .map(|(s, mi)| match mi {
-                Some(mi) => s.iter().map(|v| mi * v).collect(),
-                None => Vec::new(),
-            })
-            .collect();
-        let mut acc = stiffness_core::lsq::TriangularAccumulator::new(p);
-        let mut zrow = vec![0.0; p];
-        self.for_each_row(lin, |i, _, w, _, cols| {
-            if self.labels[i] != SetLabel::Train {
-                return;
+                cuts.push(b.max(*cuts.last().expect("non-empty")));
             }
-            let b = &b_g[self.groups[i]];
-            for (k, c) in cols.iter().enumerate() {
-                let v = whiten(w, c);
-                z[k] = if b.is_empty() { v } else { v - w * b[k] };
-            }
-            for r in 0..3 {
-                for (dst, zk) in zrow.iter_mut().zip(&z) {
-                    *dst = zk[r];
-                }
-                acc.push_row_unchecked(&zrow);
-            }
-        })?;
+            cuts.push(n);
+            cuts.windows(2).map(|w| w[0]..w[1]).collect()
+        };
+        let results: Vec<Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled>> =
+            std::thread::scope(|s| {
+                let handles: Vec<_> = parts
+                    .iter()
+                    .map(|r| s.spawn(|| self.within_range(lin, r.clone())))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            });
+        let mut it = results.into_iter();
+        let (mut acc, mut n_offsets) = it.next().expect("at least one part")?;
+        for r in it {
+            let (a, k) = r?;
+            acc.merge(a).expect("parts have the same width");
+            n_offsets += k;
+        }
         Ok(WithinPose {
             factor: acc.finish(),
             n_offsets,
         })
+    }
+
+    fn within_range(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+    ) -> Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled> {
+        let p = self.ncols();
+        let mut acc = stiffness_core::lsq::TriangularAccumulator::new(p);
+        let mut n_offsets = 0;
+        // The current run: its group, whitening matrices and whitened row blocks.
+        let mut run_group = usize::MAX;
+        let mut ws: Vec<Matrix3<f64>> = Vec::new();
+        let mut zs: Vec<Vec<Vector3<f64>>> = Vec::new();
+        let mut zrow = vec![0.0; p];
+        let mut flush = |ws: &mut Vec<Matrix3<f64>>,
+                         zs: &mut Vec<Vec<Vector3<f64>>>,
+                         acc: &mut stiffness_core::lsq::TriangularAccumulator| {
+            if ws.is_empty() {
+                return;
+            }
+            let m: Matrix3<f64> = ws.iter().map(|w| w.transpose() * w).sum();
+            if let Some(mi) = m.try_inverse() {
+                n_offsets += 3;
+                let mut b = vec![Vector3::zeros(); p];
+                for (w, z) in ws.iter().zip(zs.iter()) {
+                    let wt = w.transpose();
+                    for (bk, zk) in b.iter_mut().zip(z) {
+                        *bk += wt * zk;
+                    }
+                }
+                for bk in b.iter_mut() {
+                    *bk = mi * *bk;
+                }
+                for (w, z) in ws.iter().zip(zs.iter_mut()) {
+                    for (zk, bk) in z.iter_mut().zip(&b) {
+                        *zk -= w * bk;
+                    }
+                }
+            }
+            for z in zs.iter() {
+                for r in 0..3 {
+                    for (dst, zk) in zrow.iter_mut().zip(z) {
+                        *dst = zk[r];
+                    }
+                    acc.push_row_unchecked(&zrow);
+                }
+            }
+            ws.clear();
+            zs.clear();
+        };
+        self.for_each_row_in(lin, range, |i, _, w, _, cols| {
+            if self.labels[i] != SetLabel::Train {
+                return;
+            }
+            let g = self.groups[i];
+            if g != run_group || ws.len() >= MAX_RUN {
+                flush(&mut ws, &mut zs, &mut acc);
+                run_group = g;
+            }
+            ws.push(*w);
+            zs.push(cols.iter().map(|c| whiten(w, c)).collect());
+        })?;
+        flush(&mut ws, &mut zs, &mut acc);
+        Ok((acc, n_offsets))
     }
 }
