@@ -33,6 +33,15 @@ proptest! {
         }
     }
 
+    /// A 5 % cross-axis sensitivity of the force sensor is outside the catalogue.
+    #[test]
+    fn sensor_crosstalk_is_unexplained_on_every_arm(seed in 70_000u64..80_000) {
+        for robot in ROBOTS {
+            let d = detected(robot, &Hidden::Crosstalk(5.0), seed, 1);
+            prop_assert_eq!(d, [1, 1], "{} seed {}", robot, seed);
+        }
+    }
+
     /// A pose drift of 50 µm per axis (5× the tracker noise) is outside the catalogue.
     #[test]
     fn pose_drift_is_unexplained_on_every_arm(seed in 40_000u64..50_000) {

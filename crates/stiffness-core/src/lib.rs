@@ -35,8 +35,8 @@
 pub mod cancel;
 pub mod decompose;
 pub mod engine;
-pub mod lsq;
 mod fast_math;
+pub mod lsq;
 pub mod so3;
 mod so3_error;
 pub mod stats;

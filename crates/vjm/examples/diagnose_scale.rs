@@ -6,16 +6,27 @@ use vjm::testbed::{simulate, CampaignSpec, TrueModel};
 
 fn main() {
     let chain = vjm::SerialChain::bundled();
-    let sizes: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("a row count")).collect();
+    let sizes: Vec<usize> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().expect("a row count"))
+        .collect();
     for n in sizes {
-        let spec = CampaignSpec { n_poses: n / 10, wrenches_per_pose: 10, seed: 7, ..Default::default() };
+        let spec = CampaignSpec {
+            n_poses: n / 10,
+            wrenches_per_pose: 10,
+            seed: 7,
+            ..Default::default()
+        };
         let t = Instant::now();
         let c = simulate(&chain, &TrueModel::nominal(7), &spec).expect("campaign");
         let sim = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut last = 0.0;
         let mut stages = Vec::new();
-        let opts = DiagnoseOptions { per_row: false, ..Default::default() };
+        let opts = DiagnoseOptions {
+            per_row: false,
+            ..Default::default()
+        };
         let d = diagnose_with_progress(&chain, &c.dataset, &opts, &mut |p| {
             let now = t.elapsed().as_secs_f64();
             stages.push(format!("{}:{:.2}", p.stage, now - last));

@@ -188,8 +188,7 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
             0.0
         }
     });
-    let Ok(svd) = crate::decompose::svd(x, true, true, "SVD of the candidate columns")
-    else {
+    let Ok(svd) = crate::decompose::svd(x, true, true, "SVD of the candidate columns") else {
         // Only non-finite columns fail to converge (the data are finite-checked on entry):
         // nothing is identifiable from them.
         return ColumnSolution {

@@ -76,10 +76,11 @@ pub fn fit<P: Problem>(
         let sol = solve_columns(&x, &comp.column(RowSet::Train, y));
         rank = sol.rank;
         in_data = sol.in_data;
-        let settled = !coef.is_empty()
-            && sol.beta.iter().zip(&coef).all(|(a, b): (&f64, &f64)| {
-                (a - b).abs() <= 1e-9 * (a.abs() + b.abs()) + 1e-300
-            });
+        let settled =
+            !coef.is_empty()
+                && sol.beta.iter().zip(&coef).all(|(a, b): (&f64, &f64)| {
+                    (a - b).abs() <= 1e-9 * (a.abs() + b.abs()) + 1e-300
+                });
         coef = sol.beta;
         if pass + 1 == passes || settled {
             break;
@@ -161,7 +162,11 @@ pub fn score<P: Problem>(
 /// `‖(I − P) s‖²` over the training rows for a signal column `s` of the compressed design
 /// (P the projector on `fit`'s columns): the non-centrality of the F test of a candidate that
 /// models the signal exactly.
-pub fn orthogonal_energy<P: Problem>(problem: &P, fit: &Fit<P::Term, P::Lin>, signal: usize) -> f64 {
+pub fn orthogonal_energy<P: Problem>(
+    problem: &P,
+    fit: &Fit<P::Term, P::Lin>,
+    signal: usize,
+) -> f64 {
     let comp = &fit.compressed;
     let mut basis = Basis::new();
     for c in comp.columns(RowSet::Train, &term_columns(problem, &fit.terms)) {

@@ -80,13 +80,15 @@ pub struct Selection<T, L> {
     pub explained_by_guard: Vec<T>,
     /// The model with every finding, as fitted in the last accepted step.
     pub last: Fit<T, L>,
+    /// Per extra hypothesis of the first step's family: rejected by its Benjamini–Hochberg.
+    pub extra_rejected: Vec<bool>,
 }
 
 /// Forward selection from `base` over `pool`. `extra_p` are further hypotheses of the first
 /// step's family (e.g. the lack-of-fit and goodness-of-fit tests of the baseline), so that on
 /// data with nothing to find the probability of *any* rejection is controlled at `fdr`
-/// (Simes); they never become findings. Returns the selection and, per `extra_p`, whether
-/// the first step's Benjamini–Hochberg rejected it.
+/// (Simes); they never become findings ([`Selection::extra_rejected`] says which the first
+/// step rejected).
 pub fn select<P: Problem>(
     problem: &P,
     base: Fit<P::Term, P::Lin>,
@@ -94,7 +96,7 @@ pub fn select<P: Problem>(
     extra_p: &[f64],
     opts: &SelectOptions,
     progress: &mut dyn FnMut(Progress),
-) -> Result<(Selection<P::Term, P::Lin>, Vec<bool>), Cancelled> {
+) -> Result<Selection<P::Term, P::Lin>, Cancelled> {
     let cancel = problem.cancel();
     let first_scores = score(problem, &base, &pool)?;
     cancel.check()?;
@@ -225,14 +227,12 @@ pub fn select<P: Problem>(
         scores = score(problem, &current, &pool)?;
         cancel.check()?;
     }
-    Ok((
-        Selection {
-            first_scores,
-            findings,
-            rejected_on_holdout,
-            explained_by_guard,
-            last: current,
-        },
+    Ok(Selection {
+        first_scores,
+        findings,
+        rejected_on_holdout,
+        explained_by_guard,
+        last: current,
         extra_rejected,
-    ))
+    })
 }

@@ -17,7 +17,11 @@ use crate::stats::{chi2_sf, nested_f_test, FTest};
 /// The F test of `fit` against `fit` plus the columns of `extra` (all of them at once), on
 /// the training rows, at `fit`'s linearisation point. The test has p = 1 and `df_num` 0 when
 /// the extra columns add nothing outside the model.
-pub fn nested_test<P: Problem>(problem: &P, fit: &Fit<P::Term, P::Lin>, extra: &[P::Term]) -> FTest {
+pub fn nested_test<P: Problem>(
+    problem: &P,
+    fit: &Fit<P::Term, P::Lin>,
+    extra: &[P::Term],
+) -> FTest {
     let comp = &fit.compressed;
     let mut basis = Basis::new();
     for c in comp.columns(RowSet::Train, &term_columns(problem, &fit.terms)) {

@@ -85,7 +85,9 @@ impl Candidate {
     pub fn n_columns(&self) -> usize {
         match self {
             Candidate::WrenchBias => 6,
-            Candidate::FrameMisalignment | Candidate::MountTranslation | Candidate::MountRotation => 3,
+            Candidate::FrameMisalignment
+            | Candidate::MountTranslation
+            | Candidate::MountRotation => 3,
             Candidate::JointTorsionNonlinear { .. } => TORSION_KNOTS.len(),
             _ => 1,
         }
@@ -391,8 +393,7 @@ impl Alternative {
         match self {
             Alternative::LinearInWrench => {
                 for r in 0..3 {
-                    for (k, wk) in w.iter().enumerate() {
-                        let _ = k;
+                    for wk in w.iter() {
                         let mut c = [0.0; 3];
                         c[r] = *wk;
                         out.push(c);

@@ -86,7 +86,7 @@ pub fn predictions_pass(
     let n = problem.data.len();
     let n_groups = problem.groups.iter().copied().max().map_or(0, |g| g + 1);
     let parts: Vec<Range<usize>> = if n < 8192 {
-        vec![0..n]
+        std::iter::once(0..n).collect()
     } else {
         vec![0..n / 2, n / 2..n]
     };
@@ -126,7 +126,8 @@ pub fn predictions_pass(
                 }
                 t.per_pose[g].add(e);
                 if sampled {
-                    t.sample_residuals.push([d[0] - p[0], d[1] - p[1], d[2] - p[2]]);
+                    t.sample_residuals
+                        .push([d[0] - p[0], d[1] - p[1], d[2] - p[2]]);
                 }
                 if per_row {
                     t.predictions.push(p);
@@ -136,10 +137,7 @@ pub fn predictions_pass(
         Ok(out)
     };
     let results: Vec<Result<PassOut, Cancelled>> = std::thread::scope(|s| {
-        let handles: Vec<_> = parts
-            .iter()
-            .map(|r| s.spawn(|| run(r.clone())))
-            .collect();
+        let handles: Vec<_> = parts.iter().map(|r| s.spawn(|| run(r.clone()))).collect();
         handles
             .into_iter()
             .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))

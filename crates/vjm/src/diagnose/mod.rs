@@ -51,9 +51,7 @@ pub use stiffness_core::stats;
 pub mod structure;
 
 use serde::Serialize;
-use stiffness_core::engine::{
-    fit, goodness_of_fit, nested_test, select, Fit, SelectOptions,
-};
+use stiffness_core::engine::{fit, goodness_of_fit, nested_test, select, Fit, SelectOptions};
 use stiffness_core::{Cancel, Monitor};
 
 use crate::chain::SerialChain;
@@ -109,7 +107,9 @@ impl NoiseAssumption {
                 };
                 return Err(DiagnoseError::InvalidOption {
                     name,
-                    message: format!("the wrench noise must be a finite number ≥ 0 {unit}, got {s}"),
+                    message: format!(
+                        "the wrench noise must be a finite number ≥ 0 {unit}, got {s}"
+                    ),
                 });
             }
         }
@@ -320,11 +320,11 @@ fn prepare<'a>(
     // RMS torsion torque per joint over the training rows: the knots of the hinge candidate.
     let mut builder = rows::RowBuilder::new(chain, opts.noise.wrench_sigma);
     let mut sq = vec![0.0; n];
-    for i in 0..data.len() {
+    for (i, label) in labels.iter().enumerate() {
         if i % 4096 == 0 {
             cancel.check()?;
         }
-        if labels[i] != SetLabel::Train {
+        if *label != SetLabel::Train {
             continue;
         }
         let row = builder.row(data, i);
@@ -480,9 +480,8 @@ fn verdict_tests(
     use stiffness_core::engine::verdict::nested_test_with_block;
     use stiffness_core::engine::Problem as _;
     let within = problem.within_pose(&fit.lin)?;
-    let cols = |terms: &[Term]| -> Vec<usize> {
-        terms.iter().flat_map(|t| problem.columns(*t)).collect()
-    };
+    let cols =
+        |terms: &[Term]| -> Vec<usize> { terms.iter().flat_map(|t| problem.columns(*t)).collect() };
     let model = cols(&fit.terms);
     let alt = cols(&alternative_terms(3 * problem.chain.n_joints()));
     let y = problem.observation_column();
@@ -574,8 +573,14 @@ fn run_diagnosis(
         alias_cosine: opts.alias_cosine,
         alias_alpha: opts.alias_alpha,
     };
-    let (selection, extra_rejected) =
-        select(&problem, base_fit.clone(), pool, &extra_p, &select_opts, progress)?;
+    let selection = select(
+        &problem,
+        base_fit.clone(),
+        pool,
+        &extra_p,
+        &select_opts,
+        progress,
+    )?;
     let cand_of = |t: Term| match t {
         Term::Cand(c) => c,
         _ => unreachable!("the pool holds candidates only"),
@@ -613,10 +618,11 @@ fn run_diagnosis(
     };
     let n_tests = extra_p.len() as f64;
     let unexplained = if selection.findings.is_empty() {
-        extra_rejected.iter().any(|r| *r)
+        selection.extra_rejected.iter().any(|r| *r)
     } else {
         v.lack_of_fit.p_value <= opts.fdr / n_tests
-            || v.goodness_of_fit.is_some_and(|g| g.p_value <= opts.fdr / n_tests)
+            || v.goodness_of_fit
+                .is_some_and(|g| g.p_value <= opts.fdr / n_tests)
     };
     let remaining = unexplained.then(|| remaining_in_words(&v));
     let verdict = Verdict {
@@ -698,7 +704,8 @@ fn run_diagnosis(
     } else {
         vec![&base_fit]
     };
-    let mut pass = final_pass::predictions_pass(&problem, &base_fit.lin, &fits, stride, opts.per_row)?;
+    let mut pass =
+        final_pass::predictions_pass(&problem, &base_fit.lin, &fits, stride, opts.per_row)?;
     let ext_totals = if same_lin {
         pass.fits.pop().expect("two fits")
     } else {
@@ -732,15 +739,14 @@ fn run_diagnosis(
     );
     let n_train = labels.iter().filter(|l| **l == SetLabel::Train).count();
     let n_test = n_rows - n_train;
-    let summary = |fit: &Fit<Term, Linearisation>, t: &final_pass::FitTotals, name: String| {
-        ModelSummary {
+    let summary =
+        |fit: &Fit<Term, Linearisation>, t: &final_pass::FitTotals, name: String| ModelSummary {
             model: name,
             n_params: fit.n_params(),
             test_mean_rel_error: t.test.mean(),
             train_mean_rel_error: t.train.mean(),
-            parameters: parameters(&problem, fit),
-        }
-    };
+            parameters: parameters(fit),
+        };
     let base_name = baseline_model.name().to_string();
     let ext_name = if findings.is_empty() {
         base_name.clone()
@@ -846,8 +852,7 @@ fn remaining_in_words(v: &VerdictTests) -> String {
     }
 }
 
-fn parameters(problem: &VjmProblem<'_>, fit: &Fit<Term, Linearisation>) -> Vec<Parameter> {
-    let _ = problem;
+fn parameters(fit: &Fit<Term, Linearisation>) -> Vec<Parameter> {
     let mut out = Vec::new();
     let mut k = 0;
     for t in &fit.terms {

@@ -59,7 +59,10 @@ impl Whitening {
             sigma += g * sw * g.transpose();
         }
         let w = match sigma.cholesky() {
-            Some(ch) => ch.l().try_inverse().unwrap_or_else(|| Matrix3::identity() / sd),
+            Some(ch) => ch
+                .l()
+                .try_inverse()
+                .unwrap_or_else(|| Matrix3::identity() / sd),
             None => Matrix3::identity() / sd,
         };
         (
@@ -441,8 +444,8 @@ impl VjmProblem<'_> {
     /// The [`WithinPose`] factor at `lin`.
     pub fn within_pose(&self, lin: &Linearisation) -> Result<WithinPose, Cancelled> {
         let n = self.data.len();
-        let parts = if n < PARALLEL_ROWS {
-            vec![0..n]
+        let parts: Vec<Range<usize>> = if n < PARALLEL_ROWS {
+            std::iter::once(0..n).collect()
         } else {
             // Cut at a pose change, so that no run is split between parts.
             let mut cuts = vec![0];
@@ -493,42 +496,43 @@ impl VjmProblem<'_> {
         let mut ws: Vec<Matrix3<f64>> = Vec::new();
         let mut zs: Vec<Vec<Vector3<f64>>> = Vec::new();
         let mut zrow = vec![0.0; p];
-        let mut flush = |ws: &mut Vec<Matrix3<f64>>,
-                         zs: &mut Vec<Vec<Vector3<f64>>>,
-                         acc: &mut stiffness_core::lsq::TriangularAccumulator| {
-            if ws.is_empty() {
-                return;
-            }
-            let m: Matrix3<f64> = ws.iter().map(|w| w.transpose() * w).sum();
-            if let Some(mi) = m.try_inverse() {
-                n_offsets += 3;
-                let mut b = vec![Vector3::zeros(); p];
-                for (w, z) in ws.iter().zip(zs.iter()) {
-                    let wt = w.transpose();
-                    for (bk, zk) in b.iter_mut().zip(z) {
-                        *bk += wt * zk;
+        let mut flush =
+            |ws: &mut Vec<Matrix3<f64>>,
+             zs: &mut Vec<Vec<Vector3<f64>>>,
+             acc: &mut stiffness_core::lsq::TriangularAccumulator| {
+                if ws.is_empty() {
+                    return;
+                }
+                let m: Matrix3<f64> = ws.iter().map(|w| w.transpose() * w).sum();
+                if let Some(mi) = m.try_inverse() {
+                    n_offsets += 3;
+                    let mut b = vec![Vector3::zeros(); p];
+                    for (w, z) in ws.iter().zip(zs.iter()) {
+                        let wt = w.transpose();
+                        for (bk, zk) in b.iter_mut().zip(z) {
+                            *bk += wt * zk;
+                        }
+                    }
+                    for bk in b.iter_mut() {
+                        *bk = mi * *bk;
+                    }
+                    for (w, z) in ws.iter().zip(zs.iter_mut()) {
+                        for (zk, bk) in z.iter_mut().zip(&b) {
+                            *zk -= w * bk;
+                        }
                     }
                 }
-                for bk in b.iter_mut() {
-                    *bk = mi * *bk;
-                }
-                for (w, z) in ws.iter().zip(zs.iter_mut()) {
-                    for (zk, bk) in z.iter_mut().zip(&b) {
-                        *zk -= w * bk;
+                for z in zs.iter() {
+                    for r in 0..3 {
+                        for (dst, zk) in zrow.iter_mut().zip(z) {
+                            *dst = zk[r];
+                        }
+                        acc.push_row_unchecked(&zrow);
                     }
                 }
-            }
-            for z in zs.iter() {
-                for r in 0..3 {
-                    for (dst, zk) in zrow.iter_mut().zip(z) {
-                        *dst = zk[r];
-                    }
-                    acc.push_row_unchecked(&zrow);
-                }
-            }
-            ws.clear();
-            zs.clear();
-        };
+                ws.clear();
+                zs.clear();
+            };
         self.for_each_row_in(lin, range, |i, _, w, _, cols| {
             if self.labels[i] != SetLabel::Train {
                 return;

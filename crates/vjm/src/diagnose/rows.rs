@@ -10,7 +10,9 @@ use nalgebra::{DMatrix, DVector};
 use super::candidates::{torque_sigma, RowKinematics};
 use crate::chain::SerialChain;
 use crate::dataset::Dataset;
-use crate::kinematics::{forward_kinematics_deflected, jacobian_deflected, jacobian_in_place, Workspace};
+use crate::kinematics::{
+    forward_kinematics_deflected, jacobian_deflected, jacobian_in_place, Workspace,
+};
 use crate::model::VirtualJointModel;
 
 /// Reusable scratch that turns a dataset row into [`RowKinematics`].

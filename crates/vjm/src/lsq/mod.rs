@@ -5,9 +5,9 @@ mod gram;
 mod nnls;
 mod solve;
 
-pub use stiffness_core::lsq::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};
 pub use gram::factor_from_gram;
 pub use solve::{
     dense_factor, solve_dense, solve_factor, LinearCombination, RankRevealingSolution,
     SolveOptions, ZERO_COLUMN_RTOL,
 };
+pub use stiffness_core::lsq::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};

@@ -16,8 +16,8 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::TriangularFactor;
 use super::nnls::nnls;
+use super::TriangularFactor;
 use crate::error::VjmError;
 
 /// Default of [`SolveOptions::zero_column_rtol`]: the workspace's one zero-column rule.

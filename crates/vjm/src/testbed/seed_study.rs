@@ -11,8 +11,8 @@ use super::truth::TrueModel;
 use super::TestbedError;
 use crate::chain::SerialChain;
 use crate::diagnose::candidates::{spring_column, RowKinematics};
-use stiffness_core::engine::basis::solve_columns;
 use crate::testbed::kinematics::deflected_pose;
+use stiffness_core::engine::basis::solve_columns;
 
 /// Table I of the seed, degrees: rows 1–8 identification, 9–13 verification.
 pub const SEED_TABLE_I_DEG: [[f64; 7]; 13] = [

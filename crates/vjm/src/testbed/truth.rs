@@ -81,6 +81,14 @@ pub enum Effect {
         /// Axial compliance 1/k_tool, m/N.
         compliance: f64,
     },
+    /// Not in the diagnosis catalogue: the force sensor's cross-axis sensitivity (a
+    /// calibration error). The recorded force is the applied one plus `coupling` times the
+    /// applied force cycled through the axes: `f_rec = f + c·(f_z, f_x, f_y)`; the moments are
+    /// recorded exactly.
+    SensorCrosstalk {
+        /// Cross-axis sensitivity c (1 = 100 %).
+        coupling: f64,
+    },
 }
 
 /// A true robot for the testbed: linear compliances of all 3n virtual springs (joint-major,
@@ -258,6 +266,11 @@ impl TrueModel {
                     for k in 0..6 {
                         wm[k] += bias[k];
                     }
+                }
+                Effect::SensorCrosstalk { coupling } => {
+                    wm[0] += coupling * wrench[2];
+                    wm[1] += coupling * wrench[0];
+                    wm[2] += coupling * wrench[1];
                 }
                 _ => {}
             }
