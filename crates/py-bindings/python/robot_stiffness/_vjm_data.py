@@ -15,6 +15,7 @@ from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
+from .results import Diagnosis
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
@@ -229,26 +230,6 @@ def simulate(
     )
 
 
-@dataclass
-class Diagnosis:
-    """The result of :func:`diagnose`. ``to_dict()`` is the JSON of the CLI: ``baseline``
-    {``model``, ``n_params``, ``test_mean_rel_error``}, ``findings`` [{``effect``, ``joint``
-    (1-based or None), ``axis`` (``x``/``y`` or None), ``aliases``, ``evidence``}], ``extended``,
-    ``unexplained``, plus ``gain`` and the material of the report (residual structure, scores,
-    per-pose and per-row errors)."""
-
-    baseline: Dict[str, Any]
-    findings: List[Dict[str, Any]]
-    extended: Dict[str, Any]
-    unexplained: bool
-    gain: float
-    raw: Dict[str, Any] = field(repr=False)
-
-    def to_dict(self) -> Dict[str, Any]:
-        """The full JSON-ready result."""
-        return self.raw
-
-
 @checked
 def diagnose(
     robot: Robot,
@@ -278,23 +259,15 @@ def diagnose(
     m = as_measurements(data, robot.n_joints)
     blame = contextlib.nullcontext() if isinstance(data, (str, os.PathLike)) else blame_rows()
     with blame:
-        text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
-                            bool(allow_outside_limits))
-    raw = json.loads(text)
-    return Diagnosis(
-        baseline=raw["baseline"],
-        findings=raw["findings"],
-        extended=raw["extended"],
-        unexplained=bool(raw["unexplained"]),
-        gain=float(raw["gain"]) if raw.get("gain") is not None else float("nan"),
-        raw=raw,
-    )
+        summary, rows = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
+                                       bool(allow_outside_limits))
+    return Diagnosis._from_core("vjm", summary, rows)
 
 
 def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
                    split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback],
-                   allow_outside_limits: bool = False) -> str:
-    return str(_core.vjm_diagnose(
+                   allow_outside_limits: bool = False) -> "_core._CoreDiagnosis":
+    return _core.vjm_diagnose(
         robot._inner,
         f64(m.q, "q"),
         f64(m.wrench, "wrench"),
@@ -309,7 +282,7 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
         max_findings=max_findings,
         progress=progress,
         allow_outside_limits=allow_outside_limits,
-    ))
+    )
 
 
 @checked

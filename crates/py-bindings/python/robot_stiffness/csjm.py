@@ -35,7 +35,7 @@ from ._arguments import check_path, checked
 from ._arrays import f64
 from ._errors import DataFileError, ShapeError, reworded
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
-from ._vjm_data import Diagnosis
+from .results import Diagnosis
 
 __all__ = [
     "StiffnessFit",
@@ -258,30 +258,20 @@ def diagnose(
     ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
     body-frame displacements Δζ (rad).
     """
-    import json
-
     if tau is None and ref is None and is_table(data):
         data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
         with reworded(PYTHON_NAMES):
-            text = _core.csjm_diagnose_csv(
+            summary, rows = _core.csjm_diagnose_csv(
                 check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed,
                 project=bool(project),
             )
     elif tau is not None and ref is not None:
         with reworded(PYTHON_NAMES):
-            text = _core.csjm_diagnose(
+            summary, rows = _core.csjm_diagnose(
                 f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
                 holdout_seed=holdout_seed, project=bool(project),
             )
     else:
         raise ShapeError("diagnose needs a measurement-file path, or R (N, 3, 3), tau (N, 3) and ref")
-    raw = json.loads(text)
-    return Diagnosis(
-        baseline=raw["baseline"],
-        findings=raw["findings"],
-        extended=raw["extended"],
-        unexplained=bool(raw["unexplained"]),
-        gain=float(raw["gain"]) if raw.get("gain") is not None else float("nan"),
-        raw=raw,
-    )
+    return Diagnosis._from_core("csjm", summary, rows)
