@@ -34,10 +34,7 @@ fn native<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
             } else if let Some(i) = n.as_i64() {
                 i.into_pyobject(py)?.into_any()
             } else {
-                n.as_f64()
-                    .unwrap_or(f64::NAN)
-                    .into_pyobject(py)?
-                    .into_any()
+                n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any()
             }
         }
         Value::String(s) => s.into_pyobject(py)?.into_any(),
@@ -77,9 +74,18 @@ pub fn vjm_rows<'py>(
         .map(|r| r.set == vjm::dataset::SetLabel::Test)
         .collect();
     out.set_item("held_out", PyArray1::from_vec(py, held_out))?;
-    out.set_item("measured", to_numpy(py, flat3(n, |i| rows[i].measured), &[n, 3])?)?;
-    out.set_item("baseline", to_numpy(py, flat3(n, |i| rows[i].baseline), &[n, 3])?)?;
-    out.set_item("extended", to_numpy(py, flat3(n, |i| rows[i].extended), &[n, 3])?)?;
+    out.set_item(
+        "measured",
+        to_numpy(py, flat3(n, |i| rows[i].measured), &[n, 3])?,
+    )?;
+    out.set_item(
+        "baseline",
+        to_numpy(py, flat3(n, |i| rows[i].baseline), &[n, 3])?,
+    )?;
+    out.set_item(
+        "extended",
+        to_numpy(py, flat3(n, |i| rows[i].extended), &[n, 3])?,
+    )?;
     Ok(out)
 }
 

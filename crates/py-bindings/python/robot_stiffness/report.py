@@ -218,7 +218,8 @@ def _row_panel(ax: Any, err: npt.NDArray[np.float64], test: npt.NDArray[np.bool_
     # Per set: its rows in file order, binned; each bin is a segment from 0 to its largest
     # residual (2 points) and a vertex of the median line (1 point): 3 points a bin.
     per_set = MAX_POINTS // 6
-    for mask, color, name in ((~test, "tab:blue", "training rows"), (test, "tab:orange", "held-out rows")):
+    sets = ((~test, "tab:blue", "navy", "training rows"), (test, "tab:orange", "saddlebrown", "held-out rows"))
+    for mask, color, dark, name in sets:
         rows = idx[mask]
         if len(rows) == 0:
             continue
@@ -226,8 +227,8 @@ def _row_panel(ax: Any, err: npt.NDArray[np.float64], test: npt.NDArray[np.bool_
         top, median = _bin_stats(err[mask], starts)
         x = rows[starts].astype(np.float64)
         ax.vlines(x, 0.0, top, color=color, label=f"{name}: largest in bin", linewidth=0.4)
-        ax.plot(x, median, color=color, linewidth=0.6, alpha=0.9, label=f"{name}: median in bin")
-    return f"measurement row ({n} rows in bins of ~{max(1, 3 * n // MAX_POINTS)})"
+        ax.plot(x, median, color=dark, linewidth=0.7, zorder=3, label=f"{name}: median in bin")
+    return f"measurement row ({n} rows; each set in at most {per_set} bins of consecutive rows)"
 
 
 def _plot_rows(result: Diagnosis, path: Path) -> None:
@@ -279,13 +280,15 @@ def _plot_per_pose(result: Diagnosis, path: Path) -> None:
     test = np.array([p.set == "test" for p in poses], dtype=bool)
     x = np.arange(len(poses))
     fig, ax = plt.subplots(figsize=(9, 3.8))
-    if len(poses) <= _LABELLED_POSES:
+    # Points: 2 bars of 4 corners (or 2 segments of 2 ends) per pose, up to one shaded span of
+    # 5 vertices per two poses.
+    if len(poses) <= _LABELLED_POSES and 11 * len(poses) <= MAX_POINTS:
         ax.bar(x - 0.2, b, width=0.4, label="baseline", color="tab:red")
         ax.bar(x + 0.2, e, width=0.4, label="extended", color="tab:green")
         ax.set_xticks(x)
         ax.set_xticklabels([str(p.pose) for p in poses], fontsize=7)
         ax.set_xlabel("pose (shaded: held out)")
-    elif 4 * len(poses) <= MAX_POINTS:
+    elif 7 * len(poses) <= MAX_POINTS:
         # Many poses: one line collection per model instead of one rectangle per pose (ax.bar
         # and a span per held-out pose took 5 s for 1500 poses), no per-pose tick labels.
         width = float(np.clip(250.0 / len(poses), 0.3, 4.0))  # points
@@ -324,10 +327,7 @@ def _plot_effects(result: Diagnosis, path: Path) -> None:
     csjm = is_csjm(result)
     testable = [s for s in result.scores if s.f_test is not None and (csjm or s.testable)]
     scores = sorted(testable, key=lambda s: s.f_test.p_value if s.f_test is not None else 1.0)[:20]
-    if csjm:
-        found = {(f.effect, None, None) for f in result.findings}
-    else:
-        found = {(f.effect, f.joint, f.axis) for f in result.findings}
+    found = {(f.effect, f.joint, f.axis) for f in result.findings}
     labels = [s.effect if csjm or s.label is None else s.label for s in scores]
     vals = [-math.log10(max(s.f_test.p_value if s.f_test is not None else 1.0, 1e-300)) for s in scores]
     colors = ["tab:green" if (s.effect, s.joint, s.axis) in found else "tab:gray" for s in scores]

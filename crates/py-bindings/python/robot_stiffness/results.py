@@ -21,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import sys
 import typing
 from dataclasses import dataclass, field
 from typing import Dict, Iterator, List, Mapping, Optional, Union
@@ -483,7 +482,7 @@ _HINTS: Dict[type, Dict[str, object]] = {}
 
 def _hints(cls: type) -> Dict[str, object]:
     if cls not in _HINTS:
-        _HINTS[cls] = typing.get_type_hints(cls, vars(sys.modules[__name__]))
+        _HINTS[cls] = typing.get_type_hints(cls)  # resolved in the class's own module
     return _HINTS[cls]
 
 
@@ -497,6 +496,8 @@ def _fits(tp: object, value: object) -> bool:
     if origin in (list, List):
         (item,) = typing.get_args(tp)
         return isinstance(value, list) and all(_fits(item, v) for v in value[:1])
+    if origin is tuple:
+        return isinstance(value, (list, tuple)) and len(value) == len(typing.get_args(tp))
     if tp is float:
         return value is None or (isinstance(value, (int, float)) and not isinstance(value, bool))
     if tp in (int, str, bool):
@@ -524,6 +525,8 @@ def _build(tp: object, value: object) -> object:
     if origin in (list, List):
         (item,) = typing.get_args(tp)
         return [_build(item, v) for v in value]  # type: ignore[attr-defined]
+    if origin is tuple:
+        return tuple(_build(a, v) for a, v in zip(typing.get_args(tp), value))  # type: ignore[call-overload]
     if tp is float:
         return math.nan if value is None else float(value)  # type: ignore[arg-type]
     if tp is int:
