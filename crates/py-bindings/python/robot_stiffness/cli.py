@@ -417,7 +417,7 @@ def _write_diagnosis(diagnosis: Any, json_out: Any, rows_out: Any) -> None:
     if json_out is not None:
         json_out.write_text(_json_text(diagnosis.to_dict()))
     if rows_out is not None:
-        rows_out.write_text(diagnosis.rows.csv_text() if diagnosis.rows is not None else "")
+        rows_out.write_chunks(diagnosis.rows.csv_chunks() if diagnosis.rows is not None else ())
 
 
 def _report_dir(out: Outputs, args: argparse.Namespace, files: Sequence[str]) -> Optional[Path]:

@@ -358,17 +358,23 @@ class _Rows:
                 rec[n] = cols[n][i]
             yield rec
 
-    def csv_text(self) -> str:
-        """The rows as CSV with a header (vector columns split into ``_x``, ``_y``, ``_z``)."""
+    def csv_chunks(self, rows_per_chunk: int = 50_000) -> Iterator[str]:
+        """The rows as CSV text in pieces: the header, then ``rows_per_chunk`` rows at a time
+        (vector columns split into ``_x``, ``_y``, ``_z``; floats in their shortest exact form)."""
         names = [f.name for f in dataclasses.fields(self) if f.name != "held_out"]  # type: ignore[arg-type]
-        header = [names[0], "set"] + [f"{n}_{a}" for n in names[1:] for a in "xyz"]
-        cols: List[np.ndarray] = [getattr(self, names[0]).astype(np.int64).astype(str),
-                                  np.where(self.held_out, "test", "train")]
-        for n in names[1:]:
-            v = getattr(self, n)
-            cols += [np.char.mod("%.17g", v[:, k]) for k in range(3)]
-        body = np.stack(cols, axis=1) if len(self) else np.empty((0, len(header)), dtype=str)
-        return ",".join(header) + "\n" + "".join(",".join(r) + "\n" for r in body.tolist())
+        lead, vectors = names[0], names[1:]
+        yield ",".join([lead, "set"] + [f"{n}_{a}" for n in vectors for a in "xyz"]) + "\n"
+        line = "%d,%s," + ",".join(["%r"] * (3 * len(vectors))) + "\n"
+        for a in range(0, len(self), max(1, rows_per_chunk)):
+            b = min(len(self), a + rows_per_chunk)
+            values = np.concatenate([getattr(self, n)[a:b] for n in vectors], axis=1).tolist()
+            sets = np.where(self.held_out[a:b], "test", "train").tolist()
+            ids = getattr(self, lead)[a:b].tolist()
+            yield "".join(line % (i, st, *v) for i, st, v in zip(ids, sets, values))
+
+    def csv_text(self) -> str:
+        """The rows as CSV with a header (see :meth:`csv_chunks`)."""
+        return "".join(self.csv_chunks())
 
 
 @dataclass(frozen=True, eq=False)
