@@ -42,14 +42,19 @@ def _points(ax) -> int:
     return n + 4 * len(ax.patches)
 
 
+VJM_PLOTS = ("residuals.png", "errors_per_pose.png", "effects.png")
+CSJM_PLOTS = ("residuals.png", "effects.png")
+
+
 @pytest.fixture
 def drawn(monkeypatch):
-    """Points per panel of every figure saved, by file name."""
-    seen: dict = {}
+    """Points per panel of every figure saved, in drawing order (a report draws its plots in
+    the order of VJM_PLOTS / CSJM_PLOTS)."""
+    seen: list = []
     save = Figure.savefig
 
     def counting(self, fname, *args, **kwargs):
-        seen[str(fname).rsplit("/", 1)[-1]] = [_points(ax) for ax in self.axes]
+        seen.append([_points(ax) for ax in self.axes])
         return save(self, fname, *args, **kwargs)
 
     monkeypatch.setattr(Figure, "savefig", counting)
@@ -60,7 +65,7 @@ def test_small_reports_draw_every_row(diagnosis, tmp_path, drawn):
     report.render_report(diagnosis, tmp_path)
     n = len(diagnosis.rows)
     # Each panel: one segment (2 points) per row.
-    assert drawn["residuals.png"] == [2 * n, 2 * n]
+    assert dict(zip(VJM_PLOTS, drawn))["residuals.png"] == [2 * n, 2 * n]
 
 
 @pytest.mark.parametrize("budget", [60, 120])
@@ -68,9 +73,11 @@ def test_plots_stay_within_the_point_budget(diagnosis, tmp_path, drawn, monkeypa
     monkeypatch.setattr(report, "MAX_POINTS", budget)
     assert 2 * len(diagnosis.rows) > budget and 4 * len(diagnosis.per_pose) > budget  # binning kicks in
     report.render_report(diagnosis, tmp_path)
+    assert len(drawn) == len(VJM_PLOTS)
+    points = dict(zip(VJM_PLOTS, drawn))
     for name in ("residuals.png", "errors_per_pose.png"):
-        assert drawn[name] and max(drawn[name]) <= budget, (name, drawn[name])
-        assert min(drawn[name]) > budget // 4, (name, drawn[name])  # binned, not emptied
+        assert points[name] and max(points[name]) <= budget, (name, points[name])
+        assert min(points[name]) > budget // 4, (name, points[name])  # binned, not emptied
     assert {p.name for p in tmp_path.iterdir()} == set(report.REPORT_FILES)
 
 
@@ -107,7 +114,8 @@ def test_csjm_report_within_budget(tmp_path, drawn, monkeypatch):
     out = tmp_path / "rep"
     out.mkdir()
     report.render_report(d, out)
-    assert max(drawn["residuals.png"]) <= 30
+    assert len(drawn) == len(CSJM_PLOTS)
+    assert max(dict(zip(CSJM_PLOTS, drawn))["residuals.png"]) <= 30
     assert {p.name for p in out.iterdir()} == set(report.CSJM_REPORT_FILES)
 
 
@@ -120,7 +128,7 @@ def test_progress_runs_to_the_end_of_the_report(diagnosis, tmp_path):
 
 def test_cancel_stops_the_report_between_plots(diagnosis, tmp_path):
     # The CLI's progress callback raises Cancelled once Ctrl-C was seen: the report stops before
-    # its next file.
+    # its next plot, and nothing is written (plots are drawn in memory, written at the end).
     progress = cli._progress(False, "report")
     calls = []
 
@@ -135,7 +143,8 @@ def test_cancel_stops_the_report_between_plots(diagnosis, tmp_path):
             report.render_report(diagnosis, tmp_path, progress=cancel_after_first)
     finally:
         cancel.clear()
-    assert [p.name for p in tmp_path.iterdir()] == ["residuals.png"]
+    assert calls == ["report: residuals plot", "report: per-pose plot"]
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_cli_writes_rows_only_on_request(campaign, tmp_path):

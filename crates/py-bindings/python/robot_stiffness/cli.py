@@ -401,15 +401,16 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
 
 
 def _render(diagnosis: Any, directory: Path, args: argparse.Namespace, **kwargs: Any) -> None:
-    """The report, in the worker thread with progress per plot: Ctrl-C is seen at once and
-    stops the report before its next plot (nothing is committed then)."""
-    from .report import render_report
+    """The report: drawn in the worker thread with progress per plot (Ctrl-C is seen at once and
+    stops it before its next plot), written here (only the main thread touches the outputs)."""
+    from .report import render_files, save_files
 
     show = _show_progress(args)
     try:
-        in_worker(render_report, diagnosis, directory, progress=_progress(show, "report"), **kwargs)
+        files = in_worker(render_files, diagnosis, progress=_progress(show, "report"), **kwargs)
     finally:
         _clear_progress(show)
+    save_files(files, directory)
 
 
 def _write_diagnosis(diagnosis: Any, json_out: Any, rows_out: Any) -> None:

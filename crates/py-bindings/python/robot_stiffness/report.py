@@ -23,10 +23,11 @@ never leaves a half-written report, and a file the package did not write is neve
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from pathlib import Path
-from typing import Any, Callable, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -47,7 +48,7 @@ from .results import (
     ResidualStructure,
 )
 
-__all__ = ["write_report", "render_report", "story", "percent", "atomic_directory", "REPORT_FILES",
+__all__ = ["write_report", "render_report", "render_files", "save_files", "story", "percent", "atomic_directory", "REPORT_FILES",
            "CSJM_REPORT_FILES", "MAX_POINTS"]
 
 #: The files of a VJM report (relative to its folder).
@@ -59,6 +60,7 @@ MAX_POINTS = 10_000
 
 PathLike = Union[str, "os.PathLike[str]"]
 Progress = Callable[[str, int, int], None]
+_Target = Union[Path, io.BytesIO]
 
 
 def percent(x: Optional[float]) -> str:
@@ -231,7 +233,7 @@ def _row_panel(ax: Any, err: npt.NDArray[np.float64], test: npt.NDArray[np.bool_
     return f"measurement row ({n} rows; each set in at most {per_set} bins of consecutive rows)"
 
 
-def _plot_rows(result: Diagnosis, path: Path) -> None:
+def _plot_rows(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -260,7 +262,7 @@ def _plot_rows(result: Diagnosis, path: Path) -> None:
         ax.legend(loc="upper right", fontsize=7)
     axes[1].set_xlabel(xname if xname and 2 * len(test) <= MAX_POINTS else xlabel)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -268,7 +270,7 @@ def _plot_rows(result: Diagnosis, path: Path) -> None:
 _LABELLED_POSES = 60
 
 
-def _plot_per_pose(result: Diagnosis, path: Path) -> None:
+def _plot_per_pose(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -314,11 +316,11 @@ def _plot_per_pose(result: Diagnosis, path: Path) -> None:
     ax.set_title("Error per pose", fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
-def _plot_effects(result: Diagnosis, path: Path) -> None:
+def _plot_effects(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -344,7 +346,7 @@ def _plot_effects(result: Diagnosis, path: Path) -> None:
     ax.set_title("Candidate effects (green: named)", fontsize=10)
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -521,32 +523,54 @@ def as_diagnosis(result: Any) -> Diagnosis:
     )
 
 
-def render_report(result: Any, directory: PathLike, *, title: str = "Stiffness diagnosis",
-                  source: Optional[str] = None, progress: Optional[Progress] = None) -> Path:
-    """Writes ``report.md`` and the plots into an existing ``directory`` (no atomicity).
-    ``progress(stage, done, total)`` is called before each file; an exception it raises stops
-    the report."""
-    d = Path(directory)
+def render_files(result: Any, *, title: str = "Stiffness diagnosis", source: Optional[str] = None,
+                 progress: Optional[Progress] = None) -> Dict[str, bytes]:
+    """The report's files in memory, ``{name: content}``, without touching the file system (so
+    it can run in a worker thread while the main thread owns the outputs).
+    ``progress(stage, done, total)`` is called before each file and at the end; an exception it
+    raises stops the report."""
     result = as_diagnosis(result)
     csjm = is_csjm(result)
-    steps: List[Tuple[str, Callable[[], None]]] = [("residuals plot", lambda: _plot_rows(result, d / "residuals.png"))]
-    if not csjm:
-        steps.append(("per-pose plot", lambda: _plot_per_pose(result, d / "errors_per_pose.png")))
-    steps.append(("effects plot", lambda: _plot_effects(result, d / "effects.png")))
-    md = d / "report.md"
 
-    def markdown() -> None:
+    def png(plot: Callable[[Diagnosis, _Target], None]) -> Callable[[], bytes]:
+        def draw() -> bytes:
+            buf = io.BytesIO()
+            plot(result, buf)
+            return buf.getvalue()
+        return draw
+
+    def markdown() -> bytes:
         text = _markdown_csjm(result, title, source) if csjm else _markdown(result, title, source)
-        md.write_text(text, encoding="utf-8")
+        return text.encode("utf-8")
 
-    steps.append(("report.md", markdown))
-    for i, (stage, step) in enumerate(steps):
+    steps: List[Tuple[str, str, Callable[[], bytes]]] = [("residuals plot", "residuals.png", png(_plot_rows))]
+    if not csjm:
+        steps.append(("per-pose plot", "errors_per_pose.png", png(_plot_per_pose)))
+    steps.append(("effects plot", "effects.png", png(_plot_effects)))
+    steps.append(("text", "report.md", markdown))
+    files: Dict[str, bytes] = {}
+    for i, (stage, name, make) in enumerate(steps):
         if progress is not None:
             progress(f"report: {stage}", i, len(steps))
-        step()
+        files[name] = make()
     if progress is not None:
         progress("report: done", len(steps), len(steps))
-    return md
+    return files
+
+
+def save_files(files: Mapping[str, bytes], directory: PathLike) -> Path:
+    """Writes :func:`render_files`' output into an existing ``directory``; returns report.md."""
+    d = Path(directory)
+    for name, content in files.items():
+        (d / name).write_bytes(content)
+    return d / "report.md"
+
+
+def render_report(result: Any, directory: PathLike, *, title: str = "Stiffness diagnosis",
+                  source: Optional[str] = None, progress: Optional[Progress] = None) -> Path:
+    """Writes ``report.md`` and the plots into an existing ``directory`` (no atomicity); see
+    :func:`render_files` for ``progress``."""
+    return save_files(render_files(result, title=title, source=source, progress=progress), directory)
 
 
 @checked
