@@ -183,3 +183,14 @@ def test_truth_counts_joints_from_one(panda, campaign, tmp_path):
     assert code == 0
     truth = json.loads((tmp_path / "t.json").read_text())["truth"]
     assert truth["effects"] == [{"effect": "joint_backlash", "joint": 7, "lost_motion": 2e-4}]
+
+
+def test_csjm_fit_is_typed_and_pickles(csjm_path):
+    fit = csjm.identify_csv(csjm_path, order=2)
+    core = _core.csjm_identify_csv(csjm_path, order=2)
+    assert not hasattr(fit, "raw")
+    assert fit.to_dict()["regressor_condition"] == core["regressor_condition"]
+    assert fit.dof == core["dof"] and fit.curvature is not None and fit.curvature.shape == (3, 3, 3)
+    back = pickle.loads(pickle.dumps(fit))
+    np.testing.assert_array_equal(back.K, fit.K)
+    assert back.to_dict() == fit.to_dict()
