@@ -182,3 +182,47 @@ def test_csjm_rows_csv(tmp_path):
     np.testing.assert_array_equal([float(v) for v in cells[2:5]], d.rows.dzeta[0])
     # Chunked writing gives the same text as one piece.
     assert "".join(d.rows.csv_chunks(rows_per_chunk=7)) == d.rows.csv_text()
+
+
+# A CLI run whose residuals plot never finishes on its own: Ctrl-C must end it, during the
+# report phase, with status 130 and nothing written (the report is drawn in the worker thread
+# while the main thread waits for signals).
+_STUCK_REPORT = """
+import sys, threading
+from robot_stiffness import cli, report
+
+def stuck(result, target):
+    print("in report", flush=True)
+    threading.Event().wait()
+
+report._plot_rows = stuck
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_ctrl_c_during_the_report(campaign, tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    data = tmp_path / "data.csv"
+    data.write_text(campaign.csv)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _STUCK_REPORT, "diagnose", "vjm", str(data), "--quiet", "--json",
+         str(tmp_path / "d.json"), "--report", str(tmp_path / "rep")],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        # A shell running the tests in the background ignores SIGINT in its children.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        assert proc.stdout is not None and proc.stdout.readline() == "in report\n"
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=60)  # the plot never ends: only Ctrl-C ends the run
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, stderr
+    assert stderr.strip() == "robot-stiffness: interrupted; no output was written"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.csv"]
