@@ -109,9 +109,9 @@ def test_every_value_the_core_sends_has_a_field(vjm_core, csjm_path):
     """A field the core gains must be added to results.py (one line): this lists the keys that
     no dataclass field takes yet."""
     summary, _ = vjm_core
-    assert results.unmapped_keys(Diagnosis, summary) == []
+    assert results._unmapped_keys(Diagnosis, summary) == []
     summary, _ = _core.csjm_diagnose_csv(csjm_path)
-    assert results.unmapped_keys(Diagnosis, summary) == []
+    assert results._unmapped_keys(Diagnosis, summary) == []
 
 
 def test_to_dict_is_what_the_core_sent(vjm_core, csjm_path):
@@ -194,3 +194,20 @@ def test_csjm_fit_is_typed_and_pickles(csjm_path):
     back = pickle.loads(pickle.dumps(fit))
     np.testing.assert_array_equal(back.K, fit.K)
     assert back.to_dict() == fit.to_dict()
+
+
+def test_identification_is_typed_and_covers_the_core(panda, campaign):
+    from robot_stiffness.vjm import IdentifiedParameter, _CoreIdentification
+
+    m = campaign.measurements
+    core, _ = panda._identify(m.q, m.wrench, m.displacement, "extended", None, None, False, False, False,
+                              "auto", None, False)
+    assert results._unmapped_keys(_CoreIdentification, core) == []
+    res = panda.identify(m.q, m.wrench, m.displacement, model="extended")
+    assert not hasattr(res, "raw")
+    assert all(isinstance(p, IdentifiedParameter) for p in res.parameters)
+    assert [p.label for p in res.parameters] == res.labels and res.labels[:3] == ["J1z", "J1x", "J1y"]
+    doc = res.to_dict()
+    # The JSON of `identify vjm --json` is the core's own values, reorganised as documented.
+    assert [p["compliance"] for p in doc["parameters"]] == core["compliance"]
+    assert doc["combinations"] == core["combinations"] and doc["aliases"] == core["alias_labels"]

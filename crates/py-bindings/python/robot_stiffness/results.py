@@ -570,7 +570,7 @@ def _finite(x: Json) -> Json:
     return x
 
 
-def unmapped_keys(tp: type, value: object, path: str = "") -> List[str]:
+def _unmapped_keys(tp: type, value: object, path: str = "") -> List[str]:
     """Keys of a core value that no field of ``tp`` takes (``a.b[0].c`` paths); empty when the
     classes cover everything the core sends. Used by the tests to catch a field the core gained."""
     out: List[str] = []
@@ -580,7 +580,7 @@ def unmapped_keys(tp: type, value: object, path: str = "") -> List[str]:
         if value is None:
             return out
         arm = next((a for a in args if _fits(a, value)), args[0])
-        return unmapped_keys(arm, value, path)
+        return _unmapped_keys(arm, value, path)
     if dataclasses.is_dataclass(tp) and isinstance(value, dict):
         hints = _hints(tp)
         by_key = {_key(f): f for f in dataclasses.fields(tp)}
@@ -588,11 +588,11 @@ def unmapped_keys(tp: type, value: object, path: str = "") -> List[str]:
             if k not in by_key:
                 out.append(f"{path}{k}")
             else:
-                out += unmapped_keys(hints[by_key[k].name], v, f"{path}{k}.")  # type: ignore[arg-type]
+                out += _unmapped_keys(hints[by_key[k].name], v, f"{path}{k}.")  # type: ignore[arg-type]
         return out
     if origin in (list, List) and isinstance(value, list):
         (item,) = typing.get_args(tp)
         for i, v in enumerate(value):
-            out += unmapped_keys(item, v, f"{path[:-1]}[{i}].")
+            out += _unmapped_keys(item, v, f"{path[:-1]}[{i}].")
     return out
 
