@@ -165,7 +165,8 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
 class Campaign:
     """A simulated measurement campaign: what the instruments recorded (``measurements``,
     ``csv``) and the hidden truth (``true_displacement`` (N, 3) m, ``applied_wrench`` (N, 6),
-    ``tip`` (N, 3) unloaded tip points m, ``truth`` the true model, all base frame)."""
+    ``tip`` (N, 3) unloaded tip points m, ``truth`` the true model (its effects' joints
+    1-based, as given to :func:`simulate`), all base frame)."""
 
     measurements: Measurements
     csv: str
