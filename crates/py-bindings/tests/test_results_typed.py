@@ -211,3 +211,15 @@ def test_identification_is_typed_and_covers_the_core(panda, campaign):
     # The JSON of `identify vjm --json` is the core's own values, reorganised as documented.
     assert [p["compliance"] for p in doc["parameters"]] == core["compliance"]
     assert doc["combinations"] == core["combinations"] and doc["aliases"] == core["alias_labels"]
+
+
+def test_results_with_undefined_statistics_equal_their_copies(vjm_result):
+    import dataclasses
+
+    f = vjm_result.findings[0]
+    undefined = dataclasses.replace(f.evidence.f_test, p_value=float("nan"))
+    d = dataclasses.replace(vjm_result, gain=float("nan"), findings=[
+        dataclasses.replace(f, evidence=dataclasses.replace(f.evidence, f_test=undefined))])
+    assert pickle.loads(pickle.dumps(d)) == d
+    assert d != vjm_result  # and a real difference is still one
+    assert dataclasses.replace(d, gain=0.5) != d

@@ -71,7 +71,17 @@ def _key(f: "dataclasses.Field[object]") -> str:
 
 class _Result:
     """Shared behaviour: ``obj["key"]`` reads a field by its JSON key (the dict access of
-    earlier versions keeps working), ``to_dict`` gives the JSON form."""
+    earlier versions keeps working), ``to_dict`` gives the JSON form, and ``==`` compares field
+    by field with NaN equal to NaN (a result equals its pickled copy, or the same diagnosis run
+    elsewhere, even where a statistic is undefined)."""
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return all(_same(getattr(self, f.name), getattr(other, f.name))
+                   for f in dataclasses.fields(self) if f.compare)  # type: ignore[arg-type]
+
+    __hash__ = None  # type: ignore[assignment]  # mutable lists inside: not hashable
 
     def __getitem__(self, key: str) -> object:
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
@@ -94,6 +104,14 @@ class _Result:
         return out
 
 
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    return bool(a == b)
+
+
 def _model_of(obj: object) -> Optional[str]:
     return getattr(obj, "model_kind", None)
 
@@ -101,7 +119,7 @@ def _model_of(obj: object) -> Optional[str]:
 # ----------------------------------------------------------------------------- statistics
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FTest(_Result):
     """A nested-model F test: statistic ``f`` with (``df_num``, ``df_den``) degrees of freedom,
     upper-tail ``p_value``."""
@@ -112,7 +130,7 @@ class FTest(_Result):
     p_value: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Anova(_Result):
     """A one-way ANOVA: ``f`` with (``df_between``, ``df_within``) degrees of freedom."""
 
@@ -122,7 +140,7 @@ class Anova(_Result):
     p_value: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Correlation(_Result):
     """Spearman's ``rho`` over ``n`` pairs, two-sided ``p_value``."""
 
@@ -131,7 +149,7 @@ class Correlation(_Result):
     p_value: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PoseAnova(_Result):
     """Per-pose ANOVA of the residuals, one per axis (None where not computable), and the
     Bonferroni-combined ``p_value`` (VJM)."""
@@ -140,7 +158,7 @@ class PoseAnova(_Result):
     p_value: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TorqueCorrelation(_Result):
     """Correlation of the residual norm with the torque of ``joint`` (1-based) (VJM)."""
 
@@ -148,7 +166,7 @@ class TorqueCorrelation(_Result):
     correlation: Optional[Correlation]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DirectionCorrelation(_Result):
     """The strongest correlation between a residual axis and a force axis (VJM)."""
 
@@ -158,7 +176,7 @@ class DirectionCorrelation(_Result):
     p_bonferroni: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LoadingUnloading(_Result):
     """Residual difference between loading and unloading about one axis (CSJM)."""
 
@@ -167,7 +185,7 @@ class LoadingUnloading(_Result):
     test: Optional[Anova]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ResidualStructure(_Result):
     """The structure of one model's residuals: ``scaled_rms`` (1 = noise only), correlation
     with the load magnitude, and the model's own tests."""
@@ -183,7 +201,7 @@ class ResidualStructure(_Result):
     p_bonferroni: Optional[float] = _only(CSJM)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ResidualReport(_Result):
     """Residual structure of the baseline and of the extended model."""
 
@@ -194,7 +212,7 @@ class ResidualReport(_Result):
 # ----------------------------------------------------------------------------- models
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Parameter(_Result):
     """One fitted parameter: ``label``, ``value`` (None when the data do not determine it),
     ``unit``; ``stderr`` (CSJM)."""
@@ -205,7 +223,7 @@ class Parameter(_Result):
     stderr: Optional[float] = _only(CSJM)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ModelSummary(_Result):
     """A fitted model: name, parameter count, mean relative errors on held-out and training
     rows, parameters in model order. CSJM: ``rank`` of the design, ``k_d`` and ``k`` (3×3,
@@ -224,7 +242,7 @@ class ModelSummary(_Result):
 # ----------------------------------------------------------------------------- findings
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Alias(_Result):
     """A candidate that cannot be told apart from a finding on these data: ``effect``, its
     ``joint`` (1-based) and ``axis`` or None, ``delta_chi2`` (SSE with the alias − SSE with the
@@ -240,7 +258,7 @@ class Alias(_Result):
     note: Optional[str] = _only(CSJM)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Evidence(_Result):
     """Why a finding was named: its forward-selection ``step``, the F test of adding it, the
     Benjamini–Hochberg threshold it beat over ``n_candidates``, the share of the training SSE
@@ -261,7 +279,7 @@ class Evidence(_Result):
     interpretation: Optional[str] = _only(CSJM)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ConnectionTest(_Result):
     """The CSJM connection-term test: is K_D asymmetric as −½hat(τ₀) predicts? (The JSON key
     of ``lambda_`` is ``lambda``.)"""
@@ -283,7 +301,7 @@ class ConnectionTest(_Result):
     interpretation: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Finding(_Result):
     """A named effect: ``effect``, ``joint`` (1-based, base → tip) and ``axis`` or None, its
     ``aliases`` and the ``evidence`` (a :class:`ConnectionTest` for the CSJM's
@@ -296,7 +314,7 @@ class Finding(_Result):
     evidence: Union[Evidence, ConnectionTest]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CandidateScore(_Result):
     """The first-step F test of one catalogue candidate against the baseline. VJM: ``label``,
     ``joint``, ``axis``, ``testable``; CSJM: ``n_columns``, ``fraction_outside_baseline``,
@@ -313,7 +331,7 @@ class CandidateScore(_Result):
     note: Optional[str] = _only(CSJM)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PoseError(_Result):
     """Mean relative error of one pose, baseline and extended; ``set`` is ``train``/``test``
     (VJM)."""
@@ -406,7 +424,7 @@ class MomentRows(_Rows):
 # ----------------------------------------------------------------------------- diagnosis
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Diagnosis(_Result):
     """The result of ``vjm.diagnose`` / ``csjm.diagnose``.
 
