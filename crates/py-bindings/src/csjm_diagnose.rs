@@ -1,18 +1,20 @@
 //! Bindings of `so3_stiffness::diagnose`: CSJM campaigns with hidden effects (testbed) and the
-//! diagnosis of a CSJM measurement file (JSON of the core).
+//! diagnosis of a CSJM measurement file (typed values, see [`crate::results`]).
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use so3_stiffness::csjm::PointLoad;
 use so3_stiffness::diagnose::{
-    diagnose, diagnose_file, simulate_campaign, CsjmCampaignSpec, CsjmEffects, DiagnoseOptions,
+    diagnose, diagnose_file, simulate_campaign, CsjmCampaignSpec, CsjmDiagnosis, CsjmEffects,
+    DiagnoseOptions,
 };
 use so3_stiffness::identification::campaign::GravityRecording;
 use so3_stiffness::identification::ReadOptions;
 
 use crate::convert::{check_effect_keys, to_numpy};
 use crate::errors::{internal_error, run, value_error, IntoPyErr, PyResultExt};
+use crate::results::{csjm_rows, summary};
 
 fn number(d: &Bound<'_, PyDict>, i: usize, key: &str) -> PyResult<f64> {
     d.get_item(key)?
@@ -129,7 +131,8 @@ fn options(
     opts
 }
 
-/// Diagnoses CSJM measurements given as arrays (see `csjm_identify`); returns the core's JSON.
+/// Diagnoses CSJM measurements given as arrays (see `csjm_identify`); returns `(summary, rows)`
+/// as [`vjm_diagnose`](crate::diagnose::vjm_diagnose) does.
 #[pyfunction]
 #[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, holdout_seed = None, project = false))]
 #[allow(clippy::too_many_arguments)]
@@ -142,27 +145,35 @@ pub fn csjm_diagnose<'py>(
     test_fraction: Option<f64>,
     holdout_seed: Option<u64>,
     project: bool,
-) -> PyResult<String> {
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let data = crate::csjm::dataset_from_arrays(&r, &tau, reference, project, None)?;
     let opts = options(fdr, test_fraction, holdout_seed, project);
     let result = run(py, || diagnose(&data, &opts))?.map_err(IntoPyErr::into_py_err)?;
-    Ok(result.to_json())
+    typed(py, result)
 }
 
-/// Diagnoses a CSJM measurement file; returns the core's JSON.
+/// Diagnoses a CSJM measurement file; returns `(summary, rows)`.
 #[pyfunction]
 #[pyo3(signature = (path, fdr = None, test_fraction = None, holdout_seed = None, project = false))]
-pub fn csjm_diagnose_csv(
-    py: Python<'_>,
+pub fn csjm_diagnose_csv<'py>(
+    py: Python<'py>,
     path: std::path::PathBuf,
     fdr: Option<f64>,
     test_fraction: Option<f64>,
     holdout_seed: Option<u64>,
     project: bool,
-) -> PyResult<String> {
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let opts = options(fdr, test_fraction, holdout_seed, project);
     let result = run(py, || diagnose_file(&path, &opts))?.map_err(IntoPyErr::into_py_err)?;
-    Ok(result.to_json())
+    typed(py, result)
+}
+
+fn typed(
+    py: Python<'_>,
+    mut result: CsjmDiagnosis,
+) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyDict>)> {
+    let rows = csjm_rows(py, &std::mem::take(&mut result.rows))?;
+    Ok((summary(py, &result)?, rows))
 }
 
 /// Registers the functions on `m`.

@@ -1,16 +1,19 @@
 //! Binding of `vjm::diagnose`: baseline fit, residual structure, named effects, extended model.
-//! The result is the core's JSON (issue 5's output contract plus report material).
+//! The result is handed over as typed values (see [`crate::results`]).
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use vjm::diagnose::{diagnose_monitored, DiagnoseOptions};
 
 use crate::errors::IntoPyErr;
 use crate::interrupt::run_interruptible;
+use crate::results::{summary, vjm_rows};
 use crate::vjm::{parse_model, PyRobot};
 use crate::vjm_data::dataset_from_arrays;
 
-/// Diagnoses a measurement table on `robot`; returns the result as JSON text.
+/// Diagnoses a measurement table on `robot`; returns `(summary, rows)`: the result without its
+/// rows as native Python values, and the rows as numpy columns ([`crate::results`]).
 ///
 /// `progress`, when given, is called as `progress(stage, done, total)` on the calling thread;
 /// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
@@ -37,7 +40,7 @@ pub fn vjm_diagnose<'py>(
     force_sigma: Option<f64>,
     moment_sigma: Option<f64>,
     per_row: bool,
-) -> PyResult<String> {
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let chain = &robot.chain;
     let n = chain.n_joints();
     let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
@@ -75,11 +78,12 @@ pub fn vjm_diagnose<'py>(
     if let Some(v) = max_findings {
         opts.max_findings = v;
     }
-    let result = run_interruptible(py, progress.as_ref(), |monitor| {
+    let mut result = run_interruptible(py, progress.as_ref(), |monitor| {
         diagnose_monitored(chain, &data, &opts, monitor)
     })?
     .map_err(IntoPyErr::into_py_err)?;
-    Ok(result.to_json())
+    let rows = vjm_rows(py, &std::mem::take(&mut result.rows))?;
+    Ok((summary(py, &result)?, rows))
 }
 
 /// Registers the function on `m`.

@@ -13,6 +13,7 @@ pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
 pub mod interrupt;
+pub mod results;
 pub mod so3;
 pub mod stiffness_model;
 pub mod use_model;

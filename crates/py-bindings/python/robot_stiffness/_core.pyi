@@ -10,6 +10,11 @@ import numpy.typing as npt
 _F64 = npt.NDArray[np.float64]
 _Model = Union[str, Sequence[str]]
 _Path = Union[str, os.PathLike[str]]
+# A diagnosis as the core hands it over: the result without its rows as plain values (dicts,
+# lists, numbers, strings, None; robot_stiffness.results builds the typed classes from it) and
+# the rows as numpy columns.
+_CoreValue = Union[None, bool, int, float, str, List["_CoreValue"], Dict[str, "_CoreValue"]]
+_CoreDiagnosis = Tuple[Dict[str, _CoreValue], Dict[str, npt.NDArray[np.generic]]]
 
 __all__ = [
     "Robot",
@@ -85,14 +90,14 @@ def csjm_diagnose(
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
-) -> str: ...
+) -> _CoreDiagnosis: ...
 def csjm_diagnose_csv(
     path: _Path,
     fdr: Optional[float] = None,
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
-) -> str: ...
+) -> _CoreDiagnosis: ...
 def csjm_read_csv(path: _Path, project: bool = False) -> Tuple[_F64, _F64, int]: ...
 def csjm_identify_csv(path: _Path, order: int = 1, project: bool = False) -> Dict[str, Any]: ...
 def vjm_read_csv(path: _Path, n_joints: int) -> Dict[str, Any]: ...
@@ -140,7 +145,7 @@ def vjm_identify_model(
     data_file: Optional[str] = None,
     robust_covariance: bool = False,
     allow_outside_limits: bool = False,
-) -> Tuple[str, StiffnessModel]: ...
+) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
 def vjm_compensate(
     robot: Robot,
@@ -200,7 +205,7 @@ def vjm_diagnose(
     force_sigma: Optional[float] = None,
     moment_sigma: Optional[float] = None,
     per_row: bool = True,
-) -> str: ...
+) -> _CoreDiagnosis: ...
 
 @final
 class Robot:
