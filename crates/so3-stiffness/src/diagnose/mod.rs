@@ -210,9 +210,18 @@ pub fn diagnose_file(
     path: impl AsRef<Path>,
     options: &DiagnoseOptions,
 ) -> Result<CsjmDiagnosis, DiagnoseError> {
+    diagnose_file_monitored(path, options, &Monitor::none())
+}
+
+/// [`diagnose_file`] under a [`Monitor`] (see [`diagnose_monitored`]).
+pub fn diagnose_file_monitored(
+    path: impl AsRef<Path>,
+    options: &DiagnoseOptions,
+    monitor: &Monitor<'_>,
+) -> Result<CsjmDiagnosis, DiagnoseError> {
     options.validate()?;
     let data = CsjmDataset::from_csv_path(path, &options.read)?;
-    diagnose(&data, options)
+    diagnose_monitored(&data, options, monitor)
 }
 
 fn model_name(terms: &[Term]) -> String {
