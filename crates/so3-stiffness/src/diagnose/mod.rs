@@ -390,7 +390,6 @@ fn aliases_of(
     comp: &Compressed,
     alias_cosine: f64,
     selected: &Selected<Term>,
-    model_before: &[Term],
     fraction: f64,
     gravity_note: &str,
 ) -> Vec<Alias> {
@@ -429,9 +428,11 @@ fn aliases_of(
             .iter()
             .any(|a| a.effect == Effect::CableNonlinearity.name())
     {
-        let mut model = model_before.to_vec();
-        model.push(Term::Effect(Effect::CableNonlinearity));
-        let beyond_curvature = problem.fraction_outside(comp, &model, selected.cand);
+        let beyond_curvature = problem.fraction_outside(
+            comp,
+            &[Term::Baseline, Term::Effect(Effect::CableNonlinearity)],
+            selected.cand,
+        );
         if beyond_curvature < LINEAR_ALIAS_FRACTION {
             aliases.push(Alias::not_a_candidate(
                 Effect::CableNonlinearity.name(),
@@ -555,7 +556,6 @@ fn run_diagnosis(
     let extended_fit = selection.last;
     let extended_cov = problem.covariance(&extended_fit);
     let baseline_cov = problem.covariance(&baseline_fit);
-    let mut model_before = vec![Term::Baseline];
     let mut findings: Vec<Finding> = Vec::new();
     for f in &selection.findings {
         cancel.check()?;
@@ -571,7 +571,6 @@ fn run_diagnosis(
                 &comp,
                 options.alias_cosine,
                 f,
-                &model_before,
                 fraction,
                 &gravity_note,
             ),
@@ -589,7 +588,6 @@ fn run_diagnosis(
                 interpretation: interpretation(&problem, &extended_fit, &extended_cov, effect),
             }),
         });
-        model_before.push(f.cand);
     }
 
     let connection_term = connection::connection_test(&problem, &extended_fit, &extended_cov, q);
