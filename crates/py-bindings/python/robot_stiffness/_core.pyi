@@ -90,6 +90,7 @@ def csjm_diagnose(
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
+    progress: Optional[Callable[[str, int, int], Any]] = None,
 ) -> _CoreDiagnosis: ...
 def csjm_diagnose_csv(
     path: _Path,
@@ -97,6 +98,7 @@ def csjm_diagnose_csv(
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
+    progress: Optional[Callable[[str, int, int], Any]] = None,
 ) -> _CoreDiagnosis: ...
 def csjm_read_csv(path: _Path, project: bool = False) -> Tuple[_F64, _F64, int]: ...
 def csjm_identify_csv(path: _Path, order: int = 1, project: bool = False) -> Dict[str, Any]: ...

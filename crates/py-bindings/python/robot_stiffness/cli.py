@@ -687,7 +687,7 @@ effects (--effect NAME:key=value,...):
     )
     dc.add_argument("data", metavar="DATA.csv", help="CSJM measurement file")
     dc.add_argument("--fdr", type=T.probability, default=None,
-                    help="false discovery rate, between 0 and 1 (default 0.05)")
+                    help="false discovery rate, between 0 and 1 (default 0.01)")
     dc.add_argument("--split-seed", type=T.seed, default=None, help="seed of the held-out rows")
     dc.add_argument("--project", action="store_true", help="project orientation matrices onto SO(3)")
     dc.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON (a summary: no per-row data)")

@@ -33,8 +33,9 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
-from ._errors import DataFileError, ShapeError, reworded
+from ._errors import ArgumentTypeError, DataFileError, ShapeError, reworded
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
+from ._vjm_data import ProgressCallback
 from .results import Diagnosis
 
 __all__ = [
@@ -259,29 +260,35 @@ def diagnose(
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
+    progress: Optional[ProgressCallback] = None,
 ) -> Diagnosis:
     """Diagnose a CSJM campaign: fit the first-order baseline Δτ = c + K_D Δζ on training rows,
     show the structure of its residuals, name effects (``platform_gravity``,
     ``cable_hysteresis``, ``cable_nonlinearity``, ``connection_term``) by F tests with
-    Benjamini–Hochberg at ``fdr`` confirmed on held-out rows, refit and measure the gain.
+    Benjamini–Hochberg at ``fdr`` (default 0.01, as for the arm) confirmed on held-out rows,
+    refit and measure the gain. The selection runs on the same engine as :func:`vjm.diagnose`.
+    ``progress(stage, done, total)`` is called as the run goes; an exception it raises stops
+    the run and propagates (so does Ctrl-C).
 
     ``data``: a measurement-file path, a table (DataFrame) with the file's columns, or arrays
     ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
     body-frame displacements Δζ (rad).
     """
+    if progress is not None and not callable(progress):
+        raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     if tau is None and ref is None and is_table(data):
         data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
         with reworded(PYTHON_NAMES):
             summary, rows = _core.csjm_diagnose_csv(
                 check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed,
-                project=bool(project),
+                project=bool(project), progress=progress,
             )
     elif tau is not None and ref is not None:
         with reworded(PYTHON_NAMES):
             summary, rows = _core.csjm_diagnose(
                 f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
-                holdout_seed=holdout_seed, project=bool(project),
+                holdout_seed=holdout_seed, project=bool(project), progress=progress,
             )
     else:
         raise ShapeError("diagnose needs a measurement-file path, or R (N, 3, 3), tau (N, 3) and ref")
