@@ -25,7 +25,7 @@ def test_progress_is_reported_and_the_default_fdr_is_the_engines(friction_csv: P
     assert "cable_hysteresis" in [f["effect"] for f in result.findings]
     stages = [s for s, _, _ in seen]
     assert stages[0] == "baseline" and "selection" in stages and stages[-1] == "residuals", seen
-    assert result.raw["fdr"] == 0.01
+    assert result.fdr == 0.01
     # Arrays and the file give the same diagnosis.
     R, tau, ref = csjm.read_measurements(friction_csv)
     from_arrays = csjm.diagnose(R, tau, ref, progress=lambda *a: None)

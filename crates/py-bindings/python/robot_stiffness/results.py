@@ -249,15 +249,15 @@ class ModelSummary(_Result):
 class Alias(_Result):
     """A candidate that cannot be told apart from a finding on these data: ``effect``, its
     ``joint`` (1-based) and ``axis`` or None, ``delta_chi2`` (SSE with the alias − SSE with the
-    finding, in noise variances). VJM: ``cosine`` of the columns, ``p_finding_given_alias``;
-    CSJM: ``note``."""
+    finding, in noise variances), ``cosine`` of the one-column candidates' columns,
+    ``p_finding_given_alias``; CSJM: ``note``."""
 
     effect: str
     joint: Optional[int]
     axis: Optional[str]
     delta_chi2: Optional[float]
-    cosine: Optional[float] = _only(VJM)
-    p_finding_given_alias: Optional[float] = _only(VJM)
+    cosine: Optional[float] = None
+    p_finding_given_alias: Optional[float] = None
     note: Optional[str] = _only(CSJM)
 
 
@@ -276,7 +276,7 @@ class Evidence(_Result):
     heldout_sse_before: float
     heldout_sse_after: float
     estimate: Union[List[float], List[Parameter]]
-    cluster_robust: Optional[FTest] = _only(VJM)
+    cluster_robust: Optional[FTest] = None
     unit: Optional[str] = _only(VJM)
     fraction_outside_baseline: Optional[float] = _only(CSJM)
     interpretation: Optional[str] = _only(CSJM)
