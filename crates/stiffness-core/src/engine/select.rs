@@ -121,9 +121,14 @@ pub fn select<P: Problem>(
         }
         let m = p.len();
         let mut order: Vec<usize> = (0..testable.len()).filter(|&k| rejected[k]).collect();
-        order.sort_by(|&a, &b| {
-            p[a].total_cmp(&p[b])
-                .then(testable[b].f_test.f.total_cmp(&testable[a].f_test.f))
+        // Most significant first; p-values and F statistics equal to 9 significant digits are
+        // ties (exact aliases, e.g. two tilts about one line, differ only by rounding) and keep
+        // the catalogue's order, so that the named one does not depend on rounding.
+        order.sort_by_key(|&k| {
+            (
+                significant(p[k]),
+                std::cmp::Reverse(significant(testable[k].f_test.f)),
+            )
         });
         let mut accepted = None;
         for &k in &order {
@@ -235,4 +240,12 @@ pub fn select<P: Problem>(
         last: current,
         extra_rejected,
     })
+}
+
+/// `x` rounded to 9 significant digits, as an orderable key (0 and non-finite values first).
+fn significant(x: f64) -> i64 {
+    if !(x.is_finite() && x > 0.0) {
+        return i64::MIN;
+    }
+    (x.log10() * 1e8).round() as i64
 }
