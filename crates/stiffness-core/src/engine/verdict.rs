@@ -78,22 +78,24 @@ pub fn factor_sse(f: &crate::lsq::TriangularFactor, cols: &[usize], y: usize) ->
     (r.iter().map(|v| v * v).sum(), basis.rank())
 }
 
-/// The F test of the model `model` (columns of the compressed training factor) against the
-/// model plus the columns `extra` plus a block B of `n_block` parameters that is handled by
-/// its sufficient statistics: `within` is the factor of the training design with B projected
-/// out (e.g. a free offset per cluster), so that `rank(M ∪ A ∪ B) = rank_within(M ∪ A) +
-/// n_block` and the SSE of the full model is read from `within`.
+/// The F test of the model `model` (columns of the training factor `train`, observation `y`)
+/// against the model plus further columns plus a block B of `n_block` parameters that is
+/// handled by its sufficient statistics: `within` is the factor of the training design with B
+/// projected out (e.g. a free offset per cluster), possibly over a subset of the columns;
+/// `full_within` are the columns of model ∪ extra in `within`'s own numbering and `y_within`
+/// its observation column. Then `rank(M ∪ A ∪ B) = rank_within(M ∪ A) + n_block`, and the SSE
+/// of the full model is read from `within`.
 pub fn nested_test_with_block(
     train: &crate::lsq::TriangularFactor,
-    within: &crate::lsq::TriangularFactor,
     model: &[usize],
-    extra: &[usize],
-    n_block: usize,
     y: usize,
+    within: &crate::lsq::TriangularFactor,
+    full_within: &[usize],
+    y_within: usize,
+    n_block: usize,
 ) -> FTest {
     let (sse0, rank0) = factor_sse(train, model, y);
-    let all: Vec<usize> = model.iter().chain(extra).copied().collect();
-    let (sse1, rank_w) = factor_sse(within, &all, y);
+    let (sse1, rank_w) = factor_sse(within, full_within, y_within);
     let rank1 = rank_w + n_block;
     let n = train.nrows();
     nested_f_test(

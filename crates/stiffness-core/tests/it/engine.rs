@@ -275,11 +275,12 @@ fn the_offset_block_by_its_statistics_equals_explicit_dummy_columns() {
     }
     let f = nested_test_with_block(
         &full.finish(),
-        &within.finish(),
         &[0, 1],
-        &[2],
-        groups.len(),
         4,
+        &within.finish(),
+        &[0, 1, 2],
+        4,
+        groups.len(),
     );
     // Explicit: columns [1, t, t², one dummy per group] (the constant is in the dummies' span).
     let n = train.len();

@@ -90,6 +90,8 @@ pub fn predictions_pass(
     } else {
         vec![0..n / 2, n / 2..n]
     };
+    let all_terms: Vec<Term> = fits.iter().flat_map(|f| f.terms.iter().copied()).collect();
+    let want = problem.mask(&all_terms);
     let run = |range: Range<usize>| -> Result<PassOut, Cancelled> {
         let mut out = PassOut {
             fits: fits
@@ -105,7 +107,7 @@ pub fn predictions_pass(
             sample: Vec::new(),
             first_row: vec![None; n_groups],
         };
-        problem.for_each_row_in(lin, range, |i, row, _, sigma, cols| {
+        problem.for_each_row_in(lin, range, Some(&want), |i, row, _, sigma, cols| {
             let g = problem.groups[i];
             if out.first_row[g].is_none() {
                 out.first_row[g] = Some(i);

@@ -348,7 +348,7 @@ fn prepare<'a>(
     let zeros = vec![0.0; m];
     // Baseline: a first fit with tracker noise only gives the compliance that propagates the
     // force-sensor noise; then the weighted fit.
-    let pre_problem = VjmProblem::new(
+    let problem = VjmProblem::new(
         chain,
         data,
         labels,
@@ -356,12 +356,17 @@ fn prepare<'a>(
         tau_scale,
         Whitening {
             displacement_sigma: opts.noise.displacement_sigma,
-            wrench_sigma: [0.0; 6],
+            wrench_sigma: opts.noise.wrench_sigma,
             propagate_abs: zeros.clone(),
         },
         opts.noise.wrench_sigma,
         cancel.clone(),
     );
+    let pre_problem = problem.springs_only(Whitening {
+        displacement_sigma: opts.noise.displacement_sigma,
+        wrench_sigma: [0.0; 6],
+        propagate_abs: zeros.clone(),
+    });
     let pre = fit::fit(
         &pre_problem,
         &base_terms,
@@ -372,7 +377,7 @@ fn prepare<'a>(
     cancel.check()?;
     let c_pre = stiffness_core::engine::Problem::relinearise(&pre_problem, &pre.terms, &pre.coef)
         .compliance;
-    let problem = pre_problem.with_whitening(Whitening {
+    let problem = problem.with_whitening(Whitening {
         displacement_sigma: opts.noise.displacement_sigma,
         wrench_sigma: opts.noise.wrench_sigma,
         propagate_abs: c_pre.iter().map(|v| v.abs()).collect(),
@@ -414,22 +419,24 @@ pub fn detectability(
     // [X_base | W s] compressed over the training rows, then s projected off X_base.
     let mut acc = stiffness_core::lsq::TriangularAccumulator::new(idx.len() + 1);
     let mut z = vec![0.0; idx.len() + 1];
-    p.problem.for_each_row(&fit.lin, |i, _, w, _, cols| {
-        if p.problem.labels[i] != SetLabel::Train {
-            return;
-        }
-        let ws: Vec<nalgebra::Vector3<f64>> = idx
-            .iter()
-            .map(|&c| w * nalgebra::Vector3::from(cols[c]))
-            .chain(std::iter::once(w * nalgebra::Vector3::from(signal[i])))
-            .collect();
-        for r in 0..3 {
-            for (dst, v) in z.iter_mut().zip(&ws) {
-                *dst = v[r];
+    let want = p.problem.mask(&fit.terms);
+    p.problem
+        .for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
+            if p.problem.labels[i] != SetLabel::Train {
+                return;
             }
-            acc.push_row_unchecked(&z);
-        }
-    })?;
+            let ws: Vec<nalgebra::Vector3<f64>> = idx
+                .iter()
+                .map(|&c| w * nalgebra::Vector3::from(cols[c]))
+                .chain(std::iter::once(w * nalgebra::Vector3::from(signal[i])))
+                .collect();
+            for r in 0..3 {
+                for (dst, v) in z.iter_mut().zip(&ws) {
+                    *dst = v[r];
+                }
+                acc.push_row_unchecked(&z);
+            }
+        })?;
     let f = acc.finish();
     let q = f.ncols();
     let col = |k: usize| -> Vec<f64> { (0..q).map(|i| f.r()[i * q + k]).collect() };
@@ -479,19 +486,29 @@ fn verdict_tests(
 ) -> Result<VerdictTests, stiffness_core::Cancelled> {
     use stiffness_core::engine::verdict::nested_test_with_block;
     use stiffness_core::engine::Problem as _;
-    let within = problem.within_pose(&fit.lin)?;
     let cols =
         |terms: &[Term]| -> Vec<usize> { terms.iter().flat_map(|t| problem.columns(*t)).collect() };
     let model = cols(&fit.terms);
     let alt = cols(&alternative_terms(3 * problem.chain.n_joints()));
     let y = problem.observation_column();
+    // The within-pose factor over model ∪ alternative ∪ y only, in its own numbering.
+    let mut sel: Vec<usize> = model.iter().chain(&alt).copied().collect();
+    sel.sort_unstable();
+    sel.dedup();
+    sel.push(y);
+    let at = |c: usize| sel.iter().position(|&s| s == c).expect("selected");
+    let within = problem.within_pose(&fit.lin, &sel)?;
+    let model_w: Vec<usize> = model.iter().map(|&c| at(c)).collect();
+    let full_w: Vec<usize> = model.iter().chain(&alt).map(|&c| at(c)).collect();
+    let y_w = at(y);
     let lack_of_fit = nested_test_with_block(
         &fit.compressed.train,
-        &within.factor,
         &model,
-        &alt,
-        within.n_offsets,
         y,
+        &within.factor,
+        &full_w,
+        y_w,
+        within.n_offsets,
     );
     let mut blocks: Vec<BlockTest> = Alternative::ALL
         .iter()
@@ -505,11 +522,12 @@ fn verdict_tests(
         block: POSE_OFFSETS.to_string(),
         f_test: nested_test_with_block(
             &fit.compressed.train,
-            &within.factor,
             &model,
-            &[],
-            within.n_offsets,
             y,
+            &within.factor,
+            &model_w,
+            y_w,
+            within.n_offsets,
         ),
         meaning: "a displacement offset that differs from pose to pose and does not grow with the load: a base that settles, a tracker reflector that moves, thermal drift between poses?".to_string(),
     });

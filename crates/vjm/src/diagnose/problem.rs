@@ -177,25 +177,58 @@ impl<'a> VjmProblem<'a> {
     }
 
     /// Raw (unwhitened) columns of every term of the layout for one row, in layout order,
-    /// followed by the measured displacement.
+    /// followed by the measured displacement. With `want`, a candidate or block none of whose
+    /// columns is wanted gets zero columns without being computed (the geometric column is
+    /// an iterative solve; the springs are always computed).
     pub fn raw_columns(
         &self,
         builder: &RowBuilder<'_>,
         row: &RowKinematics,
         lin: &Linearisation,
+        want: Option<&[bool]>,
         out: &mut Vec<[f64; 3]>,
     ) {
         out.clear();
         for s in 0..self.m {
             out.push(spring_column(row, s));
         }
-        for (c, _) in &self.layout {
-            candidate_columns(builder, c, row, lin, &self.tau_scale, out);
+        let wanted = |r: &Range<usize>| want.is_none_or(|w| w[r.clone()].iter().any(|b| *b));
+        for (c, r) in &self.layout {
+            if wanted(r) {
+                candidate_columns(builder, c, row, lin, &self.tau_scale, out);
+            } else {
+                out.extend(std::iter::repeat_n([0.0; 3], r.len()));
+            }
         }
-        for (a, _) in &self.alternatives {
-            a.columns(row, out);
+        for (a, r) in &self.alternatives {
+            if wanted(r) {
+                a.columns(row, out);
+            } else {
+                out.extend(std::iter::repeat_n([0.0; 3], r.len()));
+            }
         }
         out.push(row.displacement);
+    }
+
+    /// The mask of the columns of `terms` (for the `want` of [`Self::for_each_row_in`]).
+    pub fn mask(&self, terms: &[Term]) -> Vec<bool> {
+        let mut m = vec![false; self.ncols()];
+        for t in terms {
+            for c in Problem::columns(self, *t) {
+                m[c] = true;
+            }
+        }
+        m
+    }
+
+    /// A problem of the springs alone (no candidate or block columns): the pre-fit that sets
+    /// the force-noise propagation needs no more.
+    pub fn springs_only(&self, whitening: Whitening) -> Self {
+        let mut p = self.with_whitening(whitening);
+        p.layout.clear();
+        p.alternatives.clear();
+        p.y = p.m;
+        p
     }
 
     /// The prediction `Σ_k β_k x_k` (m, base frame) of a fit for one row from its raw
@@ -226,9 +259,10 @@ impl<'a> VjmProblem<'a> {
     pub fn for_each_row(
         &self,
         lin: &Linearisation,
+        want: Option<&[bool]>,
         visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
     ) -> Result<(), Cancelled> {
-        self.for_each_row_in(lin, 0..self.data.len(), visit)
+        self.for_each_row_in(lin, 0..self.data.len(), want, visit)
     }
 
     /// [`Self::for_each_row`] over the rows `range` only.
@@ -236,6 +270,7 @@ impl<'a> VjmProblem<'a> {
         &self,
         lin: &Linearisation,
         range: Range<usize>,
+        want: Option<&[bool]>,
         mut visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
     ) -> Result<(), Cancelled> {
         let mut builder = self.builder();
@@ -246,7 +281,7 @@ impl<'a> VjmProblem<'a> {
             }
             let row = builder.row(self.data, i);
             let (w, sigma) = self.whitening.of(&row);
-            self.raw_columns(&builder, &row, lin, &mut cols);
+            self.raw_columns(&builder, &row, lin, want, &mut cols);
             visit(i, &row, &w, &sigma, &cols);
         }
         Ok(())
@@ -262,7 +297,7 @@ impl<'a> VjmProblem<'a> {
         let mut acc = CompressedAccumulator::new(p);
         let mut z = vec![[0.0; 3]; p];
         let mut zrow = vec![0.0; p];
-        self.for_each_row_in(lin, range, |i, _, w, _, cols| {
+        self.for_each_row_in(lin, range, None, |i, _, w, _, cols| {
             for (zk, c) in z.iter_mut().zip(cols) {
                 let v = whiten(w, c);
                 *zk = [v.x, v.y, v.z];
@@ -385,7 +420,8 @@ impl Problem for VjmProblem<'_> {
         let mut used = vec![false; n_groups];
         let idx: Vec<usize> = fit.terms.iter().flat_map(|t| self.columns(*t)).collect();
         let mut x = vec![Vector3::zeros(); p];
-        self.for_each_row(&fit.lin, |i, _, w, _, cols| {
+        let want = self.mask(&fit.terms);
+        self.for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
             if self.labels[i] != SetLabel::Train {
                 return;
             }
@@ -441,8 +477,13 @@ pub struct WithinPose {
 pub const MAX_RUN: usize = 4096;
 
 impl VjmProblem<'_> {
-    /// The [`WithinPose`] factor at `lin`.
-    pub fn within_pose(&self, lin: &Linearisation) -> Result<WithinPose, Cancelled> {
+    /// The [`WithinPose`] factor at `lin` over the columns `cols` of the layout (in that
+    /// order; the factor's column k is `cols[k]`).
+    pub fn within_pose(
+        &self,
+        lin: &Linearisation,
+        cols: &[usize],
+    ) -> Result<WithinPose, Cancelled> {
         let n = self.data.len();
         let parts: Vec<Range<usize>> = if n < PARALLEL_ROWS {
             std::iter::once(0..n).collect()
@@ -463,7 +504,7 @@ impl VjmProblem<'_> {
             std::thread::scope(|s| {
                 let handles: Vec<_> = parts
                     .iter()
-                    .map(|r| s.spawn(|| self.within_range(lin, r.clone())))
+                    .map(|r| s.spawn(|| self.within_range(lin, r.clone(), cols)))
                     .collect();
                 handles
                     .into_iter()
@@ -487,8 +528,13 @@ impl VjmProblem<'_> {
         &self,
         lin: &Linearisation,
         range: Range<usize>,
+        sel: &[usize],
     ) -> Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled> {
-        let p = self.ncols();
+        let p = sel.len();
+        let mut want = vec![false; self.ncols()];
+        for &c in sel {
+            want[c] = true;
+        }
         let mut acc = stiffness_core::lsq::TriangularAccumulator::new(p);
         let mut n_offsets = 0;
         // The current run: its group, whitening matrices and whitened row blocks.
@@ -533,7 +579,7 @@ impl VjmProblem<'_> {
                 ws.clear();
                 zs.clear();
             };
-        self.for_each_row_in(lin, range, |i, _, w, _, cols| {
+        self.for_each_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
             if self.labels[i] != SetLabel::Train {
                 return;
             }
@@ -543,7 +589,7 @@ impl VjmProblem<'_> {
                 run_group = g;
             }
             ws.push(*w);
-            zs.push(cols.iter().map(|c| whiten(w, c)).collect());
+            zs.push(sel.iter().map(|&c| whiten(w, &cols[c])).collect());
         })?;
         flush(&mut ws, &mut zs, &mut acc);
         Ok((acc, n_offsets))
