@@ -563,6 +563,11 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
   wrench_bias:bias=2/0/-2/0/0.2/0                     recorded wrench offset fx/fy/fz/mx/my/mz (N, N·m)
   frame_misalignment:rotation=0.01/-0.005/0           tracker frame rotation vector, rad
   geometric_nonlinearity                              load-dependent Jacobian (K_C)
+  mount_compliance:translation=4e-6,rotation=1e-5     compliant mount, m/N and rad/(N·m)
+effects outside diagnose's catalogue (diagnose must say `unexplained`):
+  pose_drift:sigma=5e-5                               an independent offset per pose, m
+  tool_axial_compliance:compliance=1e-4               tool compliant along its axis, m/N
+  sensor_crosstalk:coupling=0.05                      F/T cross-axis sensitivity (0.05 = 5 %)
 """,
     )
     sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")
