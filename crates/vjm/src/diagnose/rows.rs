@@ -2,7 +2,7 @@
 //! all rows): the 3n-spring Jacobian at the tip point, spring torques, tip frame, and the exact
 //! deflected-equilibrium response the geometric non-linearity candidate needs.
 //!
-//! Everything here is the crate's own kinematics ([`crate::kinematics`]); the diagnosis does
+//! Everything here is the crate's own kinematics (`vjm::kinematics`, re-exported as [`crate::jacobian`] and friends); the diagnosis does
 //! not use the testbed, which is the independent code path the tests check it against.
 
 use nalgebra::{DMatrix, DVector};
