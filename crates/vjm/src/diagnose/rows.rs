@@ -5,14 +5,12 @@
 //! Everything here is the crate's own kinematics (`vjm::kinematics`, re-exported as [`crate::jacobian`] and friends); the diagnosis does
 //! not use the testbed, which is the independent code path the tests check it against.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, Isometry3, UnitQuaternion, Vector3};
 
 use super::candidates::{torque_sigma, RowKinematics};
 use crate::chain::SerialChain;
 use crate::dataset::Dataset;
-use crate::kinematics::{
-    forward_kinematics_deflected, jacobian_deflected, jacobian_in_place, Workspace,
-};
+use crate::kinematics::{jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
 
 /// Reusable scratch that turns a dataset row into [`RowKinematics`].
@@ -23,6 +21,8 @@ pub struct RowBuilder<'a> {
     ws: Workspace,
     jac: Vec<f64>,
     wrench_sigma: [f64; 6],
+    /// Per joint: its spring axes `[z, x, y]` in its child frame.
+    local_axes: Vec<[Vector3<f64>; 3]>,
 }
 
 impl<'a> RowBuilder<'a> {
@@ -32,12 +32,18 @@ impl<'a> RowBuilder<'a> {
         let model = VirtualJointModel::extended(chain.n_joints());
         let ws = Workspace::new(chain, &model).expect("the extended model fits its own chain");
         let jac = vec![0.0; 6 * model.n_params()];
+        let local_axes = chain
+            .joints()
+            .iter()
+            .map(|j| crate::model::spring_axes(j.axis()))
+            .collect();
         Self {
             chain,
             model,
             ws,
             jac,
             wrench_sigma,
+            local_axes,
         }
     }
 
@@ -74,34 +80,65 @@ impl<'a> RowBuilder<'a> {
     /// The exact tip displacement (m, base frame) of linear springs of compliances `c` (3n,
     /// rad/(N·m)) under the row's wrench, with equilibrium in the deflected configuration:
     /// the fixed point `θ = C J(θ)ᵀ W`, then the deflected tip minus the unloaded one.
+    ///
+    /// The same kinematics as `vjm::kinematics::jacobian_deflected` (springs at the joint
+    /// origins, composed `[z, x, y]` after the joint rotation), written for this loop: the
+    /// joint rotations are composed once per row, nothing is allocated per iteration, and
+    /// only the spring torques `J(θ)ᵀ W` are formed, not the Jacobian.
     pub fn exact_displacement(&self, row: &RowKinematics, c: &[f64]) -> [f64; 3] {
-        let w = DVector::from_column_slice(&row.wrench);
+        let joints = self.chain.joints();
+        let n = joints.len();
+        let tq: Vec<Isometry3<f64>> = joints
+            .iter()
+            .zip(&row.q)
+            .map(|(j, q)| {
+                j.origin()
+                    * Isometry3::from_parts(
+                        nalgebra::Translation3::identity(),
+                        UnitQuaternion::from_scaled_axis(j.axis() * *q),
+                    )
+            })
+            .collect();
+        let f = Vector3::new(row.wrench[0], row.wrench[1], row.wrench[2]);
+        let m = Vector3::new(row.wrench[3], row.wrench[4], row.wrench[5]);
+        let mut axes = vec![Vector3::zeros(); 3 * n];
+        let mut centres = vec![Vector3::zeros(); 3 * n];
+        // The deflected tip point for deflections θ; fills the spring axes and centres.
+        let tip_at = |theta: &[f64], axes: &mut [Vector3<f64>], centres: &mut [Vector3<f64>]| {
+            let mut t = Isometry3::identity();
+            for j in 0..n {
+                t *= tq[j];
+                for (k, local) in self.local_axes[j].iter().enumerate() {
+                    let s = 3 * j + k;
+                    axes[s] = t.rotation * local;
+                    centres[s] = t.translation.vector;
+                    t.rotation *= UnitQuaternion::from_scaled_axis(local * theta[s]);
+                }
+            }
+            (t * self.chain.tip_offset()).translation.vector
+        };
         let mut theta: Vec<f64> = row.tau.iter().zip(c).map(|(t, ci)| t * ci).collect();
+        let mut next = vec![0.0; theta.len()];
         // |C·K_C| is of order |W|·reach·c ≈ 1e-2, so the iteration contracts fast; 100 steps
         // is a cap, not an expectation.
         for _ in 0..100 {
-            let Ok(j) = jacobian_deflected(self.chain, &self.model, &row.q, &theta) else {
-                break;
-            };
-            let tau = j.transpose() * &w;
-            let next: Vec<f64> = tau.iter().zip(c).map(|(t, ci)| t * ci).collect();
+            let p = tip_at(&theta, &mut axes, &mut centres);
+            for s in 0..theta.len() {
+                let tau = axes[s].cross(&(p - centres[s])).dot(&f) + axes[s].dot(&m);
+                next[s] = c[s] * tau;
+            }
             let change = next
                 .iter()
                 .zip(&theta)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
             let scale = next.iter().map(|a| a.abs()).fold(1e-300, f64::max);
-            theta = next;
+            std::mem::swap(&mut theta, &mut next);
             if change <= 1e-14 * scale {
                 break;
             }
         }
-        match forward_kinematics_deflected(self.chain, &self.model, &row.q, &theta) {
-            Ok(tip) => {
-                let p = tip.translation.vector;
-                [p.x - row.tip[0], p.y - row.tip[1], p.z - row.tip[2]]
-            }
-            Err(_) => [f64::NAN; 3],
-        }
+        let p = tip_at(&theta, &mut axes, &mut centres);
+        [p.x - row.tip[0], p.y - row.tip[1], p.z - row.tip[2]]
     }
 }

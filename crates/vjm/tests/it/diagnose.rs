@@ -666,3 +666,57 @@ fn the_goodness_of_fit_needs_the_true_noise_and_the_lack_of_fit_does_not() {
     let unknown = diagnose(&chain, &c.dataset, &DiagnoseOptions::default()).unwrap();
     assert!(unknown.verdict.goodness_of_fit.is_none() && !unknown.unexplained);
 }
+
+/// The geometric-non-linearity column's exact response (the diagnosis's own loop) against the
+/// testbed's deflected equilibrium, an independent code path, on 32 seeded configurations.
+#[test]
+fn the_exact_deflection_matches_the_testbeds() {
+    let chain = SerialChain::bundled();
+    let qs = crate::strategies::random_configurations(&chain, 32, 77);
+    let mut rng = ChaCha8Rng::seed_from_u64(78);
+    for q in qs.chunks_exact(7) {
+        let c: Vec<f64> = (0..21)
+            .map(|s| {
+                let t = NOMINAL_TORSION[s / 3];
+                if s % 3 == 0 {
+                    t
+                } else {
+                    0.3 * t * rng.random::<f64>()
+                }
+            })
+            .collect();
+        let w: [f64; 6] = std::array::from_fn(|k| {
+            if k < 3 {
+                rng.random_range(-80.0..80.0)
+            } else {
+                rng.random_range(-3.0..3.0)
+            }
+        });
+        let data = vjm::dataset::Dataset::new(
+            7,
+            q.to_vec(),
+            w.to_vec(),
+            vec![0.0, 0.0, 1e-3],
+            None,
+            None,
+            None,
+        )
+        .unwrap();
+        let mut b = vjm::diagnose::rows::RowBuilder::new(&chain, [0.0; 6]);
+        let row = b.row(&data, 0);
+        let d = b.exact_displacement(&row, &c);
+        let truth = TrueModel {
+            compliance: c.clone(),
+            effects: vec![Effect::GeometricNonlinearity],
+        };
+        let (e, _) = truth.displacement(&chain, q, &w);
+        let lin = vjm::diagnose::candidates::spring_prediction(&row, &c);
+        let nonlinear =
+            ((e.x - lin[0]).powi(2) + (e.y - lin[1]).powi(2) + (e.z - lin[2]).powi(2)).sqrt();
+        let diff = ((d[0] - e.x).powi(2) + (d[1] - e.y).powi(2) + (d[2] - e.z).powi(2)).sqrt();
+        assert!(
+            nonlinear > 1e-9 && diff <= 1e-9 * nonlinear,
+            "diff {diff:e}, non-linear part {nonlinear:e}"
+        );
+    }
+}
