@@ -106,9 +106,9 @@ impl<'a> RowBuilder<'a> {
         // The deflected tip point for deflections θ; fills the spring axes and centres.
         let tip_at = |theta: &[f64], axes: &mut [Vector3<f64>], centres: &mut [Vector3<f64>]| {
             let mut t = Isometry3::identity();
-            for j in 0..n {
-                t *= tq[j];
-                for (k, local) in self.local_axes[j].iter().enumerate() {
+            for (j, (tqj, locals)) in tq.iter().zip(&self.local_axes).enumerate() {
+                t *= tqj;
+                for (k, local) in locals.iter().enumerate() {
                     let s = 3 * j + k;
                     axes[s] = t.rotation * local;
                     centres[s] = t.translation.vector;
