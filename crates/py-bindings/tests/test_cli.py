@@ -50,7 +50,7 @@ def test_demo_tells_the_story_and_writes_a_report(tmp_path):
     assert {"campaign.csv", "diagnosis.json", "truth.json", "report"} <= {p.name for p in out.iterdir()}
     report = (out / "report" / "report.md").read_text()
     assert "lower than the baseline's" in report
-    for png in ("residuals.png", "errors_per_pose.png", "effects.png"):
+    for png in ("residuals.png", "errors_per_pose.png", "effects.png", "verdict.png"):
         assert (out / "report" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     result = json.loads((out / "diagnosis.json").read_text())
     assert result["extended"]["test_mean_rel_error"] <= 0.6 * result["baseline"]["test_mean_rel_error"]

@@ -71,7 +71,7 @@ def test_missing_report_folder_is_created_with_a_manifest(small, tmp_path):
     assert proc.returncode == 0, proc.stderr
     manifest = json.loads((tmp_path / "rep" / MANIFEST).read_text())
     files = digest(tmp_path / "rep")
-    assert set(manifest["files"]) == {"report.md", "residuals.png", "errors_per_pose.png", "effects.png"}
+    assert set(manifest["files"]) == {"report.md", "residuals.png", "errors_per_pose.png", "effects.png", "verdict.png"}
     for name, sha in manifest["files"].items():
         assert files[name] == sha
     assert not leftovers(tmp_path)
@@ -135,7 +135,7 @@ def test_force_replaces_only_the_tools_own_files(small, tmp_path):
     assert "stale.png" not in after, "a file the tool wrote earlier and no longer writes stays"
     assert "report.md" in after and after["report.md"] != user.get("report.md")
     assert set(json.loads((rep / MANIFEST).read_text())["files"]) == {
-        "report.md", "residuals.png", "errors_per_pose.png", "effects.png"}
+        "report.md", "residuals.png", "errors_per_pose.png", "effects.png", "verdict.png"}
     assert not leftovers(tmp_path)
 
 

@@ -42,7 +42,7 @@ def _points(ax) -> int:
     return n + 4 * len(ax.patches)
 
 
-VJM_PLOTS = ("residuals.png", "errors_per_pose.png", "effects.png")
+VJM_PLOTS = ("residuals.png", "errors_per_pose.png", "effects.png", "verdict.png")
 CSJM_PLOTS = ("residuals.png", "effects.png")
 
 
@@ -122,8 +122,8 @@ def test_csjm_report_within_budget(tmp_path, drawn, monkeypatch):
 def test_progress_runs_to_the_end_of_the_report(diagnosis, tmp_path):
     seen = []
     report.render_report(diagnosis, tmp_path, progress=lambda stage, done, total: seen.append((stage, done, total)))
-    assert seen[-1] == ("report: done", 4, 4)
-    assert [s[1] for s in seen] == [0, 1, 2, 3, 4]
+    assert seen[-1] == ("report: done", 5, 5)
+    assert [s[1] for s in seen] == [0, 1, 2, 3, 4, 5]
 
 
 def test_cancel_stops_the_report_between_plots(diagnosis, tmp_path):

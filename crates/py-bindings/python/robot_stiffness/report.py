@@ -7,6 +7,8 @@ holding ``report.md`` and its plots:
 * ``residuals.png`` — residual norm per measurement row, baseline vs extended model;
 * ``errors_per_pose.png`` (VJM) — mean relative error per pose, baseline vs extended, held-out
   poses marked;
+* ``verdict.png`` (VJM) — what remains: each block of the lack-of-fit alternative tested
+  against the extended model (−log10 p), with the verdict's level;
 * ``effects.png`` — the evidence for every candidate effect (first-step F-test p-values), with
   the named effects highlighted.
 
@@ -52,7 +54,7 @@ __all__ = ["write_report", "render_report", "render_files", "save_files", "story
            "CSJM_REPORT_FILES", "MAX_POINTS"]
 
 #: The files of a VJM report (relative to its folder).
-REPORT_FILES = ("report.md", "residuals.png", "errors_per_pose.png", "effects.png")
+REPORT_FILES = ("report.md", "residuals.png", "errors_per_pose.png", "effects.png", "verdict.png")
 #: The files of a CSJM report.
 CSJM_REPORT_FILES = ("report.md", "residuals.png", "effects.png")
 #: At most this many points (segment ends, markers, line vertices) per plot panel.
@@ -183,8 +185,10 @@ def story(result: Diagnosis) -> List[str]:
         + (f", {percent(gain)} lower than the baseline." if math.isfinite(gain) else ".")
     )
     if result.unexplained:
+        remaining = result.verdict.remaining if result.verdict is not None else None
         lines.append(
-            "Structured residual remains that no candidate explains (per-pose ANOVA still significant)."
+            f"What remains: {remaining}." if remaining
+            else "Structured residual remains that no candidate explains."
         )
     return lines
 
@@ -320,6 +324,60 @@ def _plot_per_pose(result: Diagnosis, path: _Target) -> None:
     plt.close(fig)
 
 
+def _verdict_lines(result: Diagnosis) -> List[str]:
+    """The tests behind `unexplained` (VJM), for the report."""
+    v = result.verdict
+    if v is None:
+        return []
+    lof = v.lack_of_fit
+    out = ["", f"Lack of fit against the flexible alternative (no noise level needed): F = {_num(lof.f)} "
+                f"({_num(lof.df_num, '.0f')}, {_num(lof.df_den, '.0f')}), p = {_pval(lof.p_value)}; "
+                f"decided at {_num(v.alpha, '.3g')}."]
+    g = v.goodness_of_fit
+    if g is not None:
+        out.append(f"Goodness of fit against the stated noise: χ²/df = {_num(g.ratio, '.3f')} "
+                   f"(df {_num(g.df, '.0f')}), p = {_pval(g.p_value)}.")
+    else:
+        out.append("Goodness of fit: not tested (no noise level given; `--tracker-sigma`, `--force-sigma`, "
+                   "`--moment-sigma`).")
+    if v.remaining:
+        out.append(f"What remains: {v.remaining}.")
+    out += ["", "![What remains](verdict.png)", "", "| block | F | df | p | meaning |", "|---|---|---|---|---|"]
+    for b in v.blocks:
+        out.append(f"| {b.block} | {_num(b.f_test.f)} | {_num(b.f_test.df_num, '.0f')}, {_num(b.f_test.df_den, '.0f')} "
+                   f"| {_pval(b.f_test.p_value)} | {b.meaning} |")
+    return out
+
+
+def _plot_verdict(result: Diagnosis, path: _Target) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    v = result.verdict
+    fig, ax = plt.subplots(figsize=(8, 2.8))
+    if v is None:
+        ax.text(0.5, 0.5, "no verdict tests for this model", ha="center", va="center")
+        ax.set_axis_off()
+    else:
+        tests = [("lack of fit (all)", v.lack_of_fit.p_value)] + [(b.block, b.f_test.p_value) for b in v.blocks]
+        vals = [-math.log10(max(p, 1e-300)) for _, p in tests]
+        colors = ["tab:red" if p <= v.alpha else "tab:gray" for _, p in tests]
+        y = np.arange(len(tests))
+        ax.barh(y, vals, color=colors)
+        ax.set_yticks(y)
+        ax.set_yticklabels([t for t, _ in tests], fontsize=8)
+        ax.invert_yaxis()
+        ax.axvline(-math.log10(v.alpha), color="k", linestyle="--", linewidth=0.8, label=f"level {v.alpha:g}")
+        ax.set_xlabel("−log10 p (F test against the extended model)")
+        ax.set_title("What remains (red: significant)", fontsize=10)
+        ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
 def _plot_effects(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
@@ -433,6 +491,7 @@ def _markdown(result: Diagnosis, title: str, source: Optional[str]) -> str:
         if result.unexplained
         else "No significant structure remains in the extended model's residuals."
     )
+    out += _verdict_lines(result)
     out += ["", "## Fitted parameters (extended model)", "", "| parameter | value | unit |", "|---|---|---|"]
     for p in ext.parameters:
         value = "not identifiable" if p.value is None or not math.isfinite(p.value) else f"{p.value:.4e}"
@@ -547,6 +606,8 @@ def render_files(result: Any, *, title: str = "Stiffness diagnosis", source: Opt
     if not csjm:
         steps.append(("per-pose plot", "errors_per_pose.png", png(_plot_per_pose)))
     steps.append(("effects plot", "effects.png", png(_plot_effects)))
+    if not csjm:
+        steps.append(("verdict plot", "verdict.png", png(_plot_verdict)))
     steps.append(("text", "report.md", markdown))
     files: Dict[str, bytes] = {}
     for i, (stage, name, make) in enumerate(steps):

@@ -842,6 +842,15 @@ fn run_diagnosis(
     })
 }
 
+/// `= 1.2e-5`, or `< 1e-300` where the p-value underflows.
+fn p_text(p: f64) -> String {
+    if p < 1e-300 {
+        "< 1e-300".to_string()
+    } else {
+        format!("= {p:.1e}")
+    }
+}
+
 /// What remains, in words: the block of the alternative that carries the most significant
 /// structure; the goodness of fit when only it rejects.
 fn remaining_in_words(v: &VerdictTests) -> String {
@@ -853,8 +862,11 @@ fn remaining_in_words(v: &VerdictTests) -> String {
         .min_by(|a, b| a.f_test.p_value.total_cmp(&b.f_test.p_value));
     match best {
         Some(b) if b.f_test.p_value < 0.01 => format!(
-            "structure remains (lack of fit p = {:.1e}), mostly {} ({} block, p = {:.1e})",
-            lof.p_value, b.meaning, b.block, b.f_test.p_value
+            "structure remains (lack of fit p {}), mostly {} ({} block, p {})",
+            p_text(lof.p_value),
+            b.meaning,
+            b.block,
+            p_text(b.f_test.p_value)
         ),
         _ => match v.goodness_of_fit {
             Some(g) if g.p_value < 0.01 => format!(
@@ -863,8 +875,8 @@ fn remaining_in_words(v: &VerdictTests) -> String {
                 g.p_value
             ),
             _ => format!(
-                "structure remains (lack of fit p = {:.1e}) that no single generic block isolates",
-                lof.p_value
+                "structure remains (lack of fit p {}) that no single generic block isolates",
+                p_text(lof.p_value)
             ),
         },
     }
