@@ -92,6 +92,7 @@ pub fn predictions_pass(
     };
     let all_terms: Vec<Term> = fits.iter().flat_map(|f| f.terms.iter().copied()).collect();
     let want = problem.mask(&all_terms);
+    problem.begin_pass();
     let run = |range: Range<usize>| -> Result<PassOut, Cancelled> {
         let mut out = PassOut {
             fits: fits

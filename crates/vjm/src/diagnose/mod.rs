@@ -229,10 +229,21 @@ pub fn diagnose_monitored(
     opts: &DiagnoseOptions,
     monitor: &Monitor<'_>,
 ) -> Result<Diagnosis, DiagnoseError> {
-    run_diagnosis(chain, data, opts, monitor.cancel_token(), &mut |p| {
-        // A cancel requested by the sink is seen at the check that follows every report.
+    // The passes report rows done from their worker threads through the (Sync) monitor.
+    let sink = |p: Progress| {
         let _ = monitor.report(p);
-    })
+    };
+    run_diagnosis(
+        chain,
+        data,
+        opts,
+        monitor.cancel_token(),
+        Some(&sink),
+        &mut |p| {
+            // A cancel requested by the sink is seen at the check that follows every report.
+            let _ = monitor.report(p);
+        },
+    )
 }
 
 fn axis_index(a: SpringAxis) -> usize {
@@ -276,6 +287,7 @@ fn prepare<'a>(
     data: &'a Dataset,
     opts: &DiagnoseOptions,
     cancel: &Cancel,
+    sink: Option<&'a (dyn Fn(Progress) + Sync)>,
 ) -> Result<Prepared<'a>, DiagnoseError> {
     check_options(opts)?;
     let n = chain.n_joints();
@@ -361,7 +373,8 @@ fn prepare<'a>(
         },
         opts.noise.wrench_sigma,
         cancel.clone(),
-    );
+    )
+    .with_sink(sink);
     let pre_problem = problem.springs_only(Whitening {
         displacement_sigma: opts.noise.displacement_sigma,
         wrench_sigma: [0.0; 6],
@@ -409,7 +422,7 @@ pub fn detectability(
             message: format!("{} rows, the data have {}", signal.len(), data.len()),
         });
     }
-    let p = prepare(chain, data, opts, &Cancel::new())?;
+    let p = prepare(chain, data, opts, &Cancel::new(), None)?;
     let fit = &p.base_fit;
     let idx: Vec<usize> = fit
         .terms
@@ -456,7 +469,7 @@ pub fn diagnose_with_progress(
     opts: &DiagnoseOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Diagnosis, DiagnoseError> {
-    run_diagnosis(chain, data, opts, &Cancel::new(), progress)
+    run_diagnosis(chain, data, opts, &Cancel::new(), None, progress)
 }
 
 /// The terms of the lack-of-fit alternative: every spring and every generic block.
@@ -549,11 +562,12 @@ fn verdict_tests(
 
 /// The diagnosis proper: `progress` after each stage and selection step, `cancel` polled in
 /// every pass, per scored candidate and per step.
-fn run_diagnosis(
-    chain: &SerialChain,
-    data: &Dataset,
+fn run_diagnosis<'a>(
+    chain: &'a SerialChain,
+    data: &'a Dataset,
     opts: &DiagnoseOptions,
     cancel: &Cancel,
+    sink: Option<&'a (dyn Fn(Progress) + Sync)>,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Diagnosis, DiagnoseError> {
     let Prepared {
@@ -561,7 +575,7 @@ fn run_diagnosis(
         baseline_model,
         in_model,
         base_fit,
-    } = prepare(chain, data, opts, cancel)?;
+    } = prepare(chain, data, opts, cancel, sink)?;
     let groups = problem.groups.clone();
     let labels = problem.labels.clone();
     let pose_id = |i: usize| data.pose(i).unwrap_or(groups[i] as i64);

@@ -3,11 +3,12 @@
 //! compresses the whitened design.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use stiffness_core::engine::{Compressed, CompressedAccumulator, Fit, Problem, RowSet};
-use stiffness_core::{Cancel, Cancelled};
+use stiffness_core::{Cancel, Cancelled, Progress};
 
 use super::candidates::{
     candidate_columns, compliance_map3x6, spring_column, Alternative, Candidate, Linearisation,
@@ -77,7 +78,6 @@ impl Whitening {
 }
 
 /// A VJM diagnosis problem: the data, the split, the whitening and the column layout.
-#[derive(Debug)]
 pub struct VjmProblem<'a> {
     pub(super) chain: &'a SerialChain,
     pub(super) data: &'a Dataset,
@@ -94,6 +94,20 @@ pub struct VjmProblem<'a> {
     y: usize,
     cache: Mutex<Vec<(Linearisation, Arc<Compressed>)>>,
     pub(super) cancel: Cancel,
+    /// Where the passes report their progress (rows done of the pass), from any thread.
+    pub(super) sink: Option<&'a (dyn Fn(Progress) + Sync)>,
+    /// Rows done in the current pass, over all its parts.
+    rows_done: AtomicUsize,
+}
+
+impl std::fmt::Debug for VjmProblem<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VjmProblem")
+            .field("rows", &self.data.len())
+            .field("columns", &self.ncols())
+            .field("whitening", &self.whitening)
+            .finish_non_exhaustive()
+    }
 }
 
 impl<'a> VjmProblem<'a> {
@@ -144,7 +158,20 @@ impl<'a> VjmProblem<'a> {
             y: next,
             cache: Mutex::new(Vec::new()),
             cancel,
+            sink: None,
+            rows_done: AtomicUsize::new(0),
         }
+    }
+
+    /// The same problem reporting the progress of its passes to `sink`.
+    pub fn with_sink(mut self, sink: Option<&'a (dyn Fn(Progress) + Sync)>) -> Self {
+        self.sink = sink;
+        self
+    }
+
+    /// Starts a pass over the rows: its progress counts from 0.
+    pub fn begin_pass(&self) {
+        self.rows_done.store(0, Ordering::Relaxed);
     }
 
     /// The same data with another whitening (the cache is not shared).
@@ -163,6 +190,8 @@ impl<'a> VjmProblem<'a> {
             y: self.y,
             cache: Mutex::new(Vec::new()),
             cancel: self.cancel.clone(),
+            sink: self.sink,
+            rows_done: AtomicUsize::new(0),
         }
     }
 
@@ -278,6 +307,15 @@ impl<'a> VjmProblem<'a> {
         for i in range {
             if i % CANCEL_EVERY == 0 {
                 self.cancel.check()?;
+                if let Some(sink) = self.sink {
+                    let n = self.data.len();
+                    let done = self.rows_done.fetch_add(CANCEL_EVERY, Ordering::Relaxed);
+                    sink(Progress {
+                        stage: "pass over the rows",
+                        done: done.min(n),
+                        total: n,
+                    });
+                }
             }
             let row = builder.row(self.data, i);
             let (w, sigma) = self.whitening.of(&row);
@@ -368,6 +406,7 @@ impl Problem for VjmProblem<'_> {
         {
             return Ok(c.clone());
         }
+        self.begin_pass();
         let n = self.data.len();
         let acc = if n < PARALLEL_ROWS {
             self.compress_range(lin, 0..n)?
@@ -421,6 +460,7 @@ impl Problem for VjmProblem<'_> {
         let idx: Vec<usize> = fit.terms.iter().flat_map(|t| self.columns(*t)).collect();
         let mut x = vec![Vector3::zeros(); p];
         let want = self.mask(&fit.terms);
+        self.begin_pass();
         self.for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
             if self.labels[i] != SetLabel::Train {
                 return;
