@@ -6,6 +6,7 @@ mod bad_input;
 mod compensation;
 mod design;
 mod identification;
+mod identify_partial;
 mod kinematics;
 mod lsq;
 mod pinocchio;
