@@ -13,7 +13,7 @@ from conftest import random_q
 from robot_stiffness import csjm
 from robot_stiffness.model import StiffnessModel
 from robot_stiffness.vjm import Identification, Robot, diagnose, simulate
-from robot_stiffness.vjm import _core  # type: ignore[attr-defined]
+from robot_stiffness import _core
 
 
 def round_trip(x):  # type: ignore[no-untyped-def]
