@@ -448,26 +448,15 @@ impl Checked<'_> {
         chain: &SerialChain,
         allow_outside_limits: bool,
     ) -> Result<(), vjm::dataset::DatasetError> {
-        let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
-        let rot = self.r.as_ref().map(|r| &*r.data);
-        let all_finite = finite(&self.q.data)
-            && finite(&self.w.data)
-            && finite(&self.d.data)
-            && rot.is_none_or(finite);
-        if !all_finite {
-            return Ok(());
-        }
-        vjm::dataset::check_values(
+        vjm::dataset::check_arrays(
             chain.n_joints(),
             &self.q.data,
             &self.w.data,
             &self.d.data,
-            rot,
-        )?;
-        if !allow_outside_limits {
-            vjm::dataset::check_joint_limits(chain, &self.q.data)?;
-        }
-        Ok(())
+            self.r.as_ref().map(|r| &*r.data),
+            (!allow_outside_limits).then_some(chain),
+        )
+        .map(|_| ())
     }
 }
 

@@ -3,6 +3,7 @@
 mod strategies;
 
 mod bad_input;
+mod check_arrays;
 mod compensation;
 mod design;
 mod identification;
