@@ -340,14 +340,13 @@ impl PyRobot {
         let (model, q, w, d, opts) = (&c.model, &c.q, &c.w, &c.d, &c.opts);
         let dense = a.dense;
         let id = run(py, || {
-            c.check_measurements(chain, a.allow_outside_limits)
-                .map_err(IdentifyFailure::Data)?;
             if dense {
-                vjm::identify_dense(chain, model, &q.data, &w.data, &d.data, rot, opts)
-            } else {
-                vjm::identify(chain, model, &q.data, &w.data, &d.data, rot, opts)
+                c.check_measurements(chain, a.allow_outside_limits)
+                    .map_err(IdentifyFailure::Data)?;
+                return vjm::identify_dense(chain, model, &q.data, &w.data, &d.data, rot, opts)
+                    .map_err(IdentifyFailure::Core);
             }
-            .map_err(IdentifyFailure::Core)
+            c.identify_checked(chain, a.allow_outside_limits)
         })?
         .py()?;
         let Some(file) = model_data else {
@@ -439,6 +438,48 @@ impl crate::errors::IntoPyErr for IdentifyFailure {
 }
 
 impl Checked<'_> {
+    /// `vjm::identify` with the checks of [`check_measurements`](Self::check_measurements)
+    /// fused into its pass over the data (each chunk of rows is checked just before it is
+    /// read, so the data are read from memory once). The errors are the same as checking
+    /// first: a data error wins over an identification error.
+    pub(crate) fn identify_checked(
+        &self,
+        chain: &SerialChain,
+        allow_outside_limits: bool,
+    ) -> Result<vjm::Identification, IdentifyFailure> {
+        use vjm::dataset::ArrayChecks;
+        let rot = self.r.as_ref().map(|r| &*r.data);
+        let (q, w, d) = (&*self.q.data, &*self.w.data, &*self.d.data);
+        let checks = ArrayChecks::new(
+            chain.n_joints(),
+            q,
+            w,
+            d,
+            rot,
+            (!allow_outside_limits).then_some(chain),
+        );
+        let rows_ok = |start: usize, end: usize| checks.rows_ok(start, end);
+        let fused =
+            vjm::identify_checking_rows(chain, &self.model, q, w, d, rot, &self.opts, &rows_ok);
+        match fused {
+            Ok(Some(id)) => {
+                checks.information().map_err(IdentifyFailure::Data)?;
+                Ok(id)
+            }
+            // A row failed: its error, or (a non-finite value) identify's own.
+            Ok(None) => {
+                checks.report().map_err(IdentifyFailure::Data)?;
+                vjm::identify(chain, &self.model, q, w, d, rot, &self.opts)
+                    .map_err(IdentifyFailure::Core)
+            }
+            Err(e) => {
+                self.check_measurements(chain, allow_outside_limits)
+                    .map_err(IdentifyFailure::Data)?;
+                Err(IdentifyFailure::Core(e))
+            }
+        }
+    }
+
     /// The same checks as a measurement file (units, magnitudes, information, joint limits):
     /// the Python API must not accept what the command line refuses. A non-finite value is
     /// left to identify's own check, which names the array, its row and column. Pure Rust:

@@ -402,10 +402,124 @@ pub enum ArraysCheck {
 const CHECK_CHUNK: usize = 1 << 14;
 
 /// [`check_values`] and, given a chain, [`check_joint_limits`] of row-major arrays (shapes
-/// must already match), as one pass over the rows split across rayon tasks when everything is
-/// in order: the Python `identify` runs it on 10⁶ rows before each identification, so three
-/// sequential passes would cost a third of the identification itself. When a check fails, the
-/// error is the one those functions give (they are run again to name the first bad cell).
+/// must already match), split so that a caller can run them on ranges of rows while it reads
+/// those rows anyway ([`rows_ok`](Self::rows_ok), e.g. fused into
+/// [`crate::identify_checking_rows`]), and report the first error only when a range failed
+/// ([`report`](Self::report): the error those functions give, with its line and column).
+#[derive(Debug)]
+pub struct ArrayChecks<'a> {
+    n_joints: usize,
+    q: &'a [f64],
+    wrench: &'a [f64],
+    displacement: &'a [f64],
+    rotation: Option<&'a [f64]>,
+    limits_of: Option<&'a crate::SerialChain>,
+    /// Joint limits widened by [`JOINT_LIMIT_TOLERANCE`].
+    bounds: Vec<(f64, f64)>,
+}
+
+const WRENCH_CAPS: [f64; 6] = [
+    MAX_PLAUSIBLE_FORCE,
+    MAX_PLAUSIBLE_FORCE,
+    MAX_PLAUSIBLE_FORCE,
+    MAX_PLAUSIBLE_MOMENT,
+    MAX_PLAUSIBLE_MOMENT,
+    MAX_PLAUSIBLE_MOMENT,
+];
+
+// The negated comparisons below are deliberate: they are true for NaN.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+impl<'a> ArrayChecks<'a> {
+    /// The checks of these arrays; the joint limits only when `limits_of` is given.
+    pub fn new(
+        n_joints: usize,
+        q: &'a [f64],
+        wrench: &'a [f64],
+        displacement: &'a [f64],
+        rotation: Option<&'a [f64]>,
+        limits_of: Option<&'a crate::SerialChain>,
+    ) -> Self {
+        let bounds = limits_of.map_or_else(Vec::new, |c| {
+            c.limits()
+                .iter()
+                .map(|&(lo, hi)| (lo - JOINT_LIMIT_TOLERANCE, hi + JOINT_LIMIT_TOLERANCE))
+                .collect()
+        });
+        Self {
+            n_joints,
+            q,
+            wrench,
+            displacement,
+            rotation,
+            limits_of,
+            bounds,
+        }
+    }
+
+    /// Whether rows `[start, end)` pass every check (finite, plausible, inside the limits).
+    /// No early exit, so the loops vectorise.
+    pub fn rows_ok(&self, start: usize, end: usize) -> bool {
+        fn over(values: &[f64], cap: f64) -> bool {
+            values.iter().fold(false, |bad, v| bad | !(v.abs() <= cap))
+        }
+        let n = self.n_joints;
+        let q = &self.q[start * n..end * n];
+        let mut bad = over(q, MAX_PLAUSIBLE_JOINT_ANGLE)
+            | over(
+                &self.displacement[start * 3..end * 3],
+                MAX_PLAUSIBLE_DISPLACEMENT,
+            )
+            | self
+                .rotation
+                .is_some_and(|r| over(&r[start * 3..end * 3], MAX_PLAUSIBLE_ROTATION));
+        for row in self.wrench[start * 6..end * 6].chunks_exact(6) {
+            for (v, cap) in row.iter().zip(&WRENCH_CAPS) {
+                bad |= !(v.abs() <= *cap);
+            }
+        }
+        if self.limits_of.is_some() {
+            for row in q.chunks_exact(n) {
+                for (&v, &(lo, hi)) in row.iter().zip(&self.bounds) {
+                    bad |= !(v >= lo && v <= hi);
+                }
+            }
+        }
+        !bad
+    }
+
+    /// After [`rows_ok`](Self::rows_ok) refused some rows, or to check everything: the first
+    /// error of [`check_values`] then [`check_joint_limits`], or [`ArraysCheck::NonFinite`]
+    /// when some value is NaN or infinite (the caller reports it by array, row and column).
+    pub fn report(&self) -> Result<ArraysCheck, DatasetError> {
+        let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
+        if !(finite(self.q)
+            && finite(self.wrench)
+            && finite(self.displacement)
+            && self.rotation.is_none_or(finite))
+        {
+            return Ok(ArraysCheck::NonFinite);
+        }
+        check_values(
+            self.n_joints,
+            self.q,
+            self.wrench,
+            self.displacement,
+            self.rotation,
+        )?;
+        if let Some(chain) = self.limits_of {
+            check_joint_limits(chain, self.q)?;
+        }
+        Ok(ArraysCheck::Passed)
+    }
+
+    /// That the data carry information (some load, some displacement): cheap, not per row.
+    pub fn information(&self) -> Result<(), DatasetError> {
+        check_information(self.wrench, self.displacement)
+    }
+}
+
+/// Every check of [`ArrayChecks`] on all rows, split across rayon tasks: one pass when
+/// everything is in order, the checks' own first error otherwise.
 pub fn check_arrays(
     n_joints: usize,
     q: &[f64],
@@ -415,71 +529,18 @@ pub fn check_arrays(
     limits_of: Option<&crate::SerialChain>,
 ) -> Result<ArraysCheck, DatasetError> {
     use rayon::prelude::*;
-    #[derive(Default, Clone, Copy)]
-    struct Found {
-        non_finite: bool,
-        implausible: bool,
-        outside: bool,
-    }
+    let checks = ArrayChecks::new(n_joints, q, wrench, displacement, rotation, limits_of);
     let rows = displacement.len() / 3;
-    let limits = limits_of.map(|c| c.limits());
-    let scan = |start: usize, end: usize| {
-        let mut f = Found::default();
-        let mut cell = |v: f64, cap: f64| {
-            f.non_finite |= !v.is_finite();
-            f.implausible |= v.abs() > cap;
-        };
-        for i in start..end {
-            for &v in &q[i * n_joints..(i + 1) * n_joints] {
-                cell(v, MAX_PLAUSIBLE_JOINT_ANGLE);
-            }
-            for (k, &v) in wrench[i * 6..i * 6 + 6].iter().enumerate() {
-                cell(
-                    v,
-                    if k < 3 {
-                        MAX_PLAUSIBLE_FORCE
-                    } else {
-                        MAX_PLAUSIBLE_MOMENT
-                    },
-                );
-            }
-            for &v in &displacement[i * 3..i * 3 + 3] {
-                cell(v, MAX_PLAUSIBLE_DISPLACEMENT);
-            }
-            if let Some(r) = rotation {
-                for &v in &r[i * 3..i * 3 + 3] {
-                    cell(v, MAX_PLAUSIBLE_ROTATION);
-                }
-            }
-        }
-        if let Some(limits) = limits {
-            for row in q[start * n_joints..end * n_joints].chunks_exact(n_joints) {
-                for (&v, &(lower, upper)) in row.iter().zip(limits) {
-                    f.outside |=
-                        v < lower - JOINT_LIMIT_TOLERANCE || v > upper + JOINT_LIMIT_TOLERANCE;
-                }
-            }
-        }
-        f
-    };
-    let found = (0..rows.div_ceil(CHECK_CHUNK))
+    let ok = (0..rows.div_ceil(CHECK_CHUNK))
         .into_par_iter()
-        .map(|c| scan(c * CHECK_CHUNK, ((c + 1) * CHECK_CHUNK).min(rows)))
-        .reduce(Found::default, |a, b| Found {
-            non_finite: a.non_finite || b.non_finite,
-            implausible: a.implausible || b.implausible,
-            outside: a.outside || b.outside,
-        });
-    if found.non_finite {
-        return Ok(ArraysCheck::NonFinite);
+        .all(|c| checks.rows_ok(c * CHECK_CHUNK, ((c + 1) * CHECK_CHUNK).min(rows)));
+    if !ok {
+        let found = checks.report()?;
+        if found == ArraysCheck::NonFinite {
+            return Ok(found);
+        }
     }
-    if found.implausible {
-        check_values(n_joints, q, wrench, displacement, rotation)?;
-    }
-    check_information(wrench, displacement)?;
-    if let (true, Some(chain)) = (found.outside, limits_of) {
-        check_joint_limits(chain, q)?;
-    }
+    checks.information()?;
     Ok(ArraysCheck::Passed)
 }
 

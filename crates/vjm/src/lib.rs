@@ -71,9 +71,10 @@ pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
 pub use hashing::{kinematics_sha256, sha256_hex};
 pub use identify::{
-    accumulate, build_design, identify, identify_dense, identify_from_factor, Combination,
-    CombinationTerm, Identification, IdentifyOptions, ParameterEstimate, SolveMethod,
-    NORMAL_EQUATIONS_MAX_CONDITION, NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
+    accumulate, build_design, identify, identify_checking_rows, identify_dense,
+    identify_from_factor, Combination, CombinationTerm, Identification, IdentifyOptions,
+    ParameterEstimate, RowCheck, SolveMethod, NORMAL_EQUATIONS_MAX_CONDITION,
+    NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
 };
 pub use identify_partial::IdentificationPartial;
 pub use kinematics::{

@@ -89,3 +89,52 @@ fn same_first_error_as_the_sequential_checks() {
         ArraysCheck::NonFinite
     );
 }
+
+/// The fused row check sees every row exactly once, changes nothing when it passes, and
+/// abandons the identification when it fails, for both reductions.
+#[test]
+fn identify_checking_rows_covers_every_row_once() {
+    use std::sync::Mutex;
+    use vjm::{identify, identify_checking_rows, IdentifyOptions, SolveMethod, VirtualJointModel};
+    let chain = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let (q, w, _, _) = arrays(&chain);
+    let c = [1e-4, 1e-4, 1.5e-4, 1.5e-4, 3e-4, 4e-4, 5e-4];
+    let mut d = Vec::with_capacity(3 * ROWS);
+    for i in 0..ROWS {
+        let mut f = [0.0; 6];
+        f.copy_from_slice(&w[6 * i..6 * i + 6]);
+        let x =
+            vjm::predict_deflection(&chain, &model, &c, &q[7 * i..7 * i + 7], &f, false).unwrap();
+        d.extend_from_slice(&[x[0] + 1e-6 * ((i % 3) as f64 - 1.0), x[1], x[2]]);
+    }
+    for method in [SolveMethod::Auto, SolveMethod::Qr] {
+        let mut opts = IdentifyOptions::default();
+        opts.method = method;
+        let seen = Mutex::new(Vec::new());
+        let record = |s: usize, e: usize| {
+            seen.lock().unwrap().push((s, e));
+            true
+        };
+        let fused = identify_checking_rows(&chain, &model, &q, &w, &d, None, &opts, &record)
+            .unwrap()
+            .expect("every chunk passed");
+        let plain = identify(&chain, &model, &q, &w, &d, None, &opts).unwrap();
+        assert_eq!(fused.compliance, plain.compliance, "{method:?}");
+        assert_eq!(fused.stderr, plain.stderr, "{method:?}");
+        let mut ranges = seen.into_inner().unwrap();
+        ranges.sort_unstable();
+        assert_eq!(ranges.first().map(|r| r.0), Some(0));
+        assert_eq!(ranges.last().map(|r| r.1), Some(ROWS));
+        assert!(
+            ranges.windows(2).all(|p| p[0].1 == p[1].0),
+            "{method:?}: gaps or overlaps"
+        );
+        let refuse_late = |s: usize, e: usize| !(s..e).contains(&39_999);
+        assert!(
+            identify_checking_rows(&chain, &model, &q, &w, &d, None, &opts, &refuse_late)
+                .unwrap()
+                .is_none()
+        );
+    }
+}
