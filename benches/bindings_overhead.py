@@ -101,8 +101,8 @@ def main() -> int:
         robot.identify(qa[:1000], wa[:1000], da[:1000])  # warm-up
         py, rust = interleaved(
             args.repeats,
-            lambda: robot.identify(qa, wa, da),
-            lambda: _core.vjm_identify_timed(robot._inner, qa, wa, da, "traditional", 1)[0],
+            lambda qa=qa, wa=wa, da=da: robot.identify(qa, wa, da),
+            lambda qa=qa, wa=wa, da=da: _core.vjm_identify_timed(robot._inner, qa, wa, da, "traditional", 1)[0],
         )
         ratio = report(f"identify traditional ({layout})", n, py, rust)
         if layout == "C":
