@@ -414,7 +414,8 @@ pub struct ArrayChecks<'a> {
     displacement: &'a [f64],
     rotation: Option<&'a [f64]>,
     limits_of: Option<&'a crate::SerialChain>,
-    /// Joint limits widened by [`JOINT_LIMIT_TOLERANCE`].
+    /// Per joint, the interval q must lie in: plausible and, given a chain, inside its
+    /// limits widened by [`JOINT_LIMIT_TOLERANCE`].
     bounds: Vec<(f64, f64)>,
 }
 
@@ -439,12 +440,22 @@ impl<'a> ArrayChecks<'a> {
         rotation: Option<&'a [f64]>,
         limits_of: Option<&'a crate::SerialChain>,
     ) -> Self {
-        let bounds = limits_of.map_or_else(Vec::new, |c| {
-            c.limits()
+        // One interval per joint covers both checks: plausible, and (given a chain) inside
+        // the limits widened by the tolerance.
+        let cap = MAX_PLAUSIBLE_JOINT_ANGLE;
+        let bounds = match limits_of {
+            Some(c) => c
+                .limits()
                 .iter()
-                .map(|&(lo, hi)| (lo - JOINT_LIMIT_TOLERANCE, hi + JOINT_LIMIT_TOLERANCE))
-                .collect()
-        });
+                .map(|&(lo, hi)| {
+                    (
+                        (lo - JOINT_LIMIT_TOLERANCE).max(-cap),
+                        (hi + JOINT_LIMIT_TOLERANCE).min(cap),
+                    )
+                })
+                .collect(),
+            None => vec![(-cap, cap); n_joints],
+        };
         Self {
             n_joints,
             q,
@@ -462,26 +473,43 @@ impl<'a> ArrayChecks<'a> {
         fn over(values: &[f64], cap: f64) -> bool {
             values.iter().fold(false, |bad, v| bad | !(v.abs() <= cap))
         }
+        // Rows as fixed-size arrays, so that the per-column loops unroll and vectorise.
+        fn q_outside<const N: usize>(q: &[f64], bounds: &[(f64, f64)]) -> bool {
+            let mut lo = [0.0; N];
+            let mut hi = [0.0; N];
+            for (j, &(l, h)) in bounds.iter().take(N).enumerate() {
+                (lo[j], hi[j]) = (l, h);
+            }
+            let (rows, _) = q.as_chunks::<N>();
+            let mut bad = false;
+            for row in rows {
+                for j in 0..N {
+                    bad |= !(row[j] >= lo[j] && row[j] <= hi[j]);
+                }
+            }
+            bad
+        }
         let n = self.n_joints;
         let q = &self.q[start * n..end * n];
-        let mut bad = over(q, MAX_PLAUSIBLE_JOINT_ANGLE)
-            | over(
-                &self.displacement[start * 3..end * 3],
-                MAX_PLAUSIBLE_DISPLACEMENT,
-            )
-            | self
-                .rotation
-                .is_some_and(|r| over(&r[start * 3..end * 3], MAX_PLAUSIBLE_ROTATION));
-        for row in self.wrench[start * 6..end * 6].chunks_exact(6) {
-            for (v, cap) in row.iter().zip(&WRENCH_CAPS) {
-                bad |= !(v.abs() <= *cap);
-            }
-        }
-        if self.limits_of.is_some() {
-            for row in q.chunks_exact(n) {
-                for (&v, &(lo, hi)) in row.iter().zip(&self.bounds) {
-                    bad |= !(v >= lo && v <= hi);
-                }
+        let mut bad = match n {
+            6 => q_outside::<6>(q, &self.bounds),
+            7 => q_outside::<7>(q, &self.bounds),
+            _ => q.chunks_exact(n).any(|row| {
+                row.iter()
+                    .zip(&self.bounds)
+                    .any(|(&v, &(lo, hi))| !(v >= lo && v <= hi))
+            }),
+        };
+        bad |= over(
+            &self.displacement[start * 3..end * 3],
+            MAX_PLAUSIBLE_DISPLACEMENT,
+        ) | self
+            .rotation
+            .is_some_and(|r| over(&r[start * 3..end * 3], MAX_PLAUSIBLE_ROTATION));
+        let (wrench, _) = self.wrench[start * 6..end * 6].as_chunks::<6>();
+        for row in wrench {
+            for j in 0..6 {
+                bad |= !(row[j].abs() <= WRENCH_CAPS[j]);
             }
         }
         !bad
