@@ -196,6 +196,7 @@ pub fn run_cell(
             if given {
                 opts.noise.displacement_sigma = sigma;
                 opts.noise.wrench_sigma = force_sensor.sigma();
+                opts.noise_known = true;
             }
             let d =
                 diagnose(chain, &campaign.dataset, &opts).map_err(|e| StudyError::Diagnose {

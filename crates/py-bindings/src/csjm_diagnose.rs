@@ -1,18 +1,21 @@
 //! Bindings of `so3_stiffness::diagnose`: CSJM campaigns with hidden effects (testbed) and the
-//! diagnosis of a CSJM measurement file (JSON of the core).
+//! diagnosis of a CSJM measurement file (typed values, see [`crate::results`]).
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use so3_stiffness::csjm::PointLoad;
 use so3_stiffness::diagnose::{
-    diagnose, diagnose_file, simulate_campaign, CsjmCampaignSpec, CsjmEffects, DiagnoseOptions,
+    diagnose_file_monitored, diagnose_monitored, simulate_campaign, CsjmCampaignSpec,
+    CsjmDiagnosis, CsjmEffects, DiagnoseOptions,
 };
 use so3_stiffness::identification::campaign::GravityRecording;
 use so3_stiffness::identification::ReadOptions;
 
 use crate::convert::{check_effect_keys, to_numpy};
 use crate::errors::{internal_error, run, value_error, IntoPyErr, PyResultExt};
+use crate::interrupt::run_interruptible;
+use crate::results::{csjm_rows, summary};
 
 fn number(d: &Bound<'_, PyDict>, i: usize, key: &str) -> PyResult<f64> {
     d.get_item(key)?
@@ -129,9 +132,12 @@ fn options(
     opts
 }
 
-/// Diagnoses CSJM measurements given as arrays (see `csjm_identify`); returns the core's JSON.
+/// Diagnoses CSJM measurements given as arrays (see `csjm_identify`); returns `(summary, rows)`
+/// as [`vjm_diagnose`](crate::diagnose::vjm_diagnose) does. `progress`, when given, is called
+/// as `progress(stage, done, total)` on the calling thread; an exception it raises (or Ctrl-C)
+/// cancels the run and propagates.
 #[pyfunction]
-#[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, holdout_seed = None, project = false))]
+#[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, holdout_seed = None, project = false, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn csjm_diagnose<'py>(
     py: Python<'py>,
@@ -142,27 +148,44 @@ pub fn csjm_diagnose<'py>(
     test_fraction: Option<f64>,
     holdout_seed: Option<u64>,
     project: bool,
-) -> PyResult<String> {
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let data = crate::csjm::dataset_from_arrays(&r, &tau, reference, project, None)?;
     let opts = options(fdr, test_fraction, holdout_seed, project);
-    let result = run(py, || diagnose(&data, &opts))?.map_err(IntoPyErr::into_py_err)?;
-    Ok(result.to_json())
+    let result = run_interruptible(py, progress.as_ref(), |monitor| {
+        diagnose_monitored(&data, &opts, monitor)
+    })?
+    .map_err(IntoPyErr::into_py_err)?;
+    typed(py, result)
 }
 
-/// Diagnoses a CSJM measurement file; returns the core's JSON.
+/// Diagnoses a CSJM measurement file; returns `(summary, rows)`. `progress` as for
+/// `csjm_diagnose`.
 #[pyfunction]
-#[pyo3(signature = (path, fdr = None, test_fraction = None, holdout_seed = None, project = false))]
-pub fn csjm_diagnose_csv(
-    py: Python<'_>,
+#[pyo3(signature = (path, fdr = None, test_fraction = None, holdout_seed = None, project = false, progress = None))]
+pub fn csjm_diagnose_csv<'py>(
+    py: Python<'py>,
     path: std::path::PathBuf,
     fdr: Option<f64>,
     test_fraction: Option<f64>,
     holdout_seed: Option<u64>,
     project: bool,
-) -> PyResult<String> {
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let opts = options(fdr, test_fraction, holdout_seed, project);
-    let result = run(py, || diagnose_file(&path, &opts))?.map_err(IntoPyErr::into_py_err)?;
-    Ok(result.to_json())
+    let result = run_interruptible(py, progress.as_ref(), |monitor| {
+        diagnose_file_monitored(&path, &opts, monitor)
+    })?
+    .map_err(IntoPyErr::into_py_err)?;
+    typed(py, result)
+}
+
+fn typed(
+    py: Python<'_>,
+    mut result: CsjmDiagnosis,
+) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyDict>)> {
+    let rows = csjm_rows(py, &std::mem::take(&mut result.rows))?;
+    Ok((summary(py, &result)?, rows))
 }
 
 /// Registers the functions on `m`.

@@ -1,21 +1,24 @@
 //! Binding of `vjm::diagnose`: baseline fit, residual structure, named effects, extended model.
-//! The result is the core's JSON (issue 5's output contract plus report material).
+//! The result is handed over as typed values (see [`crate::results`]).
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use vjm::diagnose::{diagnose_monitored, DiagnoseOptions};
 
 use crate::errors::IntoPyErr;
 use crate::interrupt::run_interruptible;
+use crate::results::{summary, vjm_rows};
 use crate::vjm::{parse_model, PyRobot};
 use crate::vjm_data::dataset_from_arrays;
 
-/// Diagnoses a measurement table on `robot`; returns the result as JSON text.
+/// Diagnoses a measurement table on `robot`; returns `(summary, rows)`: the result without its
+/// rows as native Python values, and the rows as numpy columns ([`crate::results`]).
 ///
 /// `progress`, when given, is called as `progress(stage, done, total)` on the calling thread;
 /// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false))]
+#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false, tracker_sigma = None, force_sigma = None, moment_sigma = None, per_row = true))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_diagnose<'py>(
     py: Python<'py>,
@@ -33,14 +36,33 @@ pub fn vjm_diagnose<'py>(
     max_findings: Option<usize>,
     progress: Option<Py<PyAny>>,
     allow_outside_limits: bool,
-) -> PyResult<String> {
+    tracker_sigma: Option<f64>,
+    force_sigma: Option<f64>,
+    moment_sigma: Option<f64>,
+    per_row: bool,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let chain = &robot.chain;
     let n = chain.n_joints();
     let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
     let mut opts = DiagnoseOptions {
         allow_outside_limits,
+        per_row,
         ..DiagnoseOptions::default()
     };
+    // A noise level given by the user makes it known (the verdict adds the goodness of fit);
+    // levels not given keep the default assumption.
+    if let Some(v) = tracker_sigma {
+        opts.noise.displacement_sigma = v;
+        opts.noise_known = true;
+    }
+    if let Some(v) = force_sigma {
+        opts.noise.wrench_sigma[..3].fill(v);
+        opts.noise_known = true;
+    }
+    if let Some(v) = moment_sigma {
+        opts.noise.wrench_sigma[3..].fill(v);
+        opts.noise_known = true;
+    }
     if let Some(b) = &baseline {
         opts.baseline = Some(parse_model(n, b)?);
     }
@@ -56,11 +78,12 @@ pub fn vjm_diagnose<'py>(
     if let Some(v) = max_findings {
         opts.max_findings = v;
     }
-    let result = run_interruptible(py, progress.as_ref(), |monitor| {
+    let mut result = run_interruptible(py, progress.as_ref(), |monitor| {
         diagnose_monitored(chain, &data, &opts, monitor)
     })?
     .map_err(IntoPyErr::into_py_err)?;
-    Ok(result.to_json())
+    let rows = vjm_rows(py, &std::mem::take(&mut result.rows))?;
+    Ok((summary(py, &result)?, rows))
 }
 
 /// Registers the function on `m`.

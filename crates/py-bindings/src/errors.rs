@@ -234,6 +234,9 @@ impl IntoPyErr for so3_stiffness::diagnose::DiagnoseError {
             | so3_stiffness::diagnose::DiagnoseError::Unexcited { .. } => {
                 error(Kind::Identification, self.to_string())
             }
+            so3_stiffness::diagnose::DiagnoseError::Cancelled(_) => {
+                error(Kind::Cancelled, self.to_string())
+            }
             other => error(Kind::Value, other.to_string()),
         }
     }

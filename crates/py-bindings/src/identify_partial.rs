@@ -125,11 +125,12 @@ impl PyIdentificationPartial {
         })
     }
 
-    /// Solves: the identification (JSON text, the core's serde form) and its stiffness model.
-    fn finish(
+    /// Solves: the identification (the core's result as Python values, as `vjm_identify_model`
+    /// returns it) and its stiffness model.
+    fn finish<'py>(
         &self,
-        py: Python<'_>,
-    ) -> PyResult<(String, crate::stiffness_model::PyStiffnessModel)> {
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, crate::stiffness_model::PyStiffnessModel)> {
         let chain = &self.robot.chain;
         let inner = &self.inner;
         let id = run(py, || inner.finish(chain))?.py()?;
@@ -144,11 +145,8 @@ impl PyIdentificationPartial {
             )
         })?
         .py()?;
-        let text = serde_json::to_string(&id).map_err(|e| {
-            crate::errors::internal_error(format!("cannot serialise the result: {e}"))
-        })?;
         Ok((
-            text,
+            crate::results::summary(py, &id)?,
             crate::stiffness_model::PyStiffnessModel::new(built, chain.clone()),
         ))
     }

@@ -14,6 +14,7 @@ pub mod diagnose;
 pub mod errors;
 pub mod identify_partial;
 pub mod interrupt;
+pub mod results;
 pub mod so3;
 pub mod stiffness_model;
 pub mod use_model;

@@ -194,7 +194,8 @@ impl PyStiffnessModel {
     }
 }
 
-/// Identification that also returns the stiffness model: `(result JSON, StiffnessModel)`.
+/// Identification that also returns the stiffness model: `(result, StiffnessModel)`, the result
+/// as native Python values ([`crate::results::summary`]).
 /// `data_file` is the measurement file the arrays came from (hashed into the model);
 /// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
 #[pyfunction]
@@ -216,7 +217,7 @@ pub fn vjm_identify_model<'py>(
     data_file: Option<String>,
     robust_covariance: bool,
     allow_outside_limits: bool,
-) -> PyResult<(String, PyStiffnessModel)> {
+) -> PyResult<(Bound<'py, PyAny>, PyStiffnessModel)> {
     let args = IdentifyArgs {
         q,
         wrench,
@@ -236,10 +237,9 @@ pub fn vjm_identify_model<'py>(
         Some(data_file.as_deref()),
         robust_covariance,
     )?;
-    let text = serde_json::to_string(&id)
-        .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))?;
+    let result = crate::results::summary(py, &id)?;
     let built = built.ok_or_else(|| crate::errors::internal_error("no model was built"))?;
-    Ok((text, PyStiffnessModel::new(built, robot.chain.clone())))
+    Ok((result, PyStiffnessModel::new(built, robot.chain.clone())))
 }
 
 /// Reads a pose table (q1..qn, optional fx..mz) for `robot`: `(q (N, n), wrench (N, 6) or None)`.

@@ -153,6 +153,9 @@ fn effect_keys(name: &str) -> Option<&'static [&'static str]> {
         "frame_misalignment" => &["rotation"],
         "geometric_nonlinearity" => &[],
         "pose_drift" => &["sigma"],
+        "mount_compliance" => &["translation", "rotation"],
+        "tool_axial_compliance" => &["compliance"],
+        "sensor_crosstalk" => &["coupling"],
         _ => return None,
     })
 }
@@ -261,9 +264,19 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
         "pose_drift" => Effect::PoseDrift {
             sigma: in_range(d, i, &name, "sigma", false, 0.01, "m")?,
         },
+        "mount_compliance" => Effect::MountCompliance {
+            translation: in_range(d, i, &name, "translation", false, 1e-3, "m/N")?,
+            rotation: in_range(d, i, &name, "rotation", false, 1e-2, "rad/(N·m)")?,
+        },
+        "tool_axial_compliance" => Effect::ToolAxialCompliance {
+            compliance: in_range(d, i, &name, "compliance", false, 1e-2, "m/N")?,
+        },
+        "sensor_crosstalk" => Effect::SensorCrosstalk {
+            coupling: in_range(d, i, &name, "coupling", false, 0.5, "(1 = 100 %)")?,
+        },
         other => {
             return Err(value_error(format!(
-                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift)"
+                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift, mount_compliance, tool_axial_compliance, sensor_crosstalk)"
             )))
         }
     })

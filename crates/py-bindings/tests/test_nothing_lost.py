@@ -511,8 +511,9 @@ def test_report_plots_do_not_draw_one_rectangle_per_row(tmp_path, monkeypatch):
     monkeypatch.setattr(Axes, "axvspan", counting_span)
     robot = vjm.Robot.bundled()
     campaign = vjm.simulate(robot, n_poses=600, wrenches_per_pose=2, seed=8)
-    result = vjm.diagnose(robot, campaign.measurements).to_dict()
-    assert len(result["per_pose"]) == 600 and len(result["rows"]) == 1200
+    result = vjm.diagnose(robot, campaign.measurements)
+    assert result.per_pose is not None and len(result.per_pose) == 600
+    assert result.rows is not None and len(result.rows) == 1200
     render_report(result, tmp_path)
     assert drawn["rectangles"] <= 2 * 60, drawn
     assert (tmp_path / "errors_per_pose.png").read_bytes()[:4] == b"\x89PNG"

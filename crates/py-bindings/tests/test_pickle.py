@@ -82,7 +82,7 @@ def fitted() -> Identification:
 
 def test_identification_and_model_round_trip(fitted, rng):
     back = round_trip(fitted)
-    assert back.raw == fitted.raw
+    assert back.to_dict() == fitted.to_dict()
     for name in ("compliance", "stderr", "ci95", "singular_values"):
         assert np.array_equal(getattr(back, name), getattr(fitted, name), equal_nan=True), name
     assert np.array_equal(back.identifiable, fitted.identifiable)

@@ -38,7 +38,7 @@ def test_identification_of_unaligned_inputs(panda: Robot, rng):
     d = d + 1e-6 * rng.normal(size=d.shape)
     a = panda.identify(unaligned(q), unaligned(w), unaligned(d))
     b = panda.identify(q, w, d)
-    assert a.raw == b.raw
+    assert a.to_dict() == b.to_dict()
     pa = panda.identify_partial(unaligned(q), unaligned(w), unaligned(d)).finish()
     pb = panda.identify_partial(q, w, d).finish()
-    assert pa.raw == pb.raw
+    assert pa.to_dict() == pb.to_dict()

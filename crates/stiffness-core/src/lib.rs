@@ -34,7 +34,9 @@
 
 pub mod cancel;
 pub mod decompose;
+pub mod engine;
 mod fast_math;
+pub mod lsq;
 pub mod so3;
 mod so3_error;
 pub mod stats;

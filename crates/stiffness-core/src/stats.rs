@@ -368,18 +368,38 @@ pub fn cluster_robust_wald(
     let mut ids: Vec<usize> = cluster.to_vec();
     ids.sort_unstable();
     ids.dedup();
-    let g = ids.len();
+    let mut sums = vec![vec![0.0; p]; ids.len()];
+    for (o, c) in cluster.iter().enumerate() {
+        let gi = ids.binary_search(c).ok()?;
+        for (j, s) in sums[gi].iter_mut().enumerate() {
+            *s += x[(o, j)] * r[o];
+        }
+    }
+    cluster_robust_wald_from_sums(&(x.transpose() * x), &sums, beta.as_slice(), k)
+}
+
+/// [`cluster_robust_wald`] from its sufficient statistics: the Gram `XᵀX` (p×p) and the
+/// per-cluster score sums `s_g = Σ_{i∈g} x_i r_i` (one p-vector per cluster), so that the
+/// rows never need to be held at once. `None` with fewer than 3 clusters or inconsistent
+/// shapes.
+pub fn cluster_robust_wald_from_sums(
+    xtx: &nalgebra::DMatrix<f64>,
+    sums: &[Vec<f64>],
+    beta: &[f64],
+    k: usize,
+) -> Option<FTest> {
+    let p = xtx.nrows();
+    let g = sums.len();
+    if k == 0 || k > p || xtx.ncols() != p || beta.len() != p || sums.iter().any(|s| s.len() != p) {
+        return None;
+    }
     if g < 3 {
         return None;
     }
-    let mut sums = vec![nalgebra::DVector::<f64>::zeros(p); g];
-    for (o, c) in cluster.iter().enumerate() {
-        let gi = ids.binary_search(c).ok()?;
-        sums[gi] += x.row(o).transpose() * r[o];
-    }
     let mut meat = nalgebra::DMatrix::<f64>::zeros(p, p);
-    for s in &sums {
-        meat += s * s.transpose();
+    for s in sums {
+        let s = nalgebra::DVector::from_column_slice(s);
+        meat += &s * s.transpose();
     }
     // Capped SVDs (nalgebra's `pseudo_inverse` loops forever on NaN).
     let pinv = |m: nalgebra::DMatrix<f64>, eps: f64| {
@@ -388,10 +408,10 @@ pub fn cluster_robust_wald(
             .pseudo_inverse(eps)
             .ok()
     };
-    let bread = pinv(x.transpose() * x, 1e-12)?;
+    let bread = pinv(xtx.clone(), 1e-12)?;
     let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
     let vcc = v.view((p - k, p - k), (k, k)).into_owned();
-    let bc = beta.rows(p - k, k).into_owned();
+    let bc = nalgebra::DVector::from_column_slice(&beta[p - k..]);
     let vinv = pinv(vcc, 1e-300)?;
     let w = (bc.transpose() * vinv * &bc)[(0, 0)];
     let f = w / k as f64;

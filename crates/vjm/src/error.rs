@@ -162,3 +162,13 @@ pub enum VjmError {
         message: String,
     },
 }
+
+impl From<stiffness_core::lsq::ShapeMismatch> for VjmError {
+    fn from(e: stiffness_core::lsq::ShapeMismatch) -> Self {
+        VjmError::ShapeMismatch {
+            what: e.what,
+            expected: e.expected,
+            got: e.got,
+        }
+    }
+}

@@ -10,6 +10,8 @@ Submodules:
   rank-revealing identification of joint compliances (rad/(N·m)), prediction.
 * :mod:`robot_stiffness.model` — stiffness model files (``Identification.save``,
   ``StiffnessModel.load``) and predictions with standard deviations.
+* :mod:`robot_stiffness.results` — the typed diagnosis result (``Diagnosis``, ``Finding``, …),
+  the same classes for ``vjm.diagnose`` and ``csjm.diagnose``.
 
 Units are SI (m, rad, N, N·m); frames are named in every docstring and follow
 ``docs/conventions.md``. Every error derives from :class:`StiffnessError`.
@@ -38,12 +40,13 @@ from ._errors import (
 
 __version__: str = _core.__version__
 
-from . import csjm, model, so3, vjm  # noqa: E402
+from . import csjm, model, results, so3, vjm  # noqa: E402
 
 __all__ = [
     "__version__",
     "csjm",
     "model",
+    "results",
     "so3",
     "vjm",
     "StiffnessError",

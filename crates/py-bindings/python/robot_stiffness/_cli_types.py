@@ -103,6 +103,21 @@ def positive_float(high: float, unit: Optional[str] = None) -> Callable[[str], f
     return parse
 
 
+def nonnegative_float(high: float, unit: str) -> Callable[[str], float]:
+    """A finite number in [0, high] (a noise level that may be exactly zero)."""
+
+    def parse(text: str) -> float:
+        value = _real(text)
+        if value < 0:
+            raise argparse.ArgumentTypeError(f"must be zero or positive ({unit}), got {text!r}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be at most {high:g} {unit}, got {text!r}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
 def probability(text: str) -> float:
     """A number strictly between 0 and 1 (a false-discovery rate)."""
     value = _real(text)

@@ -10,6 +10,11 @@ import numpy.typing as npt
 _F64 = npt.NDArray[np.float64]
 _Model = Union[str, Sequence[str]]
 _Path = Union[str, os.PathLike[str]]
+# A diagnosis as the core hands it over: the result without its rows as plain values (dicts,
+# lists, numbers, strings, None; robot_stiffness.results builds the typed classes from it) and
+# the rows as numpy columns.
+_CoreValue = Union[None, bool, int, float, str, List["_CoreValue"], Dict[str, "_CoreValue"]]
+_CoreDiagnosis = Tuple[Dict[str, _CoreValue], Dict[str, npt.NDArray[np.generic]]]
 
 __all__ = [
     "IdentificationPartial",
@@ -87,14 +92,16 @@ def csjm_diagnose(
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
-) -> str: ...
+    progress: Optional[Callable[[str, int, int], Any]] = None,
+) -> _CoreDiagnosis: ...
 def csjm_diagnose_csv(
     path: _Path,
     fdr: Optional[float] = None,
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
-) -> str: ...
+    progress: Optional[Callable[[str, int, int], Any]] = None,
+) -> _CoreDiagnosis: ...
 def csjm_read_csv(path: _Path, project: bool = False) -> Tuple[_F64, _F64, int]: ...
 def csjm_identify_csv(path: _Path, order: int = 1, project: bool = False) -> Dict[str, Any]: ...
 def vjm_read_csv(path: _Path, n_joints: int) -> Dict[str, Any]: ...
@@ -143,7 +150,7 @@ def vjm_identify_model(
     data_file: Optional[str] = None,
     robust_covariance: bool = False,
     allow_outside_limits: bool = False,
-) -> Tuple[str, StiffnessModel]: ...
+) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
 def vjm_compensate(
     robot: Robot,
@@ -199,7 +206,11 @@ def vjm_diagnose(
     max_findings: Optional[int] = None,
     progress: Optional[Callable[[str, int, int], Any]] = None,
     allow_outside_limits: bool = False,
-) -> str: ...
+    tracker_sigma: Optional[float] = None,
+    force_sigma: Optional[float] = None,
+    moment_sigma: Optional[float] = None,
+    per_row: bool = True,
+) -> _CoreDiagnosis: ...
 
 @final
 class Robot:
@@ -273,7 +284,7 @@ class IdentificationPartial:
         allow_outside_limits: bool = False,
     ) -> IdentificationPartial: ...
     def merge(self, other: IdentificationPartial) -> IdentificationPartial: ...
-    def finish(self) -> Tuple[str, StiffnessModel]: ...
+    def finish(self) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
     @property
     def n_measurements(self) -> int: ...
     @property

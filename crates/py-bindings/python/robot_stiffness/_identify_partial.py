@@ -93,8 +93,8 @@ class IdentificationPartial:
         from .model import StiffnessModel
         from .vjm import Identification
 
-        text, core_model = self._inner.finish()
-        return Identification._from_json(str(text), StiffnessModel(core_model, self._robot))
+        core, core_model = self._inner.finish()
+        return Identification._from_core(core, StiffnessModel(core_model, self._robot))
 
     @property
     def n_measurements(self) -> int:

@@ -112,9 +112,14 @@ class StagedFile:
     label: str
 
     def write_text(self, text: str) -> None:
+        self.write_chunks((text,))
+
+    def write_chunks(self, chunks: Iterable[str]) -> None:
+        """Writes the pieces in order (a large output without holding all of it in memory)."""
         try:
             with open(self.tmp, "w", encoding="utf-8", newline="") as f:
-                f.write(text)
+                for chunk in chunks:
+                    f.write(chunk)
         except OSError as e:
             raise OutputPathError(f"cannot write {self.label}: {_reason(e)}") from None
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
@@ -15,6 +15,7 @@ from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
+from .results import Diagnosis
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
@@ -164,7 +165,8 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
 class Campaign:
     """A simulated measurement campaign: what the instruments recorded (``measurements``,
     ``csv``) and the hidden truth (``true_displacement`` (N, 3) m, ``applied_wrench`` (N, 6),
-    ``tip`` (N, 3) unloaded tip points m, ``truth`` the true model, all base frame)."""
+    ``tip`` (N, 3) unloaded tip points m, ``truth`` the true model (its effects' joints
+    1-based, as given to :func:`simulate`), all base frame)."""
 
     measurements: Measurements
     csv: str
@@ -229,26 +231,6 @@ def simulate(
     )
 
 
-@dataclass
-class Diagnosis:
-    """The result of :func:`diagnose`. ``to_dict()`` is the JSON of the CLI: ``baseline``
-    {``model``, ``n_params``, ``test_mean_rel_error``}, ``findings`` [{``effect``, ``joint``
-    (1-based or None), ``axis`` (``x``/``y`` or None), ``aliases``, ``evidence``}], ``extended``,
-    ``unexplained``, plus ``gain`` and the material of the report (residual structure, scores,
-    per-pose and per-row errors)."""
-
-    baseline: Dict[str, Any]
-    findings: List[Dict[str, Any]]
-    extended: Dict[str, Any]
-    unexplained: bool
-    gain: float
-    raw: Dict[str, Any] = field(repr=False)
-
-    def to_dict(self) -> Dict[str, Any]:
-        """The full JSON-ready result."""
-        return self.raw
-
-
 @checked
 def diagnose(
     robot: Robot,
@@ -261,6 +243,10 @@ def diagnose(
     max_findings: Optional[int] = None,
     progress: Optional[ProgressCallback] = None,
     allow_outside_limits: bool = False,
+    tracker_sigma: Optional[float] = None,
+    force_sigma: Optional[float] = None,
+    moment_sigma: Optional[float] = None,
+    per_row: bool = True,
 ) -> Diagnosis:
     """Show what the baseline model gets wrong on ``data``, name the cause, extend the model
     and measure the gain on held-out rows.
@@ -272,29 +258,30 @@ def diagnose(
     ``progress(stage, done, total)`` is called during long runs; an exception it raises stops
     the run and propagates (so does Ctrl-C). Joint angles outside the robot's limits are refused
     (naming row and joint) unless ``allow_outside_limits=True``.
+
+    ``tracker_sigma`` (m), ``force_sigma`` (N) and ``moment_sigma`` (N·m) are the instruments'
+    per-axis noise standard deviations. Given, they are taken as the true noise level and the
+    verdict adds a χ² goodness-of-fit test; not given, a default assumption sets only the relative
+    weights and ``unexplained`` rests on the lack-of-fit test, which needs no noise level.
+    ``per_row=False`` leaves out the per-row predictions (large campaigns).
     """
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     m = as_measurements(data, robot.n_joints)
     blame = contextlib.nullcontext() if isinstance(data, (str, os.PathLike)) else blame_rows()
     with blame:
-        text = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
-                            bool(allow_outside_limits))
-    raw = json.loads(text)
-    return Diagnosis(
-        baseline=raw["baseline"],
-        findings=raw["findings"],
-        extended=raw["extended"],
-        unexplained=bool(raw["unexplained"]),
-        gain=float(raw["gain"]) if raw.get("gain") is not None else float("nan"),
-        raw=raw,
-    )
+        summary, rows = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
+                                       bool(allow_outside_limits), tracker_sigma, force_sigma, moment_sigma,
+                                       bool(per_row))
+    return Diagnosis._from_core("vjm", summary, rows)
 
 
 def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[float], test_fraction: Optional[float],
                    split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback],
-                   allow_outside_limits: bool = False) -> str:
-    return str(_core.vjm_diagnose(
+                   allow_outside_limits: bool = False, tracker_sigma: Optional[float] = None,
+                   force_sigma: Optional[float] = None, moment_sigma: Optional[float] = None,
+                   per_row: bool = True) -> "_core._CoreDiagnosis":
+    return _core.vjm_diagnose(
         robot._inner,
         f64(m.q, "q"),
         f64(m.wrench, "wrench"),
@@ -309,7 +296,11 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
         max_findings=max_findings,
         progress=progress,
         allow_outside_limits=allow_outside_limits,
-    ))
+        tracker_sigma=tracker_sigma,
+        force_sigma=force_sigma,
+        moment_sigma=moment_sigma,
+        per_row=per_row,
+    )
 
 
 @checked

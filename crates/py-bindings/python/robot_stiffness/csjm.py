@@ -33,9 +33,10 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
-from ._errors import DataFileError, ShapeError, reworded
+from ._errors import ArgumentTypeError, DataFileError, ShapeError, reworded
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
-from ._vjm_data import Diagnosis
+from ._vjm_data import ProgressCallback
+from .results import Diagnosis
 
 __all__ = [
     "StiffnessFit",
@@ -61,7 +62,10 @@ class StiffnessFit:
     ``K_stderr`` the standard error of every entry of K (NaN without residual degrees of
     freedom), ``tau0`` (3,) the pre-load in N·m used in K_L, ``n`` the number of load increments
     used, ``order`` 1 or 2. ``det_convergence`` is (k, 2): number of increments, det(K) in
-    (N·m/rad)³ (the seed's Fig. 5). ``raw`` holds every other diagnostic of the core.
+    (N·m/rad)³ (the seed's Fig. 5). Diagnostics: ``regressor_condition``, ``dof`` (residual
+    degrees of freedom), ``offset`` (3,) N·m the fitted moment offset, ``omega_singular_values``
+    (3,); ``curvature`` (3, 3, 3) N·m/rad²: the Hessians H_i of τ_i(Δζ), τ_i ≈ … + ½ Δζᵀ H_i Δζ
+    (None for ``order`` 1).
     """
 
     K: Array
@@ -75,7 +79,11 @@ class StiffnessFit:
     omega_condition: float
     asymmetry: float
     det_convergence: Array
-    raw: Dict[str, Any] = field(repr=False)
+    regressor_condition: float = field(default=float("nan"), repr=False)
+    dof: int = field(default=0, repr=False)
+    offset: Optional[Array] = field(default=None, repr=False, compare=False)
+    omega_singular_values: Optional[Array] = field(default=None, repr=False, compare=False)
+    curvature: Optional[Array] = field(default=None, repr=False, compare=False)
 
     @classmethod
     def _from_core(cls, d: Dict[str, Any]) -> "StiffnessFit":
@@ -92,7 +100,11 @@ class StiffnessFit:
             omega_condition=float(d["omega_condition"]),
             asymmetry=float(d["asymmetry"]),
             det_convergence=conv,
-            raw=d,
+            regressor_condition=float(d["regressor_condition"]),
+            dof=int(d["dof"]),
+            offset=d["offset"],
+            omega_singular_values=d["omega_singular_values"],
+            curvature=d["curvature"],
         )
 
     def to_dict(self) -> Dict[str, Any]:
@@ -119,7 +131,7 @@ class StiffnessFit:
             "K_L": clean(self.K_L),
             "residual_rms": clean(self.residual_rms),
             "omega_condition": clean(self.omega_condition),
-            "regressor_condition": clean(float(self.raw["regressor_condition"])),
+            "regressor_condition": clean(self.regressor_condition),
             "asymmetry": clean(self.asymmetry),
             "det_convergence": [
                 {"n": int(n), "det": clean(float(d))} for n, d in self.det_convergence
@@ -248,40 +260,36 @@ def diagnose(
     test_fraction: Optional[float] = None,
     holdout_seed: Optional[int] = None,
     project: bool = False,
+    progress: Optional[ProgressCallback] = None,
 ) -> Diagnosis:
     """Diagnose a CSJM campaign: fit the first-order baseline Δτ = c + K_D Δζ on training rows,
     show the structure of its residuals, name effects (``platform_gravity``,
     ``cable_hysteresis``, ``cable_nonlinearity``, ``connection_term``) by F tests with
-    Benjamini–Hochberg at ``fdr`` confirmed on held-out rows, refit and measure the gain.
+    Benjamini–Hochberg at ``fdr`` (default 0.01, as for the arm) confirmed on held-out rows,
+    refit and measure the gain. The selection runs on the same engine as :func:`vjm.diagnose`.
+    ``progress(stage, done, total)`` is called as the run goes; an exception it raises stops
+    the run and propagates (so does Ctrl-C).
 
     ``data``: a measurement-file path, a table (DataFrame) with the file's columns, or arrays
     ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
     body-frame displacements Δζ (rad).
     """
-    import json
-
+    if progress is not None and not callable(progress):
+        raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     if tau is None and ref is None and is_table(data):
         data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
         with reworded(PYTHON_NAMES):
-            text = _core.csjm_diagnose_csv(
+            summary, rows = _core.csjm_diagnose_csv(
                 check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed,
-                project=bool(project),
+                project=bool(project), progress=progress,
             )
     elif tau is not None and ref is not None:
         with reworded(PYTHON_NAMES):
-            text = _core.csjm_diagnose(
+            summary, rows = _core.csjm_diagnose(
                 f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
-                holdout_seed=holdout_seed, project=bool(project),
+                holdout_seed=holdout_seed, project=bool(project), progress=progress,
             )
     else:
         raise ShapeError("diagnose needs a measurement-file path, or R (N, 3, 3), tau (N, 3) and ref")
-    raw = json.loads(text)
-    return Diagnosis(
-        baseline=raw["baseline"],
-        findings=raw["findings"],
-        extended=raw["extended"],
-        unexplained=bool(raw["unexplained"]),
-        gain=float(raw["gain"]) if raw.get("gain") is not None else float("nan"),
-        raw=raw,
-    )
+    return Diagnosis._from_core("csjm", summary, rows)

@@ -1,13 +1,20 @@
 """A readable diagnosis report: Markdown with PNG plots (matplotlib, Agg backend).
 
-:func:`write_report` turns the result of :func:`robot_stiffness.vjm.diagnose` into a directory
-holding ``report.md`` and three plots:
+:func:`write_report` turns a :class:`~robot_stiffness.results.Diagnosis` (of
+:func:`robot_stiffness.vjm.diagnose` or :func:`robot_stiffness.csjm.diagnose`) into a directory
+holding ``report.md`` and its plots:
 
 * ``residuals.png`` — residual norm per measurement row, baseline vs extended model;
-* ``errors_per_pose.png`` — mean relative error per pose, baseline vs extended, held-out poses
-  marked;
+* ``errors_per_pose.png`` (VJM) — mean relative error per pose, baseline vs extended, held-out
+  poses marked;
 * ``effects.png`` — the evidence for every candidate effect (first-step F-test p-values), with
   the named effects highlighted.
+
+Reports scale: no plot draws more than :data:`MAX_POINTS` points per panel. Up to that many
+rows (or poses) every one is drawn; beyond, the rows are binned in file order into a fixed
+number of bins and each bin is drawn as its largest and its median residual (deterministic,
+and the worst rows stay visible). ``progress(stage, done, total)`` is called before every plot;
+an exception it raises stops the report (the CLI's Ctrl-C goes through it).
 
 The report is built under a temporary name and moved into ``out_dir`` at the end, so a failure
 never leaves a half-written report, and a file the package did not write is never replaced
@@ -16,25 +23,44 @@ never leaves a half-written report, and a file the package did not write is neve
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from ._arguments import checked
 from ._errors import ArgumentTypeError, InvalidValueError
 from ._outputs import Outputs
+from .results import (
+    Alias,
+    Anova,
+    CandidateScore,
+    DirectionCorrelation,
+    DisplacementRows,
+    Diagnosis,
+    Evidence,
+    Finding,
+    MomentRows,
+    ResidualStructure,
+)
 
-__all__ = ["write_report", "story", "percent", "atomic_directory", "REPORT_FILES", "CSJM_REPORT_FILES"]
+__all__ = ["write_report", "render_report", "render_files", "save_files", "story", "percent", "atomic_directory", "REPORT_FILES",
+           "CSJM_REPORT_FILES", "MAX_POINTS"]
 
 #: The files of a VJM report (relative to its folder).
 REPORT_FILES = ("report.md", "residuals.png", "errors_per_pose.png", "effects.png")
 #: The files of a CSJM report.
 CSJM_REPORT_FILES = ("report.md", "residuals.png", "effects.png")
+#: At most this many points (segment ends, markers, line vertices) per plot panel.
+MAX_POINTS = 10_000
 
 PathLike = Union[str, "os.PathLike[str]"]
+Progress = Callable[[str, int, int], None]
+_Target = Union[Path, io.BytesIO]
 
 
 def percent(x: Optional[float]) -> str:
@@ -50,145 +76,193 @@ def _pval(p: Optional[float]) -> str:
     return f"{p:.1e}" if p < 1e-3 else f"{p:.3f}"
 
 
-def _where(f: Dict[str, Any]) -> str:
+def _num(x: Optional[float], fmt: str = ".1f") -> str:
+    return "n/a" if x is None or not math.isfinite(x) else format(x, fmt)
+
+
+def _where(f: Union[Finding, Alias, CandidateScore]) -> str:
     parts = []
-    if f.get("joint") is not None:
-        parts.append(f"joint {f['joint']}")
-    if f.get("axis") is not None:
-        parts.append(f"axis {f['axis']}")
+    if f.joint is not None:
+        parts.append(f"joint {f.joint}")
+    if f.axis is not None:
+        parts.append(f"axis {f.axis}")
     return f" at {', '.join(parts)}" if parts else ""
 
 
-def _alias_text(f: Dict[str, Any]) -> str:
-    aliases = f.get("aliases") or []
-    if not aliases:
+def _alias_text(f: Finding) -> str:
+    if not f.aliases:
         return ""
-    names = []
-    for a in aliases:
-        label = a.get("effect", f.get("effect", ""))
-        names.append(label + _where(a))
-    return "; indistinguishable on these data from " + ", ".join(names)
+    return "; indistinguishable on these data from " + ", ".join(a.effect + _where(a) for a in f.aliases)
 
 
-def _what_is_wrong(r: Dict[str, Any], alpha: float = 0.01) -> str:
-    """The residual-structure statistics of one fit, in words, significant ones only."""
+def _small(p: Optional[float], alpha: float) -> bool:
+    return p is not None and math.isfinite(p) and p < alpha
+
+
+def _what_is_wrong(r: ResidualStructure, alpha: float = 0.01) -> str:
+    """The residual-structure statistics of one VJM fit, in words, significant ones only."""
     parts = []
-    rms = r.get("scaled_rms")
-    if rms is not None and math.isfinite(rms):
-        parts.append(f"its residuals are {rms:.1f}× the noise level")
-    anova = r.get("per_pose_anova", {}).get("p_value")
-    if anova is not None and anova < alpha:
-        parts.append(f"they differ between configurations (per-pose ANOVA p = {_pval(anova)})")
-    mag = r.get("load_magnitude")
-    if mag and mag.get("p_value", 1.0) < alpha:
-        parts.append(f"they grow with the load magnitude (Spearman ρ = {mag['rho']:+.2f}, p = {_pval(mag['p_value'])})")
+    if math.isfinite(r.scaled_rms):
+        parts.append(f"its residuals are {r.scaled_rms:.1f}× the noise level")
+    if r.per_pose_anova is not None and _small(r.per_pose_anova.p_value, alpha):
+        parts.append(f"they differ between configurations (per-pose ANOVA p = {_pval(r.per_pose_anova.p_value)})")
+    mag = r.load_magnitude
+    if mag is not None and _small(mag.p_value, alpha):
+        parts.append(f"they grow with the load magnitude (Spearman ρ = {mag.rho:+.2f}, p = {_pval(mag.p_value)})")
+    best = _strongest_torque(r)
+    if best is not None and _small(best[1].p_value, alpha):
+        parts.append(f"they correlate with the torque of joint {best[0]} (ρ = {best[1].rho:+.2f}, p = {_pval(best[1].p_value)})")
+    d = r.load_direction
+    if isinstance(d, DirectionCorrelation) and _small(d.p_bonferroni, alpha):
+        parts.append(f"residual {d.residual_axis} depends on the force direction {d.force_axis} "
+                     f"(ρ = {d.correlation.rho:+.2f}, p = {_pval(d.p_bonferroni)})")
+    return "; ".join(parts)
+
+
+def _strongest_torque(r: ResidualStructure) -> Optional[Tuple[int, Any]]:
     best = None
-    for t in r.get("torque", []):
-        c = t.get("correlation")
-        if c and c.get("p_value", 1.0) < alpha and (best is None or c["p_value"] < best[1]["p_value"]):
-            best = (t["joint"], c)
-    if best is not None:
-        parts.append(f"they correlate with the torque of joint {best[0]} (ρ = {best[1]['rho']:+.2f}, p = {_pval(best[1]['p_value'])})")
-    d = r.get("load_direction")
-    if d and d.get("p_bonferroni", 1.0) < alpha:
-        parts.append(f"residual {d['residual_axis']} depends on the force direction {d['force_axis']} "
-                     f"(ρ = {d['correlation']['rho']:+.2f}, p = {_pval(d['p_bonferroni'])})")
-    return "; ".join(parts)
+    for t in r.torque or []:
+        c = t.correlation
+        if c is not None and math.isfinite(c.p_value) and (best is None or c.p_value < best[1].p_value):
+            best = (t.joint, c)
+    return best
 
 
-def is_csjm(result: Dict[str, Any]) -> bool:
-    """True for a CSJM diagnosis (rows carry Δζ and Δτ), False for a VJM one."""
-    rows = result.get("rows") or [{}]
-    return "dzeta" in rows[0] or "connection_term" in result
-
-
-def _what_is_wrong_csjm(r: Dict[str, Any], alpha: float = 0.01) -> str:
+def _what_is_wrong_csjm(r: ResidualStructure, alpha: float = 0.01) -> str:
     parts = []
-    rms = r.get("scaled_rms")
-    if rms is not None and math.isfinite(rms):
-        parts.append(f"its moment residuals are {rms:.1f}× the noise level")
-    mag = r.get("load_magnitude")
-    if mag and mag.get("p_value", 1.0) < alpha:
-        parts.append(f"they grow with the load (Spearman ρ = {mag['rho']:+.2f}, p = {_pval(mag['p_value'])})")
-    d = r.get("load_direction")
-    if d and d.get("p_value", 1.0) < alpha:
-        parts.append(f"they depend on the load direction (ANOVA p = {_pval(d['p_value'])})")
-    lu = [x for x in r.get("loading_unloading", []) if x.get("test") and x["test"].get("p_value", 1.0) < alpha]
+    if math.isfinite(r.scaled_rms):
+        parts.append(f"its moment residuals are {r.scaled_rms:.1f}× the noise level")
+    mag = r.load_magnitude
+    if mag is not None and _small(mag.p_value, alpha):
+        parts.append(f"they grow with the load (Spearman ρ = {mag.rho:+.2f}, p = {_pval(mag.p_value)})")
+    d = r.load_direction
+    if isinstance(d, Anova) and _small(d.p_value, alpha):
+        parts.append(f"they depend on the load direction (ANOVA p = {_pval(d.p_value)})")
+    lu = [x for x in r.loading_unloading or [] if x.test is not None and _small(x.test.p_value, alpha)]
     if lu:
-        parts.append("they differ between loading and unloading about " + ", ".join(x["axis"] for x in lu)
-                     + f" (p = {_pval(min(x['test']['p_value'] for x in lu))})")
+        parts.append("they differ between loading and unloading about " + ", ".join(x.axis for x in lu)
+                     + f" (p = {_pval(min(x.test.p_value for x in lu if x.test is not None))})")
     return "; ".join(parts)
 
 
-def story(result: Dict[str, Any]) -> List[str]:
+def is_csjm(result: Diagnosis) -> bool:
+    """True for a CSJM diagnosis, False for a VJM one."""
+    return result.model_kind == "csjm"
+
+
+def story(result: Diagnosis) -> List[str]:
     """A few sentences: what the baseline got wrong, the named cause, the gain on held-out rows."""
-    base = result["baseline"]
-    ext = result["extended"]
+    result = as_diagnosis(result)
+    base, ext = result.baseline, result.extended
     lines = [
-        f"Baseline ({base['model']}, {base['n_params']} parameters): mean relative error "
-        f"{percent(base['test_mean_rel_error'])} on held-out data."
+        f"Baseline ({base.model}, {base.n_params} parameters): mean relative error "
+        f"{percent(base.test_mean_rel_error)} on held-out data."
     ]
-    structure = result.get("residuals", {}).get("baseline", {})
+    structure = result.residuals.baseline
     wrong = _what_is_wrong_csjm(structure) if is_csjm(result) else _what_is_wrong(structure)
     if wrong:
         lines.append("What it gets wrong: " + wrong + ".")
-    findings = result.get("findings", [])
-    if findings:
-        for f in findings:
-            ev = f.get("evidence", {})
-            if f["effect"] == "connection_term":
+    if result.findings:
+        for f in result.findings:
+            if not isinstance(f.evidence, Evidence):
                 lines.append(
                     "K_D is measurably asymmetric as the connection term −½hat(τ₀) predicts "
                     "(connection_term): the symmetric covariant K = K_D − ½hat(τ₀) is the stiffness."
                 )
                 continue
-            p = ev.get("f_test", {}).get("p_value")
             lines.append(
-                f"Named cause: {f['effect']}{_where(f)} (F-test p = {_pval(p)}, confirmed on "
+                f"Named cause: {f.effect}{_where(f)} (F-test p = {_pval(f.evidence.f_test.p_value)}, confirmed on "
                 f"held-out rows){_alias_text(f)}."
             )
     else:
         lines.append("No effect of the catalogue improves the baseline significantly.")
-    gain = result.get("gain")
+    gain = result.gain
     lines.append(
-        f"Extended model ({ext['model']}, {ext['n_params']} parameters): "
-        f"{percent(ext['test_mean_rel_error'])} on held-out data"
-        + (f", {percent(gain)} lower than the baseline." if gain is not None and math.isfinite(gain) else ".")
+        f"Extended model ({ext.model}, {ext.n_params} parameters): "
+        f"{percent(ext.test_mean_rel_error)} on held-out data"
+        + (f", {percent(gain)} lower than the baseline." if math.isfinite(gain) else ".")
     )
-    if result.get("unexplained"):
+    if result.unexplained:
         lines.append(
             "Structured residual remains that no candidate explains (per-pose ANOVA still significant)."
         )
     return lines
 
 
-def _plot_residuals(result: Dict[str, Any], path: Path) -> None:
+# ----------------------------------------------------------------------------- bounded plots
+
+
+def _bins(n: int, max_bins: int) -> npt.NDArray[np.int64]:
+    """Start index of each of at most ``max_bins`` contiguous bins over ``n`` items (file order)."""
+    count = max(1, min(n, max_bins))
+    return np.unique(np.linspace(0, n, count, endpoint=False).astype(np.int64))
+
+
+def _bin_stats(values: npt.NDArray[np.float64], starts: npt.NDArray[np.int64]) -> Tuple[
+        npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Per-bin largest and median value."""
+    top = np.maximum.reduceat(values, starts)
+    ends = np.append(starts[1:], len(values))
+    median = np.array([np.median(values[a:b]) for a, b in zip(starts, ends)], dtype=np.float64)
+    return top, median
+
+
+def _row_panel(ax: Any, err: npt.NDArray[np.float64], test: npt.NDArray[np.bool_]) -> str:
+    """Residual norm per row on ``ax`` within :data:`MAX_POINTS`; returns the x-axis label."""
+    n = len(err)
+    idx = np.arange(n)
+    if 2 * n <= MAX_POINTS:
+        # One line collection per set, not one rectangle per row: ax.bar costs ~0.5 ms a bar.
+        width = float(np.clip(500.0 / max(n, 1), 0.3, 4.0))  # points
+        ax.vlines(idx[~test], 0.0, err[~test], color="tab:blue", label="training rows", linewidth=width)
+        ax.vlines(idx[test], 0.0, err[test], color="tab:orange", label="held-out rows", linewidth=width)
+        return "measurement row"
+    # Per set: its rows in file order, binned; each bin is a segment from 0 to its largest
+    # residual (2 points) and a vertex of the median line (1 point): 3 points a bin.
+    per_set = MAX_POINTS // 6
+    sets = ((~test, "tab:blue", "navy", "training rows"), (test, "tab:orange", "saddlebrown", "held-out rows"))
+    for mask, color, dark, name in sets:
+        rows = idx[mask]
+        if len(rows) == 0:
+            continue
+        starts = _bins(len(rows), per_set)
+        top, median = _bin_stats(err[mask], starts)
+        x = rows[starts].astype(np.float64)
+        ax.vlines(x, 0.0, top, color=color, label=f"{name}: largest in bin", linewidth=0.4)
+        ax.plot(x, median, color=dark, linewidth=0.7, zorder=3, label=f"{name}: median in bin")
+    return f"measurement row ({n} rows; each set in at most {per_set} bins of consecutive rows)"
+
+
+def _plot_rows(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = result.get("rows", [])
-    meas = np.array([r["measured"] for r in rows], dtype=float).reshape(-1, 3)
-    base = np.array([r["baseline"] for r in rows], dtype=float).reshape(-1, 3)
-    ext = np.array([r["extended"] for r in rows], dtype=float).reshape(-1, 3)
-    test = np.array([r["set"] == "test" for r in rows], dtype=bool)
-    idx = np.arange(len(rows))
+    rows = result.rows
+    if isinstance(rows, DisplacementRows):
+        residuals = [1e6 * np.linalg.norm(rows.baseline - rows.measured, axis=1),
+                     1e6 * np.linalg.norm(rows.extended - rows.measured, axis=1)]
+        ylabel, title, xname = "‖d_pred − d_meas‖ (µm)", "Residuals", None
+    elif isinstance(rows, MomentRows):
+        residuals = [np.linalg.norm(rows.baseline_residual, axis=1), np.linalg.norm(rows.extended_residual, axis=1)]
+        ylabel, title, xname = "‖Δτ − Δτ_pred‖ (N·m)", "Moment residuals", "load increment (file order)"
+    else:
+        residuals = [np.zeros(0), np.zeros(0)]
+        ylabel, title, xname = "residual", "Residuals (rows not available)", None
+    test = np.zeros(0, dtype=bool) if rows is None else np.asarray(rows.held_out, dtype=bool)
     fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, sharey=True)
-    for ax, pred, title in ((axes[0], base, "baseline"), (axes[1], ext, "extended")):
-        err = 1e6 * np.linalg.norm(pred - meas, axis=1)
-        # One line collection per set, not one rectangle per row: ax.bar costs ~0.5 ms a bar
-        # (2.2 s for 2000 rows, minutes for a big campaign).
-        width = float(np.clip(500.0 / max(len(rows), 1), 0.3, 4.0))  # points
-        ax.vlines(idx[~test], 0.0, err[~test], color="tab:blue", label="training rows", linewidth=width)
-        ax.vlines(idx[test], 0.0, err[test], color="tab:orange", label="held-out rows", linewidth=width)
+    xlabel = "measurement row"
+    for ax, err, which, model in ((axes[0], residuals[0], "baseline", result.baseline.model),
+                                  (axes[1], residuals[1], "extended", result.extended.model)):
+        xlabel = _row_panel(ax, err, test)
         ax.set_ylim(bottom=0.0)
-        ax.set_ylabel("‖d_pred − d_meas‖ (µm)")
-        ax.set_title(f"Residuals, {title}: {result[title]['model']}", fontsize=10)
-        ax.legend(loc="upper right", fontsize=8)
-    axes[1].set_xlabel("measurement row")
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"{title}, {which}: {model}", fontsize=10)
+        ax.legend(loc="upper right", fontsize=7)
+    axes[1].set_xlabel(xname if xname and 2 * len(test) <= MAX_POINTS else xlabel)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -196,96 +270,104 @@ def _plot_residuals(result: Dict[str, Any], path: Path) -> None:
 _LABELLED_POSES = 60
 
 
-def _plot_per_pose(result: Dict[str, Any], path: Path) -> None:
+def _plot_per_pose(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    poses = result.get("per_pose", [])
+    poses = result.per_pose or []
+    b = np.array([100.0 * p.baseline for p in poses], dtype=float)
+    e = np.array([100.0 * p.extended for p in poses], dtype=float)
+    test = np.array([p.set == "test" for p in poses], dtype=bool)
     x = np.arange(len(poses))
-    b = np.array([100.0 * p["baseline"] for p in poses], dtype=float)
-    e = np.array([100.0 * p["extended"] for p in poses], dtype=float)
-    test = np.array([p["set"] == "test" for p in poses], dtype=bool)
     fig, ax = plt.subplots(figsize=(9, 3.8))
-    if len(poses) <= _LABELLED_POSES:
+    # Points: 2 bars of 4 corners (or 2 segments of 2 ends) per pose, up to one shaded span of
+    # 5 vertices per two poses.
+    if len(poses) <= _LABELLED_POSES and 11 * len(poses) <= MAX_POINTS:
         ax.bar(x - 0.2, b, width=0.4, label="baseline", color="tab:red")
         ax.bar(x + 0.2, e, width=0.4, label="extended", color="tab:green")
         ax.set_xticks(x)
-        ax.set_xticklabels([str(p["pose"]) for p in poses], fontsize=7)
+        ax.set_xticklabels([str(p.pose) for p in poses], fontsize=7)
         ax.set_xlabel("pose (shaded: held out)")
-    else:
+    elif 7 * len(poses) <= MAX_POINTS:
         # Many poses: one line collection per model instead of one rectangle per pose (ax.bar
         # and a span per held-out pose took 5 s for 1500 poses), no per-pose tick labels.
         width = float(np.clip(250.0 / len(poses), 0.3, 4.0))  # points
         ax.vlines(x - 0.2, 0.0, b, color="tab:red", label="baseline", linewidth=width)
         ax.vlines(x + 0.2, 0.0, e, color="tab:green", label="extended", linewidth=width)
-        ax.set_ylim(bottom=0.0)
         ax.set_xlabel("pose, in file order (shaded: held out)")
+    else:
+        # More poses than points: the mean error of each bin of consecutive poses, two lines.
+        starts = _bins(len(poses), MAX_POINTS // 4)
+        counts = np.diff(np.append(starts, len(poses)))
+        xs = starts.astype(np.float64)
+        ax.plot(xs, np.add.reduceat(b, starts) / counts, color="tab:red", linewidth=0.6, label="baseline (bin mean)")
+        ax.plot(xs, np.add.reduceat(e, starts) / counts, color="tab:green", linewidth=0.6, label="extended (bin mean)")
+        ax.set_xlabel(f"pose, in file order ({len(poses)} poses in bins of ~{max(1, int(counts.mean()))})")
+        test = np.zeros(0, dtype=bool)  # no shading: a bin mixes training and held-out poses
+    ax.set_ylim(bottom=0.0)
     # Held-out poses: one shaded span per run of consecutive poses, in one collection.
     edges = np.flatnonzero(np.diff(np.concatenate([[0], test.astype(np.int8), [0]])))
-    runs = [(float(a) - 0.5, float(b - a)) for a, b in zip(edges[::2], edges[1::2])]
+    runs = [(float(a) - 0.5, float(c - a)) for a, c in zip(edges[::2], edges[1::2])]
     if runs:
         ax.broken_barh(runs, (0.0, 1.0), color="0.9", zorder=0, transform=ax.get_xaxis_transform())
     ax.set_ylabel("mean relative error (%)")
     ax.set_title("Error per pose", fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
-def _plot_effects(result: Dict[str, Any], path: Path) -> None:
+def _plot_effects(result: Diagnosis, path: _Target) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scores = [s for s in result.get("scores", []) if s.get("testable") and s.get("f_test")]
-    scores.sort(key=lambda s: s["f_test"]["p_value"])
-    scores = scores[:20]
-    found = {(f["effect"], f.get("joint"), f.get("axis")) for f in result.get("findings", [])}
-    labels = [s["label"] for s in scores]
-    vals = [-math.log10(max(s["f_test"]["p_value"], 1e-300)) for s in scores]
-    colors = [
-        "tab:green" if (s["effect"], s.get("joint"), s.get("axis")) in found else "tab:gray"
-        for s in scores
-    ]
+    csjm = is_csjm(result)
+    testable = [s for s in result.scores if s.f_test is not None and (csjm or s.testable)]
+    scores = sorted(testable, key=lambda s: s.f_test.p_value if s.f_test is not None else 1.0)[:20]
+    found = {(f.effect, f.joint, f.axis) for f in result.findings}
+    labels = [s.effect if csjm or s.label is None else s.label for s in scores]
+    vals = [-math.log10(max(s.f_test.p_value if s.f_test is not None else 1.0, 1e-300)) for s in scores]
+    colors = ["tab:green" if (s.effect, s.joint, s.axis) in found else "tab:gray" for s in scores]
     fig, ax = plt.subplots(figsize=(9, max(2.5, 0.3 * len(scores) + 1)))
     y = np.arange(len(scores))
     ax.barh(y, vals, color=colors)
     ax.set_yticks(y)
     ax.set_yticklabels(labels, fontsize=8)
     ax.invert_yaxis()
-    fdr = result.get("fdr", 0.01)
-    n = max(1, len([s for s in result.get("scores", []) if s.get("testable")]))
-    ax.axvline(-math.log10(fdr / n), color="k", linestyle="--", linewidth=0.8,
+    fdr = result.fdr
+    ax.axvline(-math.log10(fdr / max(1, len(testable))), color="k", linestyle="--", linewidth=0.8,
                label=f"strictest BH threshold (q = {fdr})")
     ax.set_xlabel("−log10 p (first-step F test against the baseline)")
     ax.set_title("Candidate effects (green: named)", fontsize=10)
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
-def _markdown(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
-    base, ext = result["baseline"], result["extended"]
+# ----------------------------------------------------------------------------- markdown
+
+
+def _markdown(result: Diagnosis, title: str, source: Optional[str]) -> str:
+    base, ext = result.baseline, result.extended
     out = [f"# {title}", ""]
     if source:
-        out += [f"Data: `{source}` — {result.get('n_train', '?')} training rows, "
-                f"{result.get('n_test', '?')} held-out rows.", ""]
+        out += [f"Data: `{source}` — {result.n_train} training rows, {result.n_test} held-out rows.", ""]
     out += ["## Summary", ""] + [f"- {s}" for s in story(result)] + [""]
-    gain = result.get("gain")
-    if gain is not None and math.isfinite(gain):
-        out += [f"**The extended model's held-out error is {percent(gain)} lower than the baseline's** "
-                f"({percent(base['test_mean_rel_error'])} → {percent(ext['test_mean_rel_error'])}).", ""]
+    if math.isfinite(result.gain):
+        out += [f"**The extended model's held-out error is {percent(result.gain)} lower than the baseline's** "
+                f"({percent(base.test_mean_rel_error)} → {percent(ext.test_mean_rel_error)}).", ""]
     out += [
         "## Models", "",
         "| model | parameters | held-out mean rel. error | training mean rel. error |",
         "|---|---|---|---|",
-        f"| baseline: {base['model']} | {base['n_params']} | {percent(base['test_mean_rel_error'])} | {percent(base.get('train_mean_rel_error'))} |",
-        f"| extended: {ext['model']} | {ext['n_params']} | {percent(ext['test_mean_rel_error'])} | {percent(ext.get('train_mean_rel_error'))} |",
+        f"| baseline: {base.model} | {base.n_params} | {percent(base.test_mean_rel_error)} | {percent(base.train_mean_rel_error)} |",
+        f"| extended: {ext.model} | {ext.n_params} | {percent(ext.test_mean_rel_error)} | {percent(ext.train_mean_rel_error)} |",
         "",
         "The error is the mean over rows of ‖d_pred − d_meas‖ / ‖d_meas‖ (translation only).",
         "",
@@ -293,33 +375,24 @@ def _markdown(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
         "![Error per pose](errors_per_pose.png)", "",
         "## What the baseline gets wrong", "",
     ]
-    rs = result.get("residuals", {})
     out += ["| statistic | baseline | extended |", "|---|---|---|"]
 
-    def stat(which: str, key: str) -> str:
-        r = rs.get(which, {})
+    def stat(r: ResidualStructure, key: str) -> str:
         if key == "scaled_rms":
-            v = r.get("scaled_rms")
-            return "n/a" if v is None else f"{v:.2f}"
+            return _num(r.scaled_rms, ".2f")
         if key == "anova":
-            return f"p = {_pval(r.get('per_pose_anova', {}).get('p_value'))}"
+            return f"p = {_pval(None if r.per_pose_anova is None else r.per_pose_anova.p_value)}"
         if key == "magnitude":
-            c = r.get("load_magnitude")
-            return "n/a" if not c else f"ρ = {c['rho']:+.2f}, p = {_pval(c['p_value'])}"
+            c = r.load_magnitude
+            return "n/a" if c is None else f"ρ = {c.rho:+.2f}, p = {_pval(c.p_value)}"
         if key == "direction":
-            c = r.get("load_direction")
-            if not c:
+            d = r.load_direction
+            if not isinstance(d, DirectionCorrelation):
                 return "n/a"
-            return (f"residual {c['residual_axis']} vs force {c['force_axis']}: ρ = "
-                    f"{c['correlation']['rho']:+.2f}, p = {_pval(c['p_bonferroni'])}")
-        if key == "torque":
-            best = None
-            for t in r.get("torque", []):
-                c = t.get("correlation")
-                if c and (best is None or c["p_value"] < best[1]["p_value"]):
-                    best = (t["joint"], c)
-            return "n/a" if best is None else f"joint {best[0]}: ρ = {best[1]['rho']:+.2f}, p = {_pval(best[1]['p_value'])}"
-        return "n/a"
+            return (f"residual {d.residual_axis} vs force {d.force_axis}: ρ = "
+                    f"{d.correlation.rho:+.2f}, p = {_pval(d.p_bonferroni)}")
+        best = _strongest_torque(r)
+        return "n/a" if best is None else f"joint {best[0]}: ρ = {best[1].rho:+.2f}, p = {_pval(best[1].p_value)}"
 
     for label, key in (
         ("scaled residual RMS (1 = noise only)", "scaled_rms"),
@@ -328,44 +401,86 @@ def _markdown(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
         ("correlation with load magnitude", "magnitude"),
         ("strongest load-direction correlation (Bonferroni)", "direction"),
     ):
-        out.append(f"| {label} | {stat('baseline', key)} | {stat('extended', key)} |")
+        out.append(f"| {label} | {stat(result.residuals.baseline, key)} | {stat(result.residuals.extended, key)} |")
     out += ["", "## Named effects", "", "![Candidate effects](effects.png)", ""]
-    findings = result.get("findings", [])
-    if not findings:
+    if not result.findings:
         out += ["No candidate effect passed the false-discovery-rate selection and the held-out check.", ""]
-    for f in findings:
-        ev = f.get("evidence", {})
-        ft = ev.get("f_test", {})
-        out += [
-            f"### {f['effect']}{_where(f)}", "",
-            f"- selection step {ev.get('step')}: F = {ft.get('f', float('nan')):.1f} "
-            f"({ft.get('df_num')}, {ft.get('df_den')}), p = {_pval(ft.get('p_value'))}, "
-            f"Benjamini–Hochberg threshold {_pval(ev.get('bh_threshold'))} over {ev.get('n_candidates')} candidates;",
-            f"- removes {percent(ev.get('sse_reduction'))} of the training whitened SSE; held-out whitened SSE "
-            f"{ev.get('heldout_sse_before', float('nan')):.1f} → {ev.get('heldout_sse_after', float('nan')):.1f};",
-            f"- estimate: {', '.join(f'{v:.3e}' for v in ev.get('estimate', []))} {ev.get('unit', '')}.",
-        ]
-        if f.get("aliases"):
+    for f in result.findings:
+        ev = f.evidence
+        out += [f"### {f.effect}{_where(f)}", ""]
+        if isinstance(ev, Evidence):
+            ft = ev.f_test
+            estimate = ", ".join(f"{v:.3e}" for v in ev.estimate if isinstance(v, float))
+            out += [
+                f"- selection step {ev.step}: F = {_num(ft.f)} ({_num(ft.df_num, 'g')}, {_num(ft.df_den, 'g')}), "
+                f"p = {_pval(ft.p_value)}, Benjamini–Hochberg threshold {_pval(ev.bh_threshold)} over "
+                f"{ev.n_candidates} candidates;",
+                f"- removes {percent(ev.sse_reduction)} of the training whitened SSE; held-out whitened SSE "
+                f"{_num(ev.heldout_sse_before)} → {_num(ev.heldout_sse_after)};",
+                f"- estimate: {estimate} {ev.unit or ''}.",
+            ]
+        if f.aliases:
             out.append("- cannot be told apart on these data from: " + ", ".join(
-                f"{a.get('effect', f['effect'])}{_where(a)} (Δχ² = {a.get('delta_chi2', float('nan')):.2f})"
-                for a in f["aliases"]
+                f"{a.effect}{_where(a)} (Δχ² = {_num(a.delta_chi2, '.2f')})" for a in f.aliases
             ) + ".")
         out.append("")
-    rejected = result.get("rejected_on_holdout") or []
-    if rejected:
+    if result.rejected_on_holdout:
         out += ["Significant on the training rows but not confirmed on held-out rows: "
-                + ", ".join(rejected) + ".", ""]
+                + ", ".join(result.rejected_on_holdout) + ".", ""]
     out += ["## Unexplained structure", ""]
     out.append(
         "Structured residual remains after the extension that no candidate explains."
-        if result.get("unexplained")
+        if result.unexplained
         else "No significant structure remains in the extended model's residuals."
     )
     out += ["", "## Fitted parameters (extended model)", "", "| parameter | value | unit |", "|---|---|---|"]
-    for p in ext.get("parameters", []):
-        value = "not identifiable" if p["value"] is None else f"{p['value']:.4e}"
-        out.append(f"| {p['label']} | {value} | {p['unit']} |")
+    for p in ext.parameters:
+        value = "not identifiable" if p.value is None or not math.isfinite(p.value) else f"{p.value:.4e}"
+        out.append(f"| {p.label} | {value} | {p.unit} |")
     out.append("")
+    return "\n".join(out)
+
+
+def _matrix(m: Optional[Sequence[Sequence[float]]]) -> List[str]:
+    return ["| " + " | ".join(f"{v:.3f}" for v in row) + " |" for row in m or []]
+
+
+def _markdown_csjm(result: Diagnosis, title: str, source: Optional[str]) -> str:
+    base, ext = result.baseline, result.extended
+    out = [f"# {title}", ""]
+    if source:
+        out += [f"Data: `{source}` — {result.n_train} training rows, {result.n_test} held-out rows.", ""]
+    out += ["## Summary", ""] + [f"- {s}" for s in story(result)] + [""]
+    out += [
+        "## Models", "",
+        "| model | parameters | held-out mean rel. error of Δζ | training |",
+        "|---|---|---|---|",
+        f"| baseline: {base.model} | {base.n_params} | {percent(base.test_mean_rel_error)} | {percent(base.train_mean_rel_error)} |",
+        f"| extended: {ext.model} | {ext.n_params} | {percent(ext.test_mean_rel_error)} | {percent(ext.train_mean_rel_error)} |",
+        "",
+        "![Moment residuals before and after](residuals.png)", "",
+        "Covariant stiffness K of the extended model (N·m/rad, frame A at R₀):", "",
+        "| | | |", "|---|---|---|", *_matrix(ext.k), "",
+        "## Named effects", "", "![Candidate effects](effects.png)", "",
+    ]
+    for f in result.findings:
+        ev = f.evidence
+        out += [f"### {f.effect}", ""]
+        if isinstance(ev, Evidence):
+            out.append(f"- F = {_num(ev.f_test.f)}, p = {_pval(ev.f_test.p_value)}; held-out whitened SSE "
+                       f"{_num(ev.heldout_sse_before)} → {_num(ev.heldout_sse_after)}.")
+            if ev.interpretation:
+                out.append(f"- {ev.interpretation}")
+        else:
+            out.append(f"- λ = {_num(ev.lambda_, '.3f')} ± {_num(ev.lambda_stderr, '.3f')} (theory 1), asymmetry "
+                       f"p = {_pval(ev.p_asymmetry)}, K_D differs from K by {percent(ev.relative_difference)}: "
+                       f"{ev.interpretation}")
+        if f.aliases:
+            out.append("- indistinguishable on these data from: " + ", ".join(a.effect for a in f.aliases) + ".")
+        out.append("")
+    out += ["## Unexplained structure", "",
+            "Structured residual remains that no candidate explains." if result.unexplained
+            else "No significant structure remains in the extended model's residuals.", ""]
     return "\n".join(out)
 
 
@@ -392,146 +507,85 @@ class atomic_directory:
             self._outputs.discard()
 
 
-def _plot_csjm_residuals(result: Dict[str, Any], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    rows = result.get("rows", [])
-    base = np.array([r["baseline_residual"] for r in rows], dtype=float).reshape(-1, 3)
-    ext = np.array([r["extended_residual"] for r in rows], dtype=float).reshape(-1, 3)
-    test = np.array([r["set"] == "test" for r in rows], dtype=bool)
-    idx = np.arange(len(rows))
-    fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, sharey=True)
-    for ax, res, title in ((axes[0], base, "baseline"), (axes[1], ext, "extended")):
-        err = np.linalg.norm(res, axis=1)
-        # One line collection per set, not one rectangle per row: ax.bar costs ~0.5 ms a bar
-        # (2.2 s for 2000 rows, minutes for a big campaign).
-        width = float(np.clip(500.0 / max(len(rows), 1), 0.3, 4.0))  # points
-        ax.vlines(idx[~test], 0.0, err[~test], color="tab:blue", label="training rows", linewidth=width)
-        ax.vlines(idx[test], 0.0, err[test], color="tab:orange", label="held-out rows", linewidth=width)
-        ax.set_ylim(bottom=0.0)
-        ax.set_ylabel("‖Δτ − Δτ_pred‖ (N·m)")
-        ax.set_title(f"Moment residuals, {title}: {result[title]['model']}", fontsize=10)
-        ax.legend(loc="upper right", fontsize=8)
-    axes[1].set_xlabel("load increment (file order)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+def as_diagnosis(result: Any) -> Diagnosis:
+    """A :class:`Diagnosis`, or the dict of its ``to_dict()`` (earlier versions' result), as a
+    :class:`Diagnosis`."""
+    if isinstance(result, Diagnosis):
+        return result
+    if isinstance(result, Mapping) and {"baseline", "findings", "extended"} <= set(result):
+        try:
+            return Diagnosis._from_dict(result)
+        except (KeyError, IndexError, TypeError, ValueError) as e:
+            raise InvalidValueError(f"result is not a complete diagnosis ({type(e).__name__}: {e})") from None
+    raise ArgumentTypeError(
+        "result must be a diagnosis: the value returned by vjm.diagnose / csjm.diagnose or its to_dict(), "
+        f"got {type(result).__name__}"
+    )
 
 
-def _plot_csjm_effects(result: Dict[str, Any], path: Path) -> None:
-    import matplotlib
+def render_files(result: Any, *, title: str = "Stiffness diagnosis", source: Optional[str] = None,
+                 progress: Optional[Progress] = None) -> Dict[str, bytes]:
+    """The report's files in memory, ``{name: content}``, without touching the file system (so
+    it can run in a worker thread while the main thread owns the outputs).
+    ``progress(stage, done, total)`` is called before each file and at the end; an exception it
+    raises stops the report."""
+    result = as_diagnosis(result)
+    csjm = is_csjm(result)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    def png(plot: Callable[[Diagnosis, _Target], None]) -> Callable[[], bytes]:
+        def draw() -> bytes:
+            buf = io.BytesIO()
+            plot(result, buf)
+            return buf.getvalue()
+        return draw
 
-    scores = [s for s in result.get("scores", []) if s.get("f_test")]
-    found = {f["effect"] for f in result.get("findings", [])}
-    labels = [s["effect"] for s in scores]
-    vals = [-math.log10(max(s["f_test"]["p_value"], 1e-300)) for s in scores]
-    colors = ["tab:green" if s["effect"] in found else "tab:gray" for s in scores]
-    fig, ax = plt.subplots(figsize=(8, 2.5))
-    y = np.arange(len(scores))
-    ax.barh(y, vals, color=colors)
-    ax.set_yticks(y)
-    ax.set_yticklabels(labels, fontsize=9)
-    ax.invert_yaxis()
-    fdr = result.get("fdr", 0.05)
-    ax.axvline(-math.log10(fdr / max(1, len(scores))), color="k", linestyle="--", linewidth=0.8,
-               label=f"strictest BH threshold (q = {fdr})")
-    ax.set_xlabel("−log10 p (first-step F test against the baseline)")
-    ax.set_title("Candidate effects (green: named)", fontsize=10)
-    ax.legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    def markdown() -> bytes:
+        text = _markdown_csjm(result, title, source) if csjm else _markdown(result, title, source)
+        return text.encode("utf-8")
 
-
-def _matrix(m: Any) -> List[str]:
-    return ["| " + " | ".join(f"{v:.3f}" for v in row) + " |" for row in m]
-
-
-def _markdown_csjm(result: Dict[str, Any], title: str, source: Optional[str]) -> str:
-    base, ext = result["baseline"], result["extended"]
-    out = [f"# {title}", ""]
-    if source:
-        out += [f"Data: `{source}` — {result.get('n_train', '?')} training rows, "
-                f"{result.get('n_test', '?')} held-out rows.", ""]
-    out += ["## Summary", ""] + [f"- {s}" for s in story(result)] + [""]
-    out += [
-        "## Models", "",
-        "| model | parameters | held-out mean rel. error of Δζ | training |",
-        "|---|---|---|---|",
-        f"| baseline: {base['model']} | {base['n_params']} | {percent(base['test_mean_rel_error'])} | {percent(base.get('train_mean_rel_error'))} |",
-        f"| extended: {ext['model']} | {ext['n_params']} | {percent(ext['test_mean_rel_error'])} | {percent(ext.get('train_mean_rel_error'))} |",
-        "",
-        "![Moment residuals before and after](residuals.png)", "",
-        "Covariant stiffness K of the extended model (N·m/rad, frame A at R₀):", "",
-        "| | | |", "|---|---|---|", *_matrix(ext.get("k", [])), "",
-        "## Named effects", "", "![Candidate effects](effects.png)", "",
-    ]
-    for f in result.get("findings", []):
-        ev = f.get("evidence", {})
-        out.append(f"### {f['effect']}")
-        out.append("")
-        if "f_test" in ev:
-            ft = ev["f_test"]
-            out.append(f"- F = {ft.get('f', float('nan')):.1f}, p = {_pval(ft.get('p_value'))}; held-out whitened SSE "
-                       f"{ev.get('heldout_sse_before', float('nan')):.1f} → {ev.get('heldout_sse_after', float('nan')):.1f}.")
-            if ev.get("interpretation"):
-                out.append(f"- {ev['interpretation']}")
-        else:
-            out.append("- " + ", ".join(f"{k} = {v}" for k, v in ev.items() if not isinstance(v, (list, dict))))
-        if f.get("aliases"):
-            out.append("- indistinguishable on these data from: " + ", ".join(a["effect"] for a in f["aliases"]) + ".")
-        out.append("")
-    out += ["## Unexplained structure", "",
-            "Structured residual remains that no candidate explains." if result.get("unexplained")
-            else "No significant structure remains in the extended model's residuals.", ""]
-    return "\n".join(out)
+    steps: List[Tuple[str, str, Callable[[], bytes]]] = [("residuals plot", "residuals.png", png(_plot_rows))]
+    if not csjm:
+        steps.append(("per-pose plot", "errors_per_pose.png", png(_plot_per_pose)))
+    steps.append(("effects plot", "effects.png", png(_plot_effects)))
+    steps.append(("text", "report.md", markdown))
+    files: Dict[str, bytes] = {}
+    for i, (stage, name, make) in enumerate(steps):
+        if progress is not None:
+            progress(f"report: {stage}", i, len(steps))
+        files[name] = make()
+    if progress is not None:
+        progress("report: done", len(steps), len(steps))
+    return files
 
 
-def render_report(result: Dict[str, Any], directory: PathLike, *, title: str = "Stiffness diagnosis",
-                  source: Optional[str] = None) -> Path:
-    """Writes ``report.md`` and the plots into an existing ``directory`` (no atomicity)."""
+def save_files(files: Mapping[str, bytes], directory: PathLike) -> Path:
+    """Writes :func:`render_files`' output into an existing ``directory``; returns report.md."""
     d = Path(directory)
-    if is_csjm(result):
-        _plot_csjm_residuals(result, d / "residuals.png")
-        _plot_csjm_effects(result, d / "effects.png")
-        md = d / "report.md"
-        md.write_text(_markdown_csjm(result, title, source), encoding="utf-8")
-        return md
-    _plot_residuals(result, d / "residuals.png")
-    _plot_per_pose(result, d / "errors_per_pose.png")
-    _plot_effects(result, d / "effects.png")
-    md = d / "report.md"
-    md.write_text(_markdown(result, title, source), encoding="utf-8")
-    return md
+    for name, content in files.items():
+        (d / name).write_bytes(content)
+    return d / "report.md"
+
+
+def render_report(result: Any, directory: PathLike, *, title: str = "Stiffness diagnosis",
+                  source: Optional[str] = None, progress: Optional[Progress] = None) -> Path:
+    """Writes ``report.md`` and the plots into an existing ``directory`` (no atomicity); see
+    :func:`render_files` for ``progress``."""
+    return save_files(render_files(result, title=title, source=source, progress=progress), directory)
 
 
 @checked
 def write_report(result: Any, out_dir: PathLike, *, title: str = "Stiffness diagnosis",
                  source: Optional[str] = None, force: bool = False) -> Path:
-    """Write the report of a diagnosis (a :class:`~robot_stiffness.vjm.Diagnosis` or its dict)
-    into ``out_dir``; returns the path of ``report.md``.
+    """Write the report of a diagnosis (a :class:`~robot_stiffness.results.Diagnosis` or its
+    ``to_dict()``) into ``out_dir``; returns the path of ``report.md``.
 
     ``out_dir`` is created if missing and filled if empty. A non-empty folder raises
     :class:`~robot_stiffness.OutputPathError` unless ``force``; then only the files an earlier
     report wrote there (listed in its ``.robot-stiffness-manifest.json``, unchanged since) are
     replaced or removed, and every other file is left alone. Nothing is written unless the
     whole report was rendered."""
-    data = result.to_dict() if hasattr(result, "to_dict") else result
-    if not isinstance(data, dict) or not {"baseline", "findings", "extended"} <= set(data):
-        raise ArgumentTypeError(
-            "result must be a diagnosis: the value returned by vjm.diagnose / csjm.diagnose or its to_dict(), "
-            f"got {type(result).__name__}"
-        )
+    data = as_diagnosis(result)
     files = CSJM_REPORT_FILES if is_csjm(data) else REPORT_FILES
     with atomic_directory(out_dir, force=force, expected=files) as tmp:
-        try:
-            render_report(data, tmp, title=title, source=source)
-        except (KeyError, IndexError, TypeError) as e:
-            raise InvalidValueError(f"result is not a complete diagnosis ({type(e).__name__}: {e})") from None
+        render_report(data, tmp, title=title, source=source)
     return Path(out_dir) / "report.md"

@@ -28,10 +28,10 @@ Example::
 from __future__ import annotations
 
 import contextlib
-import json
+import math
 import os
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -51,6 +51,7 @@ from ._vjm_data import (
 )
 from .model import StiffnessModel
 from ._identify_partial import IdentificationPartial
+from .results import _build
 from ._use_model import (  # planning and compensation (docs/use-the-model.md)
     Compensation,
     Plan,
@@ -133,15 +134,91 @@ class Combination:
 
 
 @dataclass(frozen=True)
+class IdentifiedParameter:
+    """One parameter of an identification: the spring at ``joint`` (1-based, base → tip; its
+    URDF name ``joint_name``) about ``axis`` (``z`` torsion, ``x``/``y`` tilt); ``compliance``
+    and ``stderr`` in rad/(N·m) and the 95 % interval ``ci95``, all None when the parameter is
+    not identifiable on its own."""
+
+    joint: int
+    joint_name: str
+    axis: str
+    compliance: Optional[float]
+    stderr: Optional[float]
+    ci95: Optional[Tuple[float, float]]
+    identifiable: bool
+
+    @property
+    def label(self) -> str:
+        """``J3x``-style label."""
+        return f"J{self.joint}{self.axis}"
+
+
+@dataclass(frozen=True)
+class CombinationTerm:
+    """One term of a combination: parameter index ``param`` (0-based, model order), its
+    ``joint`` (1-based) and ``axis``, and the dimensionless ``coefficient``."""
+
+    param: int
+    joint: int
+    axis: str
+    coefficient: float
+
+
+@dataclass(frozen=True)
+class _CoreCombination:
+    label: str
+    terms: List[CombinationTerm]
+    value: float
+    stderr: Optional[float]
+    ci95: Optional[Tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class _CoreIdentification:
+    """The core's identification result, typed (built by :func:`results._build`)."""
+
+    model: str
+    n_params: int
+    rank: int
+    n_equations: int
+    compliance: List[Optional[float]]
+    stderr: List[Optional[float]]
+    ci95: List[Optional[Tuple[float, float]]]
+    identifiable: List[bool]
+    parameters: List[IdentifiedParameter]
+    combinations: List[_CoreCombination]
+    aliases: List[List[int]]
+    alias_labels: List[List[str]]
+    residual_rms: float
+    sigma2: Optional[float]
+    singular_values: List[float]
+    condition_number: Optional[float]
+    method: str
+
+
+def _json_combination(c: _CoreCombination) -> Dict[str, object]:
+    return {
+        "label": c.label,
+        "terms": [{"param": t.param, "joint": t.joint, "axis": t.axis, "coefficient": t.coefficient} for t in c.terms],
+        "value": c.value,
+        "stderr": c.stderr,
+        "ci95": None if c.ci95 is None else list(c.ci95),
+    }
+
+
+@dataclass(frozen=True)
 class Identification:
     """The result of :meth:`Robot.identify`.
 
     Per parameter (model order, arrays of shape (m,)): ``compliance`` in rad/(N·m), NaN where the
     parameter is not identifiable on its own; ``stderr`` (NaN likewise); ``ci95`` (m, 2) 95 %
-    intervals; ``identifiable`` (bool). ``rank`` is the number of identifiable combinations,
-    listed in ``combinations``; ``aliases`` groups parameter labels that alias each other.
-    ``method`` is the streaming reduction that produced it (``"normal_equations"`` or ``"qr"``).
-    ``raw`` is the core's full result as a JSON-ready dict. ``stiffness_model`` is the
+    intervals; ``identifiable`` (bool). ``parameters`` holds the same per parameter as
+    :class:`IdentifiedParameter` (joint, joint name, axis). ``rank`` is the number of
+    identifiable combinations, listed in ``combinations``; ``aliases`` groups parameter labels
+    that alias each other. ``method`` is the streaming reduction that produced it
+    (``"normal_equations"`` or ``"qr"``); ``sigma2`` the residual variance per equation (None
+    when the noise scale was given as known). ``stiffness_model`` is the
     :class:`~robot_stiffness.model.StiffnessModel` to predict with (or :meth:`save`).
     """
 
@@ -160,8 +237,10 @@ class Identification:
     condition_number: float
     singular_values: Array
     method: str
-    raw: Dict[str, Any] = field(repr=False)
+    parameters: List[IdentifiedParameter] = field(default_factory=list, repr=False)
+    sigma2: Optional[float] = field(default=None, repr=False)
     stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
+    _combinations_json: List[Dict[str, object]] = field(default_factory=list, repr=False, compare=False)
 
     @checked
     def save(self, path: PathLike) -> None:
@@ -174,72 +253,71 @@ class Identification:
         self.stiffness_model.save(path)
 
     @classmethod
-    def _from_json(cls, text: str, model: Optional["StiffnessModel"] = None) -> "Identification":
-        raw = json.loads(text)
-        params = raw["parameters"]
-        labels = [f"J{p['joint']}{p['axis']}" for p in params]
+    def _from_core(cls, value: Mapping[str, object], model: Optional["StiffnessModel"] = None) -> "Identification":
+        core = _build(_CoreIdentification, value)
+        assert isinstance(core, _CoreIdentification)
         ci = np.array(
-            [[np.nan, np.nan] if c is None else [float(c[0]), float(c[1])] for c in raw["ci95"]],
-            dtype=np.float64,
+            [[np.nan, np.nan] if c is None else [c[0], c[1]] for c in core.ci95], dtype=np.float64
         ).reshape(-1, 2)
         combos = [
             Combination(
-                label=c["label"],
-                terms=[(f"J{t['joint']}{t['axis']}", float(t["coefficient"])) for t in c["terms"]],
-                value=float(c["value"]),
-                stderr=np.nan if c.get("stderr") is None else float(c["stderr"]),
-                ci95=(np.nan, np.nan) if c.get("ci95") is None else (float(c["ci95"][0]), float(c["ci95"][1])),
+                label=c.label,
+                terms=[(f"J{t.joint}{t.axis}", t.coefficient) for t in c.terms],
+                value=c.value,
+                stderr=np.nan if c.stderr is None else c.stderr,
+                ci95=(np.nan, np.nan) if c.ci95 is None else c.ci95,
             )
-            for c in raw["combinations"]
+            for c in core.combinations
         ]
         return cls(
-            model=raw["model"],
-            n_params=int(raw["n_params"]),
-            rank=int(raw["rank"]),
-            n_equations=int(raw["n_equations"]),
-            labels=labels,
-            compliance=_nan(raw["compliance"]),
-            stderr=_nan(raw["stderr"]),
+            model=core.model,
+            n_params=core.n_params,
+            rank=core.rank,
+            n_equations=core.n_equations,
+            labels=[p.label for p in core.parameters],
+            compliance=_nan(core.compliance),
+            stderr=_nan(core.stderr),
             ci95=ci,
-            identifiable=np.array(raw["identifiable"], dtype=bool),
+            identifiable=np.array(core.identifiable, dtype=bool),
             combinations=combos,
-            aliases=[list(a) for a in raw.get("alias_labels", [])],
-            residual_rms=float(raw["residual_rms"]),
-            condition_number=float(raw["condition_number"]) if raw["condition_number"] is not None else np.inf,
-            singular_values=np.array(raw["singular_values"], dtype=np.float64),
-            method=str(raw["method"]),
-            raw=raw,
+            aliases=[list(a) for a in core.alias_labels],
+            residual_rms=core.residual_rms,
+            condition_number=np.inf if core.condition_number is None else core.condition_number,
+            singular_values=np.array(core.singular_values, dtype=np.float64),
+            method=core.method,
+            parameters=core.parameters,
+            sigma2=core.sigma2,
             stiffness_model=model,
+            _combinations_json=[_json_combination(c) for c in core.combinations],
         )
 
-    def to_dict(self) -> Dict[str, Any]:
+    def to_dict(self) -> Dict[str, object]:
         """The JSON form written by ``robot-stiffness identify vjm``: ``model``, ``n_params``,
         ``rank``, ``parameters`` [{``joint`` (1-based), ``axis`` (z|x|y), ``compliance``
         (rad/(N·m) or None), ``stderr``, ``identifiable``}], ``combinations`` (with ``value``),
         plus ``aliases`` and diagnostics."""
-        raw = self.raw
         return {
-            "model": raw["model"],
-            "n_params": raw["n_params"],
-            "rank": raw["rank"],
-            "n_equations": raw["n_equations"],
+            "model": self.model,
+            "n_params": self.n_params,
+            "rank": self.rank,
+            "n_equations": self.n_equations,
             "parameters": [
                 {
-                    "joint": p["joint"],
-                    "axis": p["axis"],
-                    "joint_name": p.get("joint_name"),
-                    "compliance": p["compliance"],
-                    "stderr": p["stderr"],
-                    "ci95": p.get("ci95"),
-                    "identifiable": p["identifiable"],
+                    "joint": p.joint,
+                    "axis": p.axis,
+                    "joint_name": p.joint_name,
+                    "compliance": p.compliance,
+                    "stderr": p.stderr,
+                    "ci95": None if p.ci95 is None else list(p.ci95),
+                    "identifiable": p.identifiable,
                 }
-                for p in raw["parameters"]
+                for p in self.parameters
             ],
-            "combinations": raw["combinations"],
-            "aliases": raw.get("alias_labels", []),
-            "residual_rms": raw["residual_rms"],
-            "condition_number": raw["condition_number"],
-            "method": raw["method"],
+            "combinations": list(self._combinations_json),
+            "aliases": [list(a) for a in self.aliases],
+            "residual_rms": self.residual_rms,
+            "condition_number": self.condition_number if math.isfinite(self.condition_number) else None,
+            "method": self.method,
         }
 
 
@@ -390,10 +468,10 @@ class Robot:
         q_arr = f64(q, "q")
         # A table's cells are named by column and row; arrays keep the core's array/row/column.
         with blame_rows() if from_table else contextlib.nullcontext():
-            text, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
+            core, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
                                               noise_scale_known, nonnegative, dense, method, data_file,
                                               robust_covariance, allow_outside_limits)
-        return Identification._from_json(text, StiffnessModel(core_model, self))
+        return Identification._from_core(core, StiffnessModel(core_model, self))
 
     def _measurement_arrays(self, what: str, q: Any, wrench: Any, displacement: Any,
                             rotation: Any) -> Tuple[bool, Any, Any, Any, Any]:
@@ -460,9 +538,9 @@ class Robot:
     def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
                   noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str,
                   data_file: Any, robust_covariance: bool,
-                  allow_outside_limits: bool = False) -> Tuple[str, Any]:
+                  allow_outside_limits: bool = False) -> Tuple[Dict[str, "_core._CoreValue"], Any]:
         # One call identifies and builds the stiffness model from the same arrays.
-        text, core_model = _core.vjm_identify_model(
+        core, core_model = _core.vjm_identify_model(
             self._inner,
             q_arr,
             f64(wrench, "wrench"),
@@ -478,7 +556,7 @@ class Robot:
             robust_covariance=bool(robust_covariance),
             allow_outside_limits=bool(allow_outside_limits),
         )
-        return str(text), core_model
+        return core, core_model
 
     @checked
     def predict_deflection(

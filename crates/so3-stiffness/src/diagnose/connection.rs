@@ -16,7 +16,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::Serialize;
 
 use super::candidates::{Effect, Term};
-use super::engine::{Engine, Fit};
+use super::problem::{CsjmFit, CsjmProblem};
 use super::stats::chi2_sf;
 use crate::so3;
 
@@ -66,13 +66,19 @@ fn quadratic_form_inverse(cov: &Matrix3<f64>, d: &Vector3<f64>) -> f64 {
     }
 }
 
-pub(crate) fn connection_test(engine: &Engine<'_>, fit: &Fit, fdr: f64) -> ConnectionTest {
-    let p = fit.beta.len();
-    let (c, k_d) = fit.offset_and_k_d();
-    let samples = engine.samples;
+/// The test on `fit` with coefficient covariance `cov` ([`CsjmProblem::covariance`]).
+pub(crate) fn connection_test(
+    problem: &CsjmProblem<'_>,
+    fit: &CsjmFit,
+    cov: &DMatrix<f64>,
+    fdr: f64,
+) -> ConnectionTest {
+    let p = fit.coef.len();
+    let (c, k_d) = CsjmProblem::offset_and_k_d(fit);
+    let samples = problem.samples;
     let gravity0 = samples.gravity_at(&Vector3::zeros());
-    let alpha_index = fit.start_of(Term::Effect(Effect::PlatformGravity));
-    let alpha = alpha_index.map_or(0.0, |i| fit.beta[i]);
+    let alpha_index = CsjmProblem::start_of(fit, Term::Effect(Effect::PlatformGravity));
+    let alpha = alpha_index.map_or(0.0, |i| fit.coef[i]);
     let tau0 = samples.tau_ref + c + alpha * gravity0;
     let a = 2.0 * so3::vee(&k_d);
 
@@ -95,8 +101,8 @@ pub(crate) fn connection_test(engine: &Engine<'_>, fit: &Fit, fdr: f64) -> Conne
     }
     let ld = &la - &lt;
     let to3 = |m: DMatrix<f64>| Matrix3::from_fn(|i, j| m[(i, j)]);
-    let cov_a = to3(&la * &fit.cov * la.transpose());
-    let cov_d = to3(&ld * &fit.cov * ld.transpose());
+    let cov_a = to3(&la * cov * la.transpose());
+    let cov_d = to3(&ld * cov * ld.transpose());
     let chi2_asymmetry = quadratic_form_inverse(&cov_a, &a);
     let chi2_theory = quadratic_form_inverse(&cov_d, &(a - tau0));
     let t2 = tau0.norm_squared();

@@ -9,10 +9,16 @@
 //!    recorded load.
 //! 2. **Residual structure** against load magnitude, load direction and loading/unloading.
 //! 3. **Candidates** ([`Effect`]) as columns appended to the linear model: `platform_gravity`,
-//!    `cable_hysteresis`, `cable_nonlinearity`. Forward selection with nested F tests,
-//!    Benjamini–Hochberg at each step, confirmation on the held-out rows; aliases when a
-//!    candidate explains nothing beyond a finding it also explained alone, and
-//!    `linear_stiffness` when an effect lies (almost) in the span of K_D itself.
+//!    `cable_hysteresis`, `cable_nonlinearity`. The selection runs on the engine shared with
+//!    the serial-arm diagnosis (`stiffness_core::engine`, the campaign as a [`Problem`] of
+//!    moment components whitened per component): forward selection with nested F tests,
+//!    Benjamini–Hochberg at `fdr` at each step, confirmation on the held-out rows; a
+//!    significant effect is an alias of a finding when, with it in the model, the finding's F
+//!    test has p > `alias_alpha` (or their one-column parts outside the model are collinear).
+//!    On top, CSJM-specific: `linear_stiffness` when an effect lies (almost) in the span of
+//!    K_D itself, and `cable_nonlinearity` for a gravity column that is only a curvature.
+//!
+//! [`Problem`]: stiffness_core::engine::Problem
 //! 4. **Connection term**: the asymmetry of K_D tested against `hat(τ₀)`
 //!    ([`connection::ConnectionTest`]); a finding when K_D is measurably asymmetric, telling
 //!    the user that the symmetric covariant K is the stiffness.
@@ -36,7 +42,7 @@
 
 pub mod candidates;
 pub mod connection;
-mod engine;
+mod problem;
 pub mod report;
 pub use crate::stats;
 pub mod structure;
@@ -44,7 +50,7 @@ pub mod testbed;
 
 use std::path::Path;
 
-use nalgebra::Vector3;
+use nalgebra::{DMatrix, Vector3};
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -53,13 +59,18 @@ use thiserror::Error;
 pub use candidates::Effect;
 use candidates::{labels, Samples, Term, BASELINE_COLUMNS};
 pub use connection::ConnectionTest;
-use engine::{Engine, Fit};
+use problem::{CsjmFit, CsjmProblem};
 pub use report::{
     Alias, CandidateScore, CsjmDiagnosis, Evidence, Finding, ModelSummary, Parameter,
     ResidualReport, RowResult, SelectionEvidence,
 };
-use stats::{benjamini_hochberg, nested_f_test, FTest};
+use stiffness_core::engine::fit::fit;
+use stiffness_core::engine::{select, Compressed, SelectOptions, Selected};
+use stiffness_core::{Cancel, Monitor};
 pub use testbed::{simulate_campaign, CsjmCampaign, CsjmCampaignSpec, CsjmEffects};
+
+/// Progress of a long diagnosis (the workspace-wide record).
+pub use stiffness_core::Progress;
 
 use crate::csjm::PointLoad;
 use crate::identification::{CsjmDataset, IdentificationError, ReadOptions};
@@ -83,7 +94,8 @@ pub const LINEAR_ALIAS_FRACTION: f64 = 0.05;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub struct DiagnoseOptions {
-    /// False discovery rate q of the Benjamini–Hochberg selection (0 < q < 1).
+    /// False discovery rate q of the Benjamini–Hochberg selection (0 < q < 1; default 0.01,
+    /// the shared engine's); also the level of the connection-term finding.
     pub fdr: f64,
     /// Fraction of the loaded rows held out (0 < f < 1).
     pub test_fraction: f64,
@@ -94,16 +106,23 @@ pub struct DiagnoseOptions {
     pub weight: PointLoad,
     /// How the measurement file is read by [`diagnose_file`].
     pub read: ReadOptions,
+    /// |cos| at or above which two one-column candidates are aliases (default 0.99).
+    pub alias_cosine: f64,
+    /// A significant effect b is an alias of a finding a when, with b in the model, the F
+    /// test of a has p above this level (default 0.05): the data cannot tell a from b.
+    pub alias_alpha: f64,
 }
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
-            fdr: 0.05,
+            fdr: 0.01,
             test_fraction: 0.25,
             holdout_seed: 0x5eed_d1a6,
             weight: PointLoad::prototype_gravity(),
             read: ReadOptions::default(),
+            alias_cosine: 0.99,
+            alias_alpha: 0.05,
         }
     }
 }
@@ -147,6 +166,9 @@ pub enum DiagnoseError {
         /// Rank of the baseline design.
         rank: usize,
     },
+    /// The run was cancelled through its [`Cancel`] token.
+    #[error("diagnosis cancelled")]
+    Cancelled(#[from] stiffness_core::Cancelled),
 }
 
 impl DiagnoseOptions {
@@ -165,6 +187,20 @@ impl DiagnoseOptions {
                 requirement: "in (0, 1)",
             });
         }
+        if !(self.alias_cosine > 0.0 && self.alias_cosine <= 1.0) {
+            return Err(DiagnoseError::InvalidOption {
+                option: "alias_cosine",
+                value: self.alias_cosine,
+                requirement: "in (0, 1]",
+            });
+        }
+        if !(self.alias_alpha > 0.0 && self.alias_alpha < 1.0) {
+            return Err(DiagnoseError::InvalidOption {
+                option: "alias_alpha",
+                value: self.alias_alpha,
+                requirement: "in (0, 1)",
+            });
+        }
         Ok(())
     }
 }
@@ -174,9 +210,18 @@ pub fn diagnose_file(
     path: impl AsRef<Path>,
     options: &DiagnoseOptions,
 ) -> Result<CsjmDiagnosis, DiagnoseError> {
+    diagnose_file_monitored(path, options, &Monitor::none())
+}
+
+/// [`diagnose_file`] under a [`Monitor`] (see [`diagnose_monitored`]).
+pub fn diagnose_file_monitored(
+    path: impl AsRef<Path>,
+    options: &DiagnoseOptions,
+    monitor: &Monitor<'_>,
+) -> Result<CsjmDiagnosis, DiagnoseError> {
     options.validate()?;
     let data = CsjmDataset::from_csv_path(path, &options.read)?;
-    diagnose(&data, options)
+    diagnose_monitored(&data, options, monitor)
 }
 
 fn model_name(terms: &[Term]) -> String {
@@ -190,7 +235,7 @@ fn model_name(terms: &[Term]) -> String {
     name
 }
 
-fn parameters(fit: &Fit, only: Option<Term>) -> Vec<Parameter> {
+fn parameters(fit: &CsjmFit, cov: &DMatrix<f64>, only: Option<Term>) -> Vec<Parameter> {
     let mut out = Vec::new();
     let mut index = 0;
     for t in &fit.terms {
@@ -198,8 +243,8 @@ fn parameters(fit: &Fit, only: Option<Term>) -> Vec<Parameter> {
             if only.is_none_or(|o| o == *t) {
                 out.push(Parameter {
                     label,
-                    value: fit.beta[index],
-                    stderr: fit.cov[(index, index)].max(0.0).sqrt(),
+                    value: fit.coef[index],
+                    stderr: cov[(index, index)].max(0.0).sqrt(),
                     unit,
                 });
             }
@@ -209,42 +254,36 @@ fn parameters(fit: &Fit, only: Option<Term>) -> Vec<Parameter> {
     out
 }
 
-fn summary(engine: &Engine<'_>, fit: &Fit) -> ModelSummary {
-    let (c, k_d) = fit.offset_and_k_d();
-    let alpha = fit
-        .start_of(Term::Effect(Effect::PlatformGravity))
-        .map_or(0.0, |i| fit.beta[i]);
-    let tau0 = engine.samples.tau_ref + c + alpha * engine.samples.gravity_at(&Vector3::zeros());
+fn summary(problem: &CsjmProblem<'_>, fit: &CsjmFit, cov: &DMatrix<f64>) -> ModelSummary {
+    let (c, k_d) = CsjmProblem::offset_and_k_d(fit);
+    let alpha = CsjmProblem::start_of(fit, Term::Effect(Effect::PlatformGravity))
+        .map_or(0.0, |i| fit.coef[i]);
+    let tau0 = problem.samples.tau_ref + c + alpha * problem.samples.gravity_at(&Vector3::zeros());
     let k = k_d - 0.5 * so3::hat(&tau0);
     ModelSummary {
         model: model_name(&fit.terms),
-        n_params: fit.beta.len(),
+        n_params: fit.coef.len(),
         rank: fit.rank,
-        test_mean_rel_error: engine.mean_rel_error(fit, &engine.test),
-        train_mean_rel_error: engine.mean_rel_error(fit, &engine.train),
+        test_mean_rel_error: problem.mean_rel_error(fit, &problem.test),
+        train_mean_rel_error: problem.mean_rel_error(fit, &problem.train),
         k_d: connection::rows(&k_d),
         k: connection::rows(&k),
-        parameters: parameters(fit, None),
+        parameters: parameters(fit, cov, None),
     }
 }
 
-fn f_test(engine: &Engine<'_>, reduced: &Fit, full: &Fit) -> FTest {
-    let _ = engine;
-    nested_f_test(
-        reduced.sse,
-        full.sse,
-        full.rank.saturating_sub(reduced.rank),
-        full.dof(),
-    )
-}
-
-fn interpretation(engine: &Engine<'_>, fit: &Fit, effect: Effect) -> String {
-    let start = fit.start_of(Term::Effect(effect)).unwrap_or(0);
-    let beta = &fit.beta[start..start + effect.n_columns()];
-    let se = |i: usize| fit.cov[(start + i, start + i)].max(0.0).sqrt();
+fn interpretation(
+    problem: &CsjmProblem<'_>,
+    fit: &CsjmFit,
+    cov: &DMatrix<f64>,
+    effect: Effect,
+) -> String {
+    let start = CsjmProblem::start_of(fit, Term::Effect(effect)).unwrap_or(0);
+    let beta = &fit.coef[start..start + effect.n_columns()];
+    let se = |i: usize| cov[(start + i, start + i)].max(0.0).sqrt();
     match effect {
         Effect::PlatformGravity => {
-            let w = engine.samples.weight;
+            let w = problem.samples.weight;
             let moment = w
                 .point_in_a()
                 .cross(&w.force_in_b())
@@ -292,9 +331,38 @@ pub fn diagnose(
     data: &CsjmDataset,
     options: &DiagnoseOptions,
 ) -> Result<CsjmDiagnosis, DiagnoseError> {
-    options.validate()?;
-    let samples = Samples::new(data, options.weight);
-    let loaded = samples.len() - 1;
+    run_diagnosis(data, options, &Cancel::new(), &mut |_| {})
+}
+
+/// [`diagnose`] with a progress callback, called after each stage and each selection step.
+pub fn diagnose_with_progress(
+    data: &CsjmDataset,
+    options: &DiagnoseOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CsjmDiagnosis, DiagnoseError> {
+    run_diagnosis(data, options, &Cancel::new(), progress)
+}
+
+/// [`diagnose`] under a [`Monitor`]: progress goes to its sink, and its token is polled per
+/// pass, per scored candidate and per selection step, so that a cancel ends the run promptly
+/// with [`DiagnoseError::Cancelled`].
+pub fn diagnose_monitored(
+    data: &CsjmDataset,
+    options: &DiagnoseOptions,
+    monitor: &Monitor<'_>,
+) -> Result<CsjmDiagnosis, DiagnoseError> {
+    run_diagnosis(data, options, monitor.cancel_token(), &mut |p| {
+        // A cancel requested by the sink is seen at the check that follows every report.
+        let _ = monitor.report(p);
+    })
+}
+
+/// The train/test split: a seeded random `test_fraction` of the loaded rows held out, the
+/// reference always trained on.
+fn split(
+    loaded: usize,
+    options: &DiagnoseOptions,
+) -> Result<(Vec<usize>, Vec<usize>), DiagnoseError> {
     let mut order: Vec<usize> = (1..=loaded).collect();
     order.shuffle(&mut StdRng::seed_from_u64(options.holdout_seed));
     let n_test = ((options.test_fraction * loaded as f64).round() as usize).min(loaded);
@@ -311,17 +379,126 @@ pub fn diagnose(
             test: test.len(),
         });
     }
-    let engine = Engine::new(&samples, train, test);
+    Ok((train, test))
+}
+
+/// The report's aliases of one finding: the engine's (candidates the data cannot tell from
+/// it), then the CSJM-specific ones: a gravity column that is only a curvature of τ(Δζ), and
+/// an effect (almost) in the span of K_D itself (`linear_stiffness`).
+fn aliases_of(
+    problem: &CsjmProblem<'_>,
+    comp: &Compressed,
+    alias_cosine: f64,
+    selected: &Selected<Term>,
+    fraction: f64,
+    gravity_note: &str,
+) -> Vec<Alias> {
+    let effect = effect_of(selected.cand);
+    let mut aliases: Vec<Alias> = selected
+        .aliases
+        .iter()
+        .map(|a| {
+            let b = effect_of(a.cand);
+            let note = match a.cosine {
+                Some(c) if c >= alias_cosine => format!(
+                    "its column and {}'s are collinear outside the model (|cos| = {c:.4}): the \
+                     two cannot be told apart on these data",
+                    effect.name()
+                ),
+                _ => format!(
+                    "once it is in the model, {} explains nothing more (p = {:.2}): the two \
+                     cannot be told apart on these data",
+                    effect.name(),
+                    a.p_finding_given_alias
+                ),
+            };
+            Alias {
+                effect: b.name(),
+                joint: None,
+                axis: None,
+                cosine: a.cosine,
+                delta_chi2: a.delta_chi2,
+                p_finding_given_alias: a.p_finding_given_alias,
+                note,
+            }
+        })
+        .collect();
+    if effect == Effect::PlatformGravity
+        && !aliases
+            .iter()
+            .any(|a| a.effect == Effect::CableNonlinearity.name())
+    {
+        let beyond_curvature = problem.fraction_outside(
+            comp,
+            &[Term::Baseline, Term::Effect(Effect::CableNonlinearity)],
+            selected.cand,
+        );
+        if beyond_curvature < LINEAR_ALIAS_FRACTION {
+            aliases.push(Alias::not_a_candidate(
+                Effect::CableNonlinearity.name(),
+                format!(
+                    "only {:.2} % of the gravity column lies outside the span of the \
+                     first-order model plus quadratic terms in Δζ: its testable part is a \
+                     curvature of τ(Δζ), which the mechanism's own geometry or stiffening \
+                     cables also produce",
+                    100.0 * beyond_curvature
+                ),
+            ));
+        }
+    }
+    if fraction < LINEAR_ALIAS_FRACTION {
+        aliases.push(Alias::not_a_candidate(
+            "linear_stiffness",
+            if effect == Effect::PlatformGravity {
+                gravity_note.to_string()
+            } else {
+                format!(
+                    "only {:.1} % of the effect's column energy lies outside the span of \
+                     K_D: most of it is absorbed into the linear stiffness",
+                    100.0 * fraction
+                )
+            },
+        ));
+    }
+    aliases
+}
+
+fn effect_of(term: Term) -> Effect {
+    match term {
+        Term::Effect(e) => e,
+        Term::Baseline => unreachable!("the pool holds catalogue effects only"),
+    }
+}
+
+/// The diagnosis proper: `progress` after each stage and selection step, `cancel` polled in
+/// every pass, per scored candidate and per step.
+fn run_diagnosis(
+    data: &CsjmDataset,
+    options: &DiagnoseOptions,
+    cancel: &Cancel,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CsjmDiagnosis, DiagnoseError> {
+    options.validate()?;
+    let samples = Samples::new(data, options.weight);
+    let loaded = samples.len() - 1;
+    let (train, test) = split(loaded, options)?;
+    let problem =
+        CsjmProblem::new(&samples, train, test, cancel.clone()).with_noise_from_baseline()?;
     let q = options.fdr;
 
-    let baseline_fit = engine.fit(&[Term::Baseline], &engine.train);
+    let baseline_fit = fit(&problem, &[Term::Baseline], &())?;
     if baseline_fit.rank < BASELINE_COLUMNS {
         return Err(DiagnoseError::Unexcited {
             rank: baseline_fit.rank,
         });
     }
+    progress(Progress {
+        stage: "baseline",
+        done: 1,
+        total: 1,
+    });
+    cancel.check()?;
 
-    // First-step scores of the whole catalogue.
     let gravity_note = {
         let w = options.weight;
         let k_g = w.moment_derivative(&samples.r0);
@@ -333,16 +510,38 @@ pub fn diagnose(
             k_g_sym.norm()
         )
     };
-    let scores: Vec<CandidateScore> = Effect::ALL
+
+    // Forward selection on the shared engine: nested F tests, Benjamini–Hochberg per step,
+    // held-out confirmation, aliases.
+    let pool: Vec<Term> = Effect::ALL.iter().map(|e| Term::Effect(*e)).collect();
+    let select_opts = SelectOptions {
+        fdr: q,
+        max_findings: Effect::ALL.len(),
+        alias_cosine: options.alias_cosine,
+        alias_alpha: options.alias_alpha,
+    };
+    let selection = select(
+        &problem,
+        baseline_fit.clone(),
+        pool,
+        &[],
+        &select_opts,
+        progress,
+    )?;
+    // The model is linear in its parameters: every fit shares the baseline's compressed design.
+    let comp = baseline_fit.compressed.clone();
+    let fraction_of = |t: Term| problem.fraction_outside(&comp, &[Term::Baseline], t);
+    let scores: Vec<CandidateScore> = selection
+        .first_scores
         .iter()
-        .map(|&e| {
-            let full = engine.fit(&[Term::Baseline, Term::Effect(e)], &engine.train);
-            let fraction = engine.fraction_outside(&[Term::Baseline], Term::Effect(e));
+        .map(|s| {
+            let e = effect_of(s.cand);
+            let fraction = fraction_of(s.cand);
             CandidateScore {
                 effect: e.name(),
                 n_columns: e.n_columns(),
                 fraction_outside_baseline: fraction,
-                f_test: f_test(&engine, &baseline_fit, &full),
+                f_test: s.f_test,
                 note: (fraction < LINEAR_ALIAS_FRACTION).then(|| {
                     if e == Effect::PlatformGravity {
                         gravity_note.clone()
@@ -354,154 +553,44 @@ pub fn diagnose(
         })
         .collect();
 
-    // Forward selection: nested F tests, BH per step, held-out confirmation.
-    let mut terms = vec![Term::Baseline];
-    let mut current = baseline_fit.clone();
-    let mut accepted: Vec<(Effect, SelectionEvidence, Vec<Alias>)> = Vec::new();
-    let mut rejected_on_holdout: Vec<&'static str> = Vec::new();
-    loop {
-        let pool: Vec<Effect> = Effect::ALL
-            .iter()
-            .copied()
-            .filter(|e| {
-                !terms.contains(&Term::Effect(*e)) && !rejected_on_holdout.contains(&e.name())
-            })
-            .collect();
-        if pool.is_empty() {
-            break;
-        }
-        let fits: Vec<Fit> = pool
-            .iter()
-            .map(|&e| {
-                let mut t = terms.clone();
-                t.push(Term::Effect(e));
-                engine.fit(&t, &engine.train)
-            })
-            .collect();
-        let tests: Vec<FTest> = fits.iter().map(|f| f_test(&engine, &current, f)).collect();
-        let p: Vec<f64> = tests.iter().map(|t| t.p_value).collect();
-        let passing = benjamini_hochberg(&p, q);
-        let mut ranked: Vec<usize> = (0..pool.len()).filter(|&i| passing[i]).collect();
-        ranked.sort_by(|&a, &b| p[a].total_cmp(&p[b]));
-        let heldout_before = engine.sse(&current, &engine.test);
-        let mut chosen = None;
-        for &i in &ranked {
-            let after = engine.sse(&fits[i], &engine.test);
-            if after < heldout_before {
-                chosen = Some((i, after));
-                break;
-            }
-            rejected_on_holdout.push(pool[i].name());
-        }
-        let Some((i, heldout_after)) = chosen else {
-            break;
-        };
-        let effect = pool[i];
-        let rank_in_bh = ranked.iter().position(|&r| r == i).unwrap_or(0) + 1;
-        let with_x = &fits[i];
-        let s2 = with_x.sse / with_x.dof().max(1) as f64;
-        let mut aliases = Vec::new();
-        for &j in &ranked {
-            if j == i {
-                continue;
-            }
-            let mut t = with_x.terms.clone();
-            t.push(Term::Effect(pool[j]));
-            let both = engine.fit(&t, &engine.train);
-            let beyond = f_test(&engine, with_x, &both);
-            if beyond.p_value > q {
-                aliases.push(Alias {
-                    effect: pool[j].name(),
-                    joint: None,
-                    axis: None,
-                    delta_chi2: Some((fits[j].sse - with_x.sse) / s2),
-                    note: format!(
-                        "also significant alone (p = {:.2e}) but explains nothing beyond {} \
-                         (p = {:.2}): the two cannot be told apart on these data",
-                        p[j],
-                        effect.name(),
-                        beyond.p_value
-                    ),
-                });
-            }
-        }
-        if effect == Effect::PlatformGravity
-            && !aliases
-                .iter()
-                .any(|a| a.effect == Effect::CableNonlinearity.name())
-        {
-            let beyond_curvature = engine.fraction_outside(
-                &[Term::Baseline, Term::Effect(Effect::CableNonlinearity)],
-                Term::Effect(effect),
-            );
-            if beyond_curvature < LINEAR_ALIAS_FRACTION {
-                aliases.push(Alias {
-                    effect: Effect::CableNonlinearity.name(),
-                    joint: None,
-                    axis: None,
-                    delta_chi2: None,
-                    note: format!(
-                        "only {:.2} % of the gravity column lies outside the span of the \
-                         first-order model plus quadratic terms in Δζ: its testable part is a \
-                         curvature of τ(Δζ), which the mechanism's own geometry or stiffening \
-                         cables also produce",
-                        100.0 * beyond_curvature
-                    ),
-                });
-            }
-        }
-        let fraction = engine.fraction_outside(&[Term::Baseline], Term::Effect(effect));
-        if fraction < LINEAR_ALIAS_FRACTION {
-            aliases.push(Alias {
-                effect: "linear_stiffness",
-                joint: None,
-                axis: None,
-                delta_chi2: None,
-                note: if effect == Effect::PlatformGravity {
-                    gravity_note.clone()
-                } else {
-                    format!(
-                        "only {:.1} % of the effect's column energy lies outside the span of \
-                         K_D: most of it is absorbed into the linear stiffness",
-                        100.0 * fraction
-                    )
-                },
-            });
-        }
-        let evidence = SelectionEvidence {
-            step: accepted.len() + 1,
-            f_test: tests[i],
-            n_candidates: pool.len(),
-            bh_threshold: q * rank_in_bh as f64 / pool.len() as f64,
-            sse_reduction: 1.0 - with_x.sse / current.sse,
-            heldout_sse_before: heldout_before,
-            heldout_sse_after: heldout_after,
-            fraction_outside_baseline: fraction,
-            estimate: Vec::new(),
-            interpretation: String::new(),
-        };
-        terms.push(Term::Effect(effect));
-        current = fits[i].clone();
-        accepted.push((effect, evidence, aliases));
+    let extended_fit = selection.last;
+    let extended_cov = problem.covariance(&extended_fit);
+    let baseline_cov = problem.covariance(&baseline_fit);
+    let mut findings: Vec<Finding> = Vec::new();
+    for f in &selection.findings {
+        cancel.check()?;
+        let effect = effect_of(f.cand);
+        let fraction = fraction_of(f.cand);
+        let e = &f.evidence;
+        findings.push(Finding {
+            effect: effect.name(),
+            joint: None,
+            axis: None,
+            aliases: aliases_of(
+                &problem,
+                &comp,
+                options.alias_cosine,
+                f,
+                fraction,
+                &gravity_note,
+            ),
+            evidence: Evidence::Selection(SelectionEvidence {
+                step: e.step,
+                f_test: e.f_test,
+                n_candidates: e.n_candidates,
+                bh_threshold: e.bh_threshold,
+                sse_reduction: e.sse_reduction,
+                cluster_robust: e.cluster_robust,
+                heldout_sse_before: e.heldout_sse_before,
+                heldout_sse_after: e.heldout_sse_after,
+                fraction_outside_baseline: fraction,
+                estimate: parameters(&extended_fit, &extended_cov, Some(f.cand)),
+                interpretation: interpretation(&problem, &extended_fit, &extended_cov, effect),
+            }),
+        });
     }
 
-    let extended_fit = current;
-    let mut findings: Vec<Finding> = accepted
-        .into_iter()
-        .map(|(effect, mut evidence, aliases)| {
-            evidence.estimate = parameters(&extended_fit, Some(Term::Effect(effect)));
-            evidence.interpretation = interpretation(&engine, &extended_fit, effect);
-            Finding {
-                effect: effect.name(),
-                joint: None,
-                axis: None,
-                aliases,
-                evidence: Evidence::Selection(evidence),
-            }
-        })
-        .collect();
-
-    let connection_term = connection::connection_test(&engine, &extended_fit, q);
+    let connection_term = connection::connection_test(&problem, &extended_fit, &extended_cov, q);
     if connection_term.p_asymmetry < q {
         findings.push(Finding {
             effect: CONNECTION_TERM,
@@ -514,23 +603,23 @@ pub fn diagnose(
 
     let all: Vec<usize> = (1..=loaded).collect();
     let residuals = ResidualReport {
-        baseline: structure::residual_structure(&engine, &baseline_fit, &all),
-        extended: structure::residual_structure(&engine, &extended_fit, &all),
+        baseline: structure::residual_structure(&problem, &baseline_fit, &all),
+        extended: structure::residual_structure(&problem, &extended_fit, &all),
     };
     let unexplained = residuals.extended.p_bonferroni < UNEXPLAINED_P
         || (connection_term.p_asymmetry < q && connection_term.p_theory < UNEXPLAINED_P);
 
-    let baseline = summary(&engine, &baseline_fit);
-    let extended = summary(&engine, &extended_fit);
+    let baseline = summary(&problem, &baseline_fit, &baseline_cov);
+    let extended = summary(&problem, &extended_fit, &extended_cov);
     let gain = 1.0 - extended.test_mean_rel_error / baseline.test_mean_rel_error;
-    let base_res = engine.residuals(&baseline_fit, &all);
-    let ext_res = engine.residuals(&extended_fit, &all);
+    let base_res = problem.residuals(&baseline_fit, &all);
+    let ext_res = problem.residuals(&extended_fit, &all);
     let rows = all
         .iter()
         .enumerate()
         .map(|(r, &k)| RowResult {
             row: samples.file_rows[k],
-            set: if engine.test.binary_search(&k).is_ok() {
+            set: if problem.test.binary_search(&k).is_ok() {
                 "test"
             } else {
                 "train"
@@ -541,6 +630,11 @@ pub fn diagnose(
             extended_residual: ext_res[r].into(),
         })
         .collect();
+    progress(Progress {
+        stage: "residuals",
+        done: 1,
+        total: 1,
+    });
     Ok(CsjmDiagnosis {
         baseline,
         findings,
@@ -550,11 +644,15 @@ pub fn diagnose(
         connection_term,
         residuals,
         scores,
-        rejected_on_holdout,
+        rejected_on_holdout: selection
+            .rejected_on_holdout
+            .iter()
+            .map(|t| effect_of(*t).name())
+            .collect(),
         rows,
-        noise_sigma: engine.sigma().into(),
-        n_train: engine.train.len(),
-        n_test: engine.test.len(),
+        noise_sigma: problem.sigma().into(),
+        n_train: problem.train.len(),
+        n_test: problem.test.len(),
         fdr: q,
         holdout_seed: options.holdout_seed,
     })

@@ -54,11 +54,33 @@ pub struct Alias {
     pub joint: Option<usize>,
     /// Always null for the CSJM.
     pub axis: Option<String>,
-    /// (SSE with the alias − SSE with the finding) / σ̂² (whitened units); null for
-    /// `linear_stiffness`.
-    pub delta_chi2: Option<f64>,
+    /// |cosine| between the two effects' columns after projecting out the model (one-column
+    /// effects only).
+    pub cosine: Option<f64>,
+    /// (SSE with the alias − SSE with the finding) / σ̂² (whitened units); NaN (null in JSON)
+    /// for an alias that is not a catalogue effect scored against the finding
+    /// (`linear_stiffness`, a curvature found by span).
+    pub delta_chi2: f64,
+    /// p-value of the finding's F test once the alias is in the model (0 when not computed
+    /// because the alias is not significant itself; NaN/null when not a scored effect).
+    pub p_finding_given_alias: f64,
     /// Why they are aliases.
     pub note: String,
+}
+
+impl Alias {
+    /// An alias found by span rather than by scoring (no Δχ², no F test).
+    pub(crate) fn not_a_candidate(effect: &'static str, note: String) -> Self {
+        Alias {
+            effect,
+            joint: None,
+            axis: None,
+            cosine: None,
+            delta_chi2: f64::NAN,
+            p_finding_given_alias: f64::NAN,
+            note,
+        }
+    }
 }
 
 /// Why a defect effect was named.
@@ -74,6 +96,10 @@ pub struct SelectionEvidence {
     pub bh_threshold: f64,
     /// Fraction of the training whitened SSE the effect removed.
     pub sse_reduction: f64,
+    /// Sample-clustered (CR1 sandwich) Wald test of the effect's parameters in the model of
+    /// that step: valid without assuming the three components of a sample independent
+    /// (reported, not used to select).
+    pub cluster_robust: Option<FTest>,
     /// Whitened SSE on the held-out rows before adding the effect.
     pub heldout_sse_before: f64,
     /// Whitened SSE on the held-out rows after adding it (lower: confirmed).

@@ -7,7 +7,7 @@
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use super::engine::{Engine, Fit};
+use super::problem::{CsjmFit, CsjmProblem};
 use super::stats::{one_way_anova, spearman, Anova, Correlation};
 
 /// Loading versus unloading along one axis: the mean scaled residual of that component for
@@ -41,16 +41,16 @@ pub struct ResidualStructure {
 }
 
 pub(crate) fn residual_structure(
-    engine: &Engine<'_>,
-    fit: &Fit,
+    problem: &CsjmProblem<'_>,
+    fit: &CsjmFit,
     rows: &[usize],
 ) -> ResidualStructure {
     let rows: Vec<usize> = rows.iter().copied().filter(|&k| k != 0).collect();
-    let samples = engine.samples;
-    let scaled: Vec<Vector3<f64>> = engine
+    let samples = problem.samples;
+    let scaled: Vec<Vector3<f64>> = problem
         .residuals(fit, &rows)
         .iter()
-        .map(|r| r.component_mul(&engine.weights))
+        .map(|r| r.component_mul(&problem.weights))
         .collect();
     let norms: Vec<f64> = scaled.iter().map(|r| r.norm()).collect();
     let n = rows.len();

@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod csjm_diagnose;
+mod csjm_diagnose_engine;
 mod finite_differences;
 mod identification;
 mod kinetostatics;

@@ -7,9 +7,8 @@
 
 use nalgebra::{DMatrix, Matrix3};
 
-use crate::chain::SerialChain;
+use super::rows::RowBuilder;
 use crate::model::SpringAxis;
-use crate::testbed::{Effect, TrueModel};
 
 /// Knots of the torsion non-linearity hinges, in units of the joint's RMS training torque.
 pub const TORSION_KNOTS: [f64; 2] = [0.33, 1.0];
@@ -40,6 +39,13 @@ pub enum Candidate {
     FrameMisalignment,
     /// The geometric non-linearity (K_C) correction, one scale parameter.
     GeometricNonlinearity,
+    /// The arm's mount translates under the load: `δ = diag(c_x, c_y, c_z) f` (3 parameters,
+    /// m/N, base frame).
+    MountTranslation,
+    /// The arm's mount rotates about the base origin under the moment the load exerts there:
+    /// `φ = diag(c_x, c_y, c_z) (m + p × f)`, moving the tip by `φ × p` (3 parameters,
+    /// rad/(N·m), base frame).
+    MountRotation,
 }
 
 impl Candidate {
@@ -52,6 +58,8 @@ impl Candidate {
             Candidate::WrenchBias => "wrench_bias",
             Candidate::FrameMisalignment => "frame_misalignment",
             Candidate::GeometricNonlinearity => "geometric_nonlinearity",
+            Candidate::MountTranslation => "mount_translation",
+            Candidate::MountRotation => "mount_rotation",
         }
     }
 
@@ -77,7 +85,9 @@ impl Candidate {
     pub fn n_columns(&self) -> usize {
         match self {
             Candidate::WrenchBias => 6,
-            Candidate::FrameMisalignment => 3,
+            Candidate::FrameMisalignment
+            | Candidate::MountTranslation
+            | Candidate::MountRotation => 3,
             Candidate::JointTorsionNonlinear { .. } => TORSION_KNOTS.len(),
             _ => 1,
         }
@@ -111,6 +121,8 @@ impl Candidate {
             Candidate::WrenchBias => "N, N·m",
             Candidate::FrameMisalignment => "rad",
             Candidate::GeometricNonlinearity => "1 (1 = the physical K_C)",
+            Candidate::MountTranslation => "m/N",
+            Candidate::MountRotation => "rad/(N·m)",
         }
     }
 }
@@ -137,6 +149,8 @@ pub fn catalogue(in_model: &[bool]) -> Vec<Candidate> {
     out.push(Candidate::WrenchBias);
     out.push(Candidate::FrameMisalignment);
     out.push(Candidate::GeometricNonlinearity);
+    out.push(Candidate::MountTranslation);
+    out.push(Candidate::MountRotation);
     out
 }
 
@@ -158,16 +172,31 @@ pub struct RowKinematics {
     /// Standard deviation of each joint's torsion torque τ_jz caused by the force-sensor noise,
     /// `√(J_zᵀ Σ_W J_z)`, N·m (n values; zeros when the wrench is taken as exact).
     pub tau_sigma: Vec<f64>,
+    /// Rotation of the unloaded tip frame (base ← tip).
+    pub tip_rotation: nalgebra::Matrix3<f64>,
 }
 
 /// The point the bilinear columns are linearised at: the full 3n compliance vector of the
-/// current fit and its spring-only predicted displacement per row.
-#[derive(Debug, Clone)]
+/// current fit (a row's spring-only prediction `J_t C Jᵀ W` follows from it, see
+/// [`spring_prediction`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Linearisation {
     /// Compliance of every spring (0 for springs not in the model), rad/(N·m).
     pub compliance: Vec<f64>,
-    /// `J_t C Jᵀ W` per row, m.
-    pub spring_prediction: Vec<[f64; 3]>,
+}
+
+/// `J_t C Jᵀ W` of a row for compliances `c` (3n), m: the spring-only prediction.
+pub fn spring_prediction(row: &RowKinematics, c: &[f64]) -> [f64; 3] {
+    let mut d = [0.0; 3];
+    for (s, (ci, t)) in c.iter().zip(&row.tau).enumerate() {
+        let a = ci * t;
+        if a != 0.0 {
+            for (r, dr) in d.iter_mut().enumerate() {
+                *dr += row.jacobian[(r, s)] * a;
+            }
+        }
+    }
+    d
 }
 
 fn col3(j: &DMatrix<f64>, s: usize) -> [f64; 3] {
@@ -178,17 +207,29 @@ fn scale3(v: [f64; 3], a: f64) -> [f64; 3] {
     [v[0] * a, v[1] * a, v[2] * a]
 }
 
-/// `J_t C Jᵀ` (3×6) of a row for compliances `c` (3n).
-pub fn compliance_map(row: &RowKinematics, c: &[f64]) -> DMatrix<f64> {
-    let m = c.len();
-    let jt = row.jacobian.rows(0, 3);
-    let mut jc = DMatrix::zeros(3, m);
-    for s in 0..m {
+/// `J_t C Jᵀ` (3×6) of a row for compliances `c` (3n): `Σ_s c_s J_t[:, s] J[:, s]ᵀ`, summed
+/// over the springs with a non-zero compliance only (no allocation).
+pub fn compliance_map3x6(row: &RowKinematics, c: &[f64]) -> nalgebra::Matrix3x6<f64> {
+    let mut g = nalgebra::Matrix3x6::zeros();
+    let j = &row.jacobian;
+    for (s, &cs) in c.iter().enumerate() {
+        if cs == 0.0 {
+            continue;
+        }
         for r in 0..3 {
-            jc[(r, s)] = jt[(r, s)] * c[s];
+            let a = cs * j[(r, s)];
+            for k in 0..6 {
+                g[(r, k)] += a * j[(k, s)];
+            }
         }
     }
-    jc * row.jacobian.transpose()
+    g
+}
+
+/// [`compliance_map3x6`] as a dynamic matrix.
+pub fn compliance_map(row: &RowKinematics, c: &[f64]) -> DMatrix<f64> {
+    let g = compliance_map3x6(row, c);
+    DMatrix::from_fn(3, 6, |r, k| g[(r, k)])
 }
 
 /// The raw (unwhitened) 3-vector of spring `s` (index into the 3n springs) for a row:
@@ -211,13 +252,13 @@ pub fn spring_column(row: &RowKinematics, s: usize) -> [f64; 3] {
 /// - `geometric_nonlinearity`: `d_exact(C) − J_t C Jᵀ W`, the exact deflected-equilibrium
 ///   response minus the linear one at the current compliances (parameter 1 = physical).
 pub fn candidate_columns(
-    chain: &SerialChain,
+    builder: &RowBuilder<'_>,
     cand: &Candidate,
     row: &RowKinematics,
-    row_index: usize,
     lin: &Linearisation,
     tau_scale: &[f64],
-) -> Vec<[f64; 3]> {
+    out: &mut Vec<[f64; 3]>,
+) {
     match *cand {
         Candidate::JointTilt { joint, axis } => {
             let k = match axis {
@@ -225,7 +266,7 @@ pub fn candidate_columns(
                 SpringAxis::X => 1,
                 SpringAxis::Y => 2,
             };
-            vec![spring_column(row, 3 * joint + k)]
+            out.push(spring_column(row, 3 * joint + k));
         }
         Candidate::JointTorsionNonlinear { joint } => {
             // Odd hinge functions sign(τ)·max(|τ| − t_k, 0) at t_k = TORSION_KNOTS · s_j: with
@@ -235,13 +276,10 @@ pub fn candidate_columns(
             let t = row.tau[3 * joint];
             let s = tau_scale[joint].max(1e-12);
             let a = col3(&row.jacobian, 3 * joint);
-            TORSION_KNOTS
-                .iter()
-                .map(|k| {
-                    let h = (t.abs() - k * s).max(0.0).copysign(t);
-                    scale3(a, h)
-                })
-                .collect()
+            for k in TORSION_KNOTS {
+                let h = (t.abs() - k * s).max(0.0).copysign(t);
+                out.push(scale3(a, h));
+            }
         }
         Candidate::JointBacklash { joint } => {
             // The sign of the applied torque is uncertain when |τ| is within the noise of the
@@ -255,28 +293,123 @@ pub fn candidate_columns(
             } else {
                 t.signum()
             };
-            vec![scale3(col3(&row.jacobian, 3 * joint), 0.5 * sg)]
+            out.push(scale3(col3(&row.jacobian, 3 * joint), 0.5 * sg));
         }
         Candidate::WrenchBias => {
-            let g = compliance_map(row, &lin.compliance);
-            (0..6)
-                .map(|k| [-g[(0, k)], -g[(1, k)], -g[(2, k)]])
-                .collect()
+            let g = compliance_map3x6(row, &lin.compliance);
+            out.extend((0..6).map(|k| [-g[(0, k)], -g[(1, k)], -g[(2, k)]]));
         }
         Candidate::FrameMisalignment => {
-            let d = lin.spring_prediction[row_index];
+            let d = spring_prediction(row, &lin.compliance);
             // −hat(d) columns: −hat(d) e_k = e_k × d.
             let h = -Matrix3::new(0.0, -d[2], d[1], d[2], 0.0, -d[0], -d[1], d[0], 0.0);
-            (0..3).map(|k| [h[(0, k)], h[(1, k)], h[(2, k)]]).collect()
+            out.extend((0..3).map(|k| [h[(0, k)], h[(1, k)], h[(2, k)]]));
         }
         Candidate::GeometricNonlinearity => {
-            let truth = TrueModel {
-                compliance: lin.compliance.clone(),
-                effects: vec![Effect::GeometricNonlinearity],
-            };
-            let (d, _) = truth.displacement(chain, &row.q, &row.wrench);
-            let l = lin.spring_prediction[row_index];
-            vec![[d.x - l[0], d.y - l[1], d.z - l[2]]]
+            if lin.compliance.iter().all(|c| *c == 0.0) {
+                out.push([0.0; 3]);
+            } else {
+                let d = builder.exact_displacement(row, &lin.compliance);
+                let l = spring_prediction(row, &lin.compliance);
+                out.push([d[0] - l[0], d[1] - l[1], d[2] - l[2]]);
+            }
+        }
+        Candidate::MountTranslation => {
+            let f = &row.wrench;
+            out.extend((0..3).map(|k| {
+                let mut c = [0.0; 3];
+                c[k] = f[k];
+                c
+            }));
+        }
+        Candidate::MountRotation => {
+            let (p, f, m) = (row.tip, &row.wrench, &row.wrench[3..]);
+            // The load's moment about the base origin, m + p × f.
+            let mb = [
+                m[0] + p[1] * f[2] - p[2] * f[1],
+                m[1] + p[2] * f[0] - p[0] * f[2],
+                m[2] + p[0] * f[1] - p[1] * f[0],
+            ];
+            out.extend((0..3).map(|k| {
+                // (e_k × p)·mb_k
+                let e_cross_p = match k {
+                    0 => [0.0, -p[2], p[1]],
+                    1 => [p[2], 0.0, -p[0]],
+                    _ => [-p[1], p[0], 0.0],
+                };
+                scale3(e_cross_p, mb[k])
+            }));
+        }
+    }
+}
+
+/// Blocks of the lack-of-fit alternative: flexible, generic effects that no catalogue entry
+/// names, used to test whether structure remains (they never become findings).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Alternative {
+    /// A pose-independent linear map of the wrench, `d = A w` (3×6 = 18 parameters): any
+    /// compliance outside the arm that does not depend on the pose (mount, sensor mounting).
+    LinearInWrench,
+    /// A compliance in the tool frame, `d = R C Rᵀ f` with R the tip frame (9 parameters): a
+    /// compliant tool, gripper or force-sensor flange.
+    ToolFrame,
+}
+
+impl Alternative {
+    /// Every block.
+    pub const ALL: [Alternative; 2] = [Alternative::LinearInWrench, Alternative::ToolFrame];
+
+    /// Number of columns.
+    pub fn n_columns(&self) -> usize {
+        match self {
+            Alternative::LinearInWrench => 18,
+            Alternative::ToolFrame => 9,
+        }
+    }
+
+    /// Name in the report.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Alternative::LinearInWrench => "linear_in_wrench",
+            Alternative::ToolFrame => "tool_frame",
+        }
+    }
+
+    /// What remaining structure in this block means, in words.
+    pub fn meaning(&self) -> &'static str {
+        match self {
+            Alternative::LinearInWrench => {
+                "linear in the load and independent of the pose: a compliance outside the arm, such as the mount, the force sensor's mounting or the tool?"
+            }
+            Alternative::ToolFrame => {
+                "linear in the force along the tool's own axes: a compliant tool, gripper or sensor flange?"
+            }
+        }
+    }
+
+    /// Raw columns of the block for one row.
+    pub fn columns(&self, row: &RowKinematics, out: &mut Vec<[f64; 3]>) {
+        let w = &row.wrench;
+        match self {
+            Alternative::LinearInWrench => {
+                for r in 0..3 {
+                    for wk in w.iter() {
+                        let mut c = [0.0; 3];
+                        c[r] = *wk;
+                        out.push(c);
+                    }
+                }
+            }
+            Alternative::ToolFrame => {
+                let rt = &row.tip_rotation;
+                for a in 0..3 {
+                    for b in 0..3 {
+                        // R e_a (R e_b · f)
+                        let fb = rt[(0, b)] * w[0] + rt[(1, b)] * w[1] + rt[(2, b)] * w[2];
+                        out.push([rt[(0, a)] * fb, rt[(1, a)] * fb, rt[(2, a)] * fb]);
+                    }
+                }
+            }
         }
     }
 }

@@ -1,6 +1,12 @@
 //! `diagnose`: show what a stiffness model gets wrong on measured data, name the cause, extend
 //! the model and measure the gain on rows the fit never saw.
 //!
+//! The model is a [`Problem`](stiffness_core::engine::Problem) of the engine shared with the
+//! CSJM diagnosis (`stiffness_core::engine`): the whitened design of the springs, of every
+//! catalogue candidate and of the lack-of-fit alternative is compressed in a few streaming
+//! passes into small R factors, and every decision below is made on them, so memory does
+//! not grow with the number of rows beyond a few numbers per row.
+//!
 //! 1. The baseline (traditional VJM unless another [`VirtualJointModel`] is named) is fitted by
 //!    weighted least squares on the training rows; the weights whiten each row's 3-D
 //!    displacement noise: tracker noise plus force-sensor noise propagated through the fitted
@@ -14,7 +20,13 @@
 //!    test given the other has p > `alias_alpha`), or whose columns have |cos| ≥
 //!    `alias_cosine` with the finding's after projecting out the model, are its aliases.
 //! 4. The extended model is refitted and its held-out error reported.
-//! 5. `unexplained` is set when the extended model's per-pose ANOVA stays significant.
+//! 5. `unexplained` is set when structure remains: the lack-of-fit F test of the extended model
+//!    against a flexible alternative (every spring, a pose-independent linear map of the
+//!    wrench, a tool-frame compliance) rejects — a test whose denominator is the
+//!    alternative's own residual variance, so it needs no noise level — or, when the noise
+//!    level is given ([`DiagnoseOptions::noise_known`]), the χ² goodness of fit rejects. On the
+//!    baseline, both tests are hypotheses of the first selection step's Benjamini–Hochberg
+//!    family, so that on data with nothing to find the chance of *any* alarm is `fdr`.
 //!
 //! The statistics and the detectability threshold are explained in `docs/diagnose.md`.
 //!
@@ -31,27 +43,27 @@
 //! ```
 
 pub mod candidates;
-mod engine;
-pub mod linalg;
+mod final_pass;
+pub mod problem;
 pub mod report;
+pub mod rows;
 pub use stiffness_core::stats;
 pub mod structure;
 
 use serde::Serialize;
+use stiffness_core::engine::{fit, goodness_of_fit, nested_test, select, Fit, SelectOptions};
 use stiffness_core::{Cancel, Monitor};
 
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, DatasetError, SetLabel};
 use crate::error::VjmError;
 use crate::model::{SpringAxis, VirtualJointModel};
-use crate::testbed::{ForceSensorNoise, TrackerNoise};
-use candidates::{catalogue, Candidate, RowKinematics};
-use engine::{Engine, Fit, Term};
+use candidates::{catalogue, Alternative, Candidate, Linearisation, RowKinematics};
+use problem::{Term, VjmProblem, Whitening};
 use report::{
-    Alias, CandidateScore, Diagnosis, Evidence, Finding, ModelSummary, Parameter, PoseError,
-    ResidualReport, RowResult,
+    Alias, BlockTest, CandidateScore, Diagnosis, Evidence, Finding, ModelSummary, Parameter,
+    PoseError, ResidualReport, RowResult, Verdict,
 };
-use stats::benjamini_hochberg;
 use structure::residual_structure;
 
 /// The noise the weights assume.
@@ -64,14 +76,44 @@ pub struct NoiseAssumption {
 }
 
 impl Default for NoiseAssumption {
-    /// The testbed's instruments: a laser tracker 2.5 m away (√2·(15 µm + 6 µm/m·2.5 m)/2 ≈
-    /// 21 µm per axis of a displacement) and a 1 %-of-full-scale F/T sensor (100 N, 10 N·m).
+    /// A laser tracker 2.5 m away (√2·(15 µm + 6 µm/m·2.5 m)/2 ≈ 21 µm per axis of a
+    /// displacement) and a 1 %-of-full-scale F/T sensor (100 N, 10 N·m, read as 2σ): the
+    /// testbed's default instruments (a test checks the two agree).
     fn default() -> Self {
-        let t = TrackerNoise::default();
         NoiseAssumption {
-            displacement_sigma: t.displacement_sigma([0.0, 0.0, t.position[2]]),
-            wrench_sigma: ForceSensorNoise::default().sigma(),
+            displacement_sigma: std::f64::consts::SQRT_2 * 0.5 * (15e-6 + 6e-6 * 2.5),
+            wrench_sigma: [0.5, 0.5, 0.5, 0.05, 0.05, 0.05],
         }
+    }
+}
+
+impl NoiseAssumption {
+    /// Checks that every level is finite, the displacement's > 0 and the wrench's ≥ 0;
+    /// the error names the level.
+    pub fn check(&self) -> Result<(), DiagnoseError> {
+        let d = self.displacement_sigma;
+        if !(d.is_finite() && d > 0.0) {
+            return Err(DiagnoseError::InvalidOption {
+                name: "tracker_sigma",
+                message: format!("the displacement noise must be a finite number > 0 m, got {d}"),
+            });
+        }
+        for (k, s) in self.wrench_sigma.iter().enumerate() {
+            if !(s.is_finite() && *s >= 0.0) {
+                let (name, unit) = if k < 3 {
+                    ("force_sigma", "N")
+                } else {
+                    ("moment_sigma", "N·m")
+                };
+                return Err(DiagnoseError::InvalidOption {
+                    name,
+                    message: format!(
+                        "the wrench noise must be a finite number ≥ 0 {unit}, got {s}"
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -80,7 +122,8 @@ impl Default for NoiseAssumption {
 pub struct DiagnoseOptions {
     /// The baseline model; `None` = traditional (one torsional spring per joint).
     pub baseline: Option<VirtualJointModel>,
-    /// False discovery rate of the Benjamini–Hochberg selection (default 0.01).
+    /// False discovery rate of the Benjamini–Hochberg selection (default 0.01); also the
+    /// level of the verdict's tests.
     pub fdr: f64,
     /// Fraction of poses held out when the file has no `set` column (default 0.25).
     pub test_fraction: f64,
@@ -88,6 +131,10 @@ pub struct DiagnoseOptions {
     pub split_seed: u64,
     /// Noise model of the weights.
     pub noise: NoiseAssumption,
+    /// `true` when `noise` is the instruments' true noise level (given by the user), which
+    /// adds the χ² goodness-of-fit test to the verdict. `false` (default): `noise` only sets
+    /// the relative weights, and the verdict rests on the lack-of-fit test alone.
+    pub noise_known: bool,
     /// Most findings to name (default 6).
     pub max_findings: usize,
     /// |cos| at or above which two candidates are aliases (default 0.99).
@@ -95,12 +142,13 @@ pub struct DiagnoseOptions {
     /// A significant candidate b is an alias of a finding a when, with b in the model, the
     /// F test of a has p above this level (default 0.05): the data cannot tell a from b.
     pub alias_alpha: f64,
-    /// Level of the per-pose ANOVA that sets `unexplained` (default 0.01).
-    pub unexplained_alpha: f64,
     /// Accept joint angles outside the URDF limits (default `false`: such a row is refused,
     /// naming row and joint, since it usually means degrees or a wrong joint order).
     /// Continuous joints have no limits.
     pub allow_outside_limits: bool,
+    /// Return the per-row measured and predicted displacements ([`Diagnosis::rows`];
+    /// default `true`). Turn off for large campaigns: everything else is a summary.
+    pub per_row: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -111,11 +159,12 @@ impl Default for DiagnoseOptions {
             test_fraction: 0.25,
             split_seed: 0,
             noise: NoiseAssumption::default(),
+            noise_known: false,
             max_findings: 6,
             alias_cosine: 0.99,
             alias_alpha: 0.05,
-            unexplained_alpha: 0.01,
             allow_outside_limits: false,
+            per_row: true,
         }
     }
 }
@@ -172,8 +221,8 @@ pub fn diagnose(
 }
 
 /// [`diagnose`] under a [`Monitor`]: progress goes to its sink, and its token is polled per
-/// stage, per scored candidate and per selection step, so that a cancel ends the run within
-/// one candidate fit with [`DiagnoseError::Cancelled`].
+/// pass (every 4096 rows), per scored candidate and per selection step, so that a cancel ends
+/// the run promptly with [`DiagnoseError::Cancelled`].
 pub fn diagnose_monitored(
     chain: &SerialChain,
     data: &Dataset,
@@ -206,37 +255,25 @@ fn check_options(opts: &DiagnoseOptions) -> Result<(), DiagnoseError> {
             format!("must be in (0, 1), got {}", opts.test_fraction),
         );
     }
-    let n = &opts.noise;
-    if !(n.displacement_sigma > 0.0 && n.displacement_sigma.is_finite())
-        || n.wrench_sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0))
-    {
-        return bad(
-            "noise",
-            "displacement sigma must be > 0 and wrench sigmas ≥ 0, all finite".into(),
-        );
-    }
-    if !(opts.unexplained_alpha > 0.0 && opts.unexplained_alpha < 1.0) {
-        return bad(
-            "unexplained_alpha",
-            format!("must be in (0, 1), got {}", opts.unexplained_alpha),
-        );
-    }
-    Ok(())
+    opts.noise.check()
 }
 
 /// Everything computed before candidate selection.
 struct Prepared<'a> {
-    eng: Engine<'a>,
+    problem: VjmProblem<'a>,
     baseline_model: VirtualJointModel,
-    labels: Vec<SetLabel>,
-    groups: Vec<usize>,
     in_model: Vec<bool>,
-    base_fit: Fit,
+    base_fit: Fit<Term, Linearisation>,
 }
+
+/// Rows whose kinematics are kept for the residual-structure statistics (rank correlations
+/// and the per-pose ANOVA), taken evenly over the training rows: a bounded sample, so that
+/// the descriptive statistics do not hold the whole campaign in memory.
+pub const STRUCTURE_ROWS: usize = 20_000;
 
 fn prepare<'a>(
     chain: &'a SerialChain,
-    data: &Dataset,
+    data: &'a Dataset,
     opts: &DiagnoseOptions,
     cancel: &Cancel,
 ) -> Result<Prepared<'a>, DiagnoseError> {
@@ -271,69 +308,32 @@ fn prepare<'a>(
         None => VirtualJointModel::traditional(n),
     };
     let labels = data.split(opts.test_fraction, opts.split_seed)?;
-    let train: Vec<usize> = (0..data.len())
-        .filter(|&i| labels[i] == SetLabel::Train)
-        .collect();
-    let test: Vec<usize> = (0..data.len())
-        .filter(|&i| labels[i] == SetLabel::Test)
-        .collect();
+    let n_train = labels.iter().filter(|l| **l == SetLabel::Train).count();
     let n_base = baseline_model.n_params();
-    if 3 * train.len() < n_base + 10 {
+    if 3 * n_train < n_base + 10 {
         return Err(DiagnoseError::TooFewRows {
-            observations: 3 * train.len(),
+            observations: 3 * n_train,
             params: n_base,
         });
     }
     let m = 3 * n;
-    let zeros = vec![0.0; m];
-    let kin: Vec<RowKinematics> = (0..data.len())
-        .map(|i| {
-            // Polled every few thousand rows: the kinematics of a million rows take seconds.
-            if i % 4096 == 0 {
-                cancel.check()?;
-            }
-            let q = data.q(i).to_vec();
-            let pose = crate::testbed::kinematics::deflected_pose(chain, &q, &zeros);
-            let w = data.wrench(i);
-            let wv = nalgebra::DVector::from_column_slice(&w);
-            let tau: Vec<f64> = (pose.jacobian.transpose() * wv).iter().cloned().collect();
-            let tau_sigma = candidates::torque_sigma(&pose.jacobian, &opts.noise.wrench_sigma);
-            Ok(RowKinematics {
-                q,
-                jacobian: pose.jacobian,
-                tau,
-                wrench: w,
-                displacement: data.displacement(i),
-                tip: [pose.tip.x, pose.tip.y, pose.tip.z],
-                tau_sigma,
-            })
-        })
-        .collect::<Result<_, stiffness_core::Cancelled>>()?;
-    let tau_scale: Vec<f64> = (0..n)
-        .map(|j| {
-            (train
-                .iter()
-                .map(|&i| kin[i].tau[3 * j].powi(2))
-                .sum::<f64>()
-                / train.len() as f64)
-                .sqrt()
-        })
-        .collect();
+    // RMS torsion torque per joint over the training rows: the knots of the hinge candidate.
+    let mut builder = rows::RowBuilder::new(chain, opts.noise.wrench_sigma);
+    let mut sq = vec![0.0; n];
+    for (i, label) in labels.iter().enumerate() {
+        if i % 4096 == 0 {
+            cancel.check()?;
+        }
+        if *label != SetLabel::Train {
+            continue;
+        }
+        let row = builder.row(data, i);
+        for (j, s) in sq.iter_mut().enumerate() {
+            *s += row.tau[3 * j].powi(2);
+        }
+    }
+    let tau_scale: Vec<f64> = sq.iter().map(|s| (s / n_train as f64).sqrt()).collect();
     let groups = data.pose_groups();
-    let mut eng = Engine {
-        chain,
-        kin,
-        train,
-        test,
-        tau_scale,
-        white: Vec::new(),
-        sigma_axis: Vec::new(),
-        m,
-        cancel: cancel.clone(),
-    };
-    cancel.check()?;
-    // Baseline: a first fit with tracker noise only gives the compliance that propagates the
-    // force-sensor noise; then the weighted fit.
     let base_terms: Vec<Term> = baseline_model
         .springs()
         .iter()
@@ -345,22 +345,47 @@ fn prepare<'a>(
             in_model[*s] = true;
         }
     }
-    eng.set_noise(opts.noise.displacement_sigma, &[0.0; 6], &zeros);
-    let lin0 = eng.linearisation(zeros.clone());
-    let pre = eng.fit(&base_terms, &lin0);
-    cancel.check()?;
-    let c_pre = eng.compliances(&pre);
-    eng.set_noise(
-        opts.noise.displacement_sigma,
-        &opts.noise.wrench_sigma,
-        &c_pre,
-    );
-    let base_fit = eng.fit(&base_terms, &eng.linearisation(c_pre.clone()));
-    Ok(Prepared {
-        eng,
-        baseline_model,
+    let zeros = vec![0.0; m];
+    // Baseline: a first fit with tracker noise only gives the compliance that propagates the
+    // force-sensor noise; then the weighted fit.
+    let problem = VjmProblem::new(
+        chain,
+        data,
         labels,
         groups,
+        tau_scale,
+        Whitening {
+            displacement_sigma: opts.noise.displacement_sigma,
+            wrench_sigma: opts.noise.wrench_sigma,
+            propagate_abs: zeros.clone(),
+        },
+        opts.noise.wrench_sigma,
+        cancel.clone(),
+    );
+    let pre_problem = problem.springs_only(Whitening {
+        displacement_sigma: opts.noise.displacement_sigma,
+        wrench_sigma: [0.0; 6],
+        propagate_abs: zeros.clone(),
+    });
+    let pre = fit::fit(
+        &pre_problem,
+        &base_terms,
+        &Linearisation {
+            compliance: zeros.clone(),
+        },
+    )?;
+    cancel.check()?;
+    let c_pre = stiffness_core::engine::Problem::relinearise(&pre_problem, &pre.terms, &pre.coef)
+        .compliance;
+    let problem = problem.with_whitening(Whitening {
+        displacement_sigma: opts.noise.displacement_sigma,
+        wrench_sigma: opts.noise.wrench_sigma,
+        propagate_abs: c_pre.iter().map(|v| v.abs()).collect(),
+    });
+    let base_fit = fit::fit(&problem, &base_terms, &Linearisation { compliance: c_pre })?;
+    Ok(Prepared {
+        problem,
+        baseline_model,
         in_model,
         base_fit,
     })
@@ -385,7 +410,43 @@ pub fn detectability(
         });
     }
     let p = prepare(chain, data, opts, &Cancel::new())?;
-    Ok(p.eng.orthogonal_energy(&p.base_fit, signal))
+    let fit = &p.base_fit;
+    let idx: Vec<usize> = fit
+        .terms
+        .iter()
+        .flat_map(|t| stiffness_core::engine::Problem::columns(&p.problem, *t))
+        .collect();
+    // [X_base | W s] compressed over the training rows, then s projected off X_base.
+    let mut acc = stiffness_core::lsq::TriangularAccumulator::new(idx.len() + 1);
+    let mut z = vec![0.0; idx.len() + 1];
+    let want = p.problem.mask(&fit.terms);
+    p.problem
+        .for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
+            if p.problem.labels[i] != SetLabel::Train {
+                return;
+            }
+            let ws: Vec<nalgebra::Vector3<f64>> = idx
+                .iter()
+                .map(|&c| w * nalgebra::Vector3::from(cols[c]))
+                .chain(std::iter::once(w * nalgebra::Vector3::from(signal[i])))
+                .collect();
+            for r in 0..3 {
+                for (dst, v) in z.iter_mut().zip(&ws) {
+                    *dst = v[r];
+                }
+                acc.push_row_unchecked(&z);
+            }
+        })?;
+    let f = acc.finish();
+    let q = f.ncols();
+    let col = |k: usize| -> Vec<f64> { (0..q).map(|i| f.r()[i * q + k]).collect() };
+    let mut basis = stiffness_core::engine::basis::Basis::new();
+    for k in 0..idx.len() {
+        basis.push(&col(k));
+    }
+    let mut s = col(idx.len());
+    basis.project_out(&mut s);
+    Ok(s.iter().map(|v| v * v).sum())
 }
 
 /// [`diagnose`] with a progress callback, called after each stage and each selection step.
@@ -398,8 +459,96 @@ pub fn diagnose_with_progress(
     run_diagnosis(chain, data, opts, &Cancel::new(), progress)
 }
 
-/// The diagnosis proper: `progress` after each stage and selection step, `cancel` polled after
-/// each of them and per scored candidate.
+/// The terms of the lack-of-fit alternative: every spring and every generic block.
+fn alternative_terms(m: usize) -> Vec<Term> {
+    (0..m)
+        .map(Term::Spring)
+        .chain(Alternative::ALL.iter().map(|a| Term::Alt(*a)))
+        .collect()
+}
+
+/// The verdict's tests of a fit: lack of fit against every spring, every generic block and a
+/// free offset per pose (no noise level needed); the goodness of fit when the noise is known.
+struct VerdictTests {
+    lack_of_fit: stiffness_core::stats::FTest,
+    goodness_of_fit: Option<stiffness_core::engine::ChiSquareTest>,
+    /// Each block alone (generic blocks, then the per-pose offsets).
+    blocks: Vec<BlockTest>,
+}
+
+/// The name of the per-pose-offset block.
+pub const POSE_OFFSETS: &str = "pose_offsets";
+
+fn verdict_tests(
+    problem: &VjmProblem<'_>,
+    fit: &Fit<Term, Linearisation>,
+    noise_known: bool,
+) -> Result<VerdictTests, stiffness_core::Cancelled> {
+    use stiffness_core::engine::verdict::nested_test_with_block;
+    use stiffness_core::engine::Problem as _;
+    let cols =
+        |terms: &[Term]| -> Vec<usize> { terms.iter().flat_map(|t| problem.columns(*t)).collect() };
+    let model = cols(&fit.terms);
+    let alt = cols(&alternative_terms(3 * problem.chain.n_joints()));
+    let y = problem.observation_column();
+    // The within-pose factor over model ∪ alternative ∪ y only, in its own numbering.
+    let mut sel: Vec<usize> = model.iter().chain(&alt).copied().collect();
+    sel.sort_unstable();
+    sel.dedup();
+    sel.push(y);
+    let at = |c: usize| sel.iter().position(|&s| s == c).expect("selected");
+    let within = problem.within_pose(&fit.lin, &sel)?;
+    let model_w: Vec<usize> = model.iter().map(|&c| at(c)).collect();
+    let full_w: Vec<usize> = model.iter().chain(&alt).map(|&c| at(c)).collect();
+    let y_w = at(y);
+    let lack_of_fit = nested_test_with_block(
+        &fit.compressed.train,
+        &model,
+        y,
+        &within.factor,
+        &full_w,
+        y_w,
+        within.n_offsets,
+    );
+    let mut blocks: Vec<BlockTest> = Alternative::ALL
+        .iter()
+        .map(|a| BlockTest {
+            block: a.name().to_string(),
+            f_test: nested_test(problem, fit, &[Term::Alt(*a)]),
+            meaning: a.meaning().to_string(),
+        })
+        .collect();
+    blocks.push(BlockTest {
+        block: POSE_OFFSETS.to_string(),
+        f_test: nested_test_with_block(
+            &fit.compressed.train,
+            &model,
+            y,
+            &within.factor,
+            &model_w,
+            y_w,
+            within.n_offsets,
+        ),
+        meaning: "a displacement offset that differs from pose to pose and does not grow with the load: a base that settles, a tracker reflector that moves, thermal drift between poses?".to_string(),
+    });
+    blocks.push(BlockTest {
+        block: "springs".to_string(),
+        f_test: nested_test(
+            problem,
+            fit,
+            &(0..3 * problem.chain.n_joints()).map(Term::Spring).collect::<Vec<_>>(),
+        ),
+        meaning: "a compliance that depends on the pose the way joint springs do: tilts or torsion at joints not in the model, or a compliant link?".to_string(),
+    });
+    Ok(VerdictTests {
+        lack_of_fit,
+        goodness_of_fit: noise_known.then(|| goodness_of_fit(problem, fit)),
+        blocks,
+    })
+}
+
+/// The diagnosis proper: `progress` after each stage and selection step, `cancel` polled in
+/// every pass, per scored candidate and per step.
 fn run_diagnosis(
     chain: &SerialChain,
     data: &Dataset,
@@ -408,13 +557,13 @@ fn run_diagnosis(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Diagnosis, DiagnoseError> {
     let Prepared {
-        eng,
+        problem,
         baseline_model,
-        labels,
-        groups,
         in_model,
         base_fit,
     } = prepare(chain, data, opts, cancel)?;
+    let groups = problem.groups.clone();
+    let labels = problem.labels.clone();
     let pose_id = |i: usize| data.pose(i).unwrap_or(groups[i] as i64);
     progress(Progress {
         stage: "kinematics",
@@ -422,7 +571,6 @@ fn run_diagnosis(
         total: 1,
     });
     cancel.check()?;
-
     progress(Progress {
         stage: "baseline",
         done: 1,
@@ -430,222 +578,235 @@ fn run_diagnosis(
     });
     cancel.check()?;
 
-    // Forward selection.
-    let mut pool = catalogue(&in_model);
-    let first_scores = eng.score(&base_fit, &pool);
-    cancel.check()?;
-    let scores_report: Vec<CandidateScore> = first_scores
+    // The baseline's verdict tests join the first step's family.
+    let v0 = verdict_tests(&problem, &base_fit, opts.noise_known)?;
+    let mut extra_p = vec![v0.lack_of_fit.p_value];
+    if let Some(g) = v0.goodness_of_fit {
+        extra_p.push(g.p_value);
+    }
+    let pool: Vec<Term> = catalogue(&in_model).into_iter().map(Term::Cand).collect();
+    let select_opts = SelectOptions {
+        fdr: opts.fdr,
+        max_findings: opts.max_findings,
+        alias_cosine: opts.alias_cosine,
+        alias_alpha: opts.alias_alpha,
+    };
+    let selection = select(
+        &problem,
+        base_fit.clone(),
+        pool,
+        &extra_p,
+        &select_opts,
+        progress,
+    )?;
+    let cand_of = |t: Term| match t {
+        Term::Cand(c) => c,
+        _ => unreachable!("the pool holds candidates only"),
+    };
+    let scores_report: Vec<CandidateScore> = selection
+        .first_scores
         .iter()
-        .map(|s| CandidateScore {
-            label: s.cand.label(),
-            effect: s.cand.effect(),
-            joint: s.cand.joint().map(|j| j + 1),
-            axis: s.cand.axis().map(|a| a.to_string()),
-            testable: s.rank > 0,
-            f_test: (s.rank > 0).then_some(s.f_test),
+        .map(|s| {
+            let c = cand_of(s.cand);
+            CandidateScore {
+                label: c.label(),
+                effect: c.effect(),
+                joint: c.joint().map(|j| j + 1),
+                axis: c.axis().map(|a| a.to_string()),
+                testable: s.rank > 0,
+                f_test: (s.rank > 0).then_some(s.f_test),
+            }
         })
         .collect();
-    let mut current = base_fit.clone();
-    let mut findings: Vec<(Candidate, Vec<Alias>, Evidence)> = Vec::new();
-    let mut rejected_on_holdout = Vec::new();
-    let mut scores = first_scores;
-    for step in 1..=opts.max_findings {
-        let testable: Vec<&engine::Score> = scores.iter().filter(|s| s.rank > 0).collect();
-        if testable.is_empty() {
-            break;
-        }
-        let p: Vec<f64> = testable.iter().map(|s| s.f_test.p_value).collect();
-        let rejected = benjamini_hochberg(&p, opts.fdr);
-        let mut order: Vec<usize> = (0..testable.len()).filter(|&k| rejected[k]).collect();
-        order.sort_by(|&a, &b| {
-            p[a].total_cmp(&p[b])
-                .then(testable[b].f_test.f.total_cmp(&testable[a].f_test.f))
-        });
-        let mut accepted = None;
-        for &k in &order {
-            cancel.check()?;
-            let s = testable[k];
-            let mut terms = current.terms.clone();
-            terms.push(Term::Cand(s.cand));
-            let trial = eng.fit(&terms, &current.lin);
-            let before = eng.sse(&current, &eng.test);
-            let after = eng.sse(&trial, &eng.test);
-            if after < before {
-                accepted = Some((k, trial, before, after));
-                break;
-            }
-            rejected_on_holdout.push(s.cand.label());
-            pool.retain(|c| *c != s.cand);
-        }
-        let Some((k, trial, before, after)) = accepted else {
-            break;
-        };
-        let a = testable[k];
-        let df_a = a.f_test.df_den.max(1.0);
-        let sigma2 = a.sse_full / df_a;
-        // Aliases: significant candidates b such that, once b is in the model, the data no
-        // longer need a (its F test given b has p > alias_alpha), or whose columns are
-        // near-collinear with a's after projecting out the model.
-        let bh_cut = {
-            let mut sorted = p.clone();
-            sorted.sort_by(|x, y| x.total_cmp(y));
-            (0..sorted.len())
-                .filter(|&r| sorted[r] <= opts.fdr * (r + 1) as f64 / sorted.len() as f64)
-                .map(|r| sorted[r])
-                .fold(0.0, f64::max)
-        };
-        let mut aliases = Vec::new();
-        for b in &testable {
-            cancel.check()?;
-            if b.cand == a.cand {
-                continue;
-            }
-            let delta = (b.sse_full - a.sse_full) / sigma2;
-            let cosine = (a.cand.n_columns() == 1 && b.cand.n_columns() == 1)
-                .then(|| linalg::cosine(&a.first_residual, &b.first_residual).abs());
-            let collinear = cosine.is_some_and(|c| c >= opts.alias_cosine);
-            let p_given = if b.f_test.p_value <= bh_cut {
-                eng.score_given(&current, &[b.cand], &[a.cand])[0]
-                    .f_test
-                    .p_value
-            } else {
-                0.0
-            };
-            if collinear || p_given > opts.alias_alpha {
-                aliases.push((b.cand, cosine, delta, p_given));
-            }
-        }
-        let rank_a = p.iter().filter(|&&v| v <= p[k]).count();
-        let evidence = Evidence {
-            step,
-            f_test: a.f_test,
-            n_candidates: testable.len(),
-            bh_threshold: opts.fdr * rank_a as f64 / testable.len() as f64,
-            sse_reduction: 1.0 - a.sse_full / a.sse_reduced,
-            cluster_robust: eng.cluster_robust(&trial, &groups, a.cand.n_columns()),
-            heldout_sse_before: before,
-            heldout_sse_after: after,
-            estimate: Vec::new(),
-            unit: a.cand.unit(),
-        };
-        pool.retain(|c| *c != a.cand && !aliases.iter().any(|(b, _, _, _)| b == c));
-        findings.push((
-            a.cand,
-            aliases
-                .into_iter()
-                .map(|(b, cosine, delta, p_given)| Alias {
-                    effect: b.effect(),
-                    joint: b.joint().map(|j| j + 1),
-                    axis: b.axis().map(|x| x.to_string()),
-                    cosine,
-                    delta_chi2: delta,
-                    p_finding_given_alias: p_given,
-                })
-                .collect(),
-            evidence,
-        ));
-        current = trial;
-        progress(Progress {
-            stage: "selection",
-            done: step,
-            total: opts.max_findings,
-        });
-        cancel.check()?;
-        if pool.is_empty() {
-            break;
-        }
-        scores = eng.score(&current, &pool);
-        cancel.check()?;
-    }
 
     // Extended model: refit all terms together (re-linearised from the baseline).
-    let ext_terms = current.terms.clone();
+    let ext_terms = selection.last.terms.clone();
     cancel.check()?;
-    let ext_fit = if findings.is_empty() {
+    let ext_fit = if selection.findings.is_empty() {
         base_fit.clone()
     } else {
-        eng.fit(&ext_terms, &base_fit.lin)
+        fit::fit(&problem, &ext_terms, &base_fit.lin)?
     };
+
+    // The verdict on the extended model.
+    let v = if selection.findings.is_empty() {
+        v0
+    } else {
+        verdict_tests(&problem, &ext_fit, opts.noise_known)?
+    };
+    let n_tests = extra_p.len() as f64;
+    let unexplained = if selection.findings.is_empty() {
+        selection.extra_rejected.iter().any(|r| *r)
+    } else {
+        v.lack_of_fit.p_value <= opts.fdr / n_tests
+            || v.goodness_of_fit
+                .is_some_and(|g| g.p_value <= opts.fdr / n_tests)
+    };
+    let remaining = unexplained.then(|| remaining_in_words(&v));
+    let verdict = Verdict {
+        lack_of_fit: v.lack_of_fit,
+        goodness_of_fit: v.goodness_of_fit,
+        alpha: opts.fdr / n_tests,
+        blocks: v.blocks,
+        remaining,
+    };
+
     // Estimates of each finding in the final fit.
-    let mut k = 0;
     let mut estimates: Vec<(Candidate, Vec<f64>)> = Vec::new();
+    let mut k = 0;
     for t in &ext_fit.terms {
-        let nc = match t {
-            Term::Spring(_) => 1,
-            Term::Cand(c) => c.n_columns(),
-        };
+        let nc = stiffness_core::engine::Problem::columns(&problem, *t).len();
         if let Term::Cand(c) = t {
             estimates.push((*c, ext_fit.coef[k..k + nc].to_vec()));
         }
         k += nc;
     }
-    for (cand, _, ev) in findings.iter_mut() {
-        if let Some((_, e)) = estimates.iter().find(|(c, _)| c == cand) {
-            ev.estimate = e.clone();
-        }
-    }
+    let findings: Vec<Finding> = selection
+        .findings
+        .iter()
+        .map(|f| {
+            let c = cand_of(f.cand);
+            let e = &f.evidence;
+            Finding {
+                effect: c.effect(),
+                joint: c.joint().map(|j| j + 1),
+                axis: c.axis().map(|a| a.to_string()),
+                aliases: f
+                    .aliases
+                    .iter()
+                    .map(|a| {
+                        let b = cand_of(a.cand);
+                        Alias {
+                            effect: b.effect(),
+                            joint: b.joint().map(|j| j + 1),
+                            axis: b.axis().map(|x| x.to_string()),
+                            cosine: a.cosine,
+                            delta_chi2: a.delta_chi2,
+                            p_finding_given_alias: a.p_finding_given_alias,
+                        }
+                    })
+                    .collect(),
+                evidence: Evidence {
+                    step: e.step,
+                    f_test: e.f_test,
+                    n_candidates: e.n_candidates,
+                    bh_threshold: e.bh_threshold,
+                    sse_reduction: e.sse_reduction,
+                    cluster_robust: e.cluster_robust,
+                    heldout_sse_before: e.heldout_sse_before,
+                    heldout_sse_after: e.heldout_sse_after,
+                    estimate: estimates
+                        .iter()
+                        .find(|(d, _)| *d == c)
+                        .map(|(_, v)| v.clone())
+                        .unwrap_or_default(),
+                    unit: c.unit(),
+                },
+            }
+        })
+        .collect();
 
-    let residuals = |fit: &Fit| -> Vec<[f64; 3]> {
-        (0..eng.kin.len())
-            .map(|i| {
-                let d = eng.kin[i].displacement;
-                let p = fit.pred[i];
-                [d[0] - p[0], d[1] - p[1], d[2] - p[2]]
-            })
-            .collect()
+    // The final pass: relative errors, per-pose errors, the structure sample and (on request)
+    // the per-row predictions of both fits; one more pass when the extended model was
+    // re-linearised elsewhere.
+    progress(Progress {
+        stage: "residuals",
+        done: 0,
+        total: 1,
+    });
+    let n_rows = data.len();
+    let stride = n_rows.div_ceil(STRUCTURE_ROWS).max(1);
+    let same_lin = ext_fit.lin == base_fit.lin;
+    let fits: Vec<&Fit<Term, Linearisation>> = if same_lin {
+        vec![&base_fit, &ext_fit]
+    } else {
+        vec![&base_fit]
     };
-    let res_base = residuals(&base_fit);
-    let res_ext = residuals(&ext_fit);
-    let struct_base = residual_structure(&eng.kin, &eng.train, &res_base, &eng.sigma_axis, &groups);
-    let struct_ext = residual_structure(&eng.kin, &eng.train, &res_ext, &eng.sigma_axis, &groups);
-    let unexplained = struct_ext.per_pose_anova.p_value < opts.unexplained_alpha;
-
-    let summary = |fit: &Fit, name: String| ModelSummary {
-        model: name,
-        n_params: fit.n_params(),
-        test_mean_rel_error: eng.mean_rel_error(fit, &eng.test),
-        train_mean_rel_error: eng.mean_rel_error(fit, &eng.train),
-        parameters: parameters(fit),
+    let mut pass =
+        final_pass::predictions_pass(&problem, &base_fit.lin, &fits, stride, opts.per_row)?;
+    let ext_totals = if same_lin {
+        pass.fits.pop().expect("two fits")
+    } else {
+        final_pass::predictions_pass(&problem, &ext_fit.lin, &[&ext_fit], stride, opts.per_row)?
+            .fits
+            .pop()
+            .expect("one fit")
     };
+    let base_totals = pass.fits.pop().expect("the baseline");
+    let sample: Vec<RowKinematics> = pass.sample.iter().map(|(r, _)| r.clone()).collect();
+    let sample_sigma: Vec<[f64; 3]> = pass.sample.iter().map(|(_, s)| *s).collect();
+    let sample_rows: Vec<usize> = (0..sample.len()).collect();
+    // The sampled rows' pose groups, in sample order (the sample is in row order).
+    let sample_groups: Vec<usize> = (0..n_rows)
+        .filter(|&i| labels[i] == SetLabel::Train && i % stride == 0)
+        .map(|i| groups[i])
+        .collect();
+    let struct_base = residual_structure(
+        &sample,
+        &sample_rows,
+        &base_totals.sample_residuals,
+        &sample_sigma,
+        &sample_groups,
+    );
+    let struct_ext = residual_structure(
+        &sample,
+        &sample_rows,
+        &ext_totals.sample_residuals,
+        &sample_sigma,
+        &sample_groups,
+    );
+    let n_train = labels.iter().filter(|l| **l == SetLabel::Train).count();
+    let n_test = n_rows - n_train;
+    let summary =
+        |fit: &Fit<Term, Linearisation>, t: &final_pass::FitTotals, name: String| ModelSummary {
+            model: name,
+            n_params: fit.n_params(),
+            test_mean_rel_error: t.test.mean(),
+            train_mean_rel_error: t.train.mean(),
+            parameters: parameters(fit),
+        };
     let base_name = baseline_model.name().to_string();
     let ext_name = if findings.is_empty() {
         base_name.clone()
     } else {
         let mut s = base_name.clone();
-        for (c, _, _) in &findings {
+        for f in &selection.findings {
             s.push_str(" + ");
-            s.push_str(&c.label());
+            s.push_str(&cand_of(f.cand).label());
         }
         s
     };
-    let baseline = summary(&base_fit, base_name);
-    let extended = summary(&ext_fit, ext_name);
+    let baseline = summary(&base_fit, &base_totals, base_name);
+    let extended = summary(&ext_fit, &ext_totals, ext_name);
     let gain = 1.0 - extended.test_mean_rel_error / baseline.test_mean_rel_error;
 
     // Per-pose errors and per-row results for the report.
-    let mut per_pose: Vec<PoseError> = Vec::new();
-    let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
-    for g in 0..n_groups {
-        let rows: Vec<usize> = (0..data.len()).filter(|&i| groups[i] == g).collect();
-        if rows.is_empty() {
-            continue;
-        }
-        per_pose.push(PoseError {
-            pose: pose_id(rows[0]),
-            set: labels[rows[0]],
-            baseline: eng.mean_rel_error(&base_fit, &rows),
-            extended: eng.mean_rel_error(&ext_fit, &rows),
-        });
-    }
-    let rows = (0..data.len())
-        .map(|i| RowResult {
-            pose: pose_id(i),
-            set: labels[i],
-            measured: eng.kin[i].displacement,
-            baseline: base_fit.pred[i],
-            extended: ext_fit.pred[i],
+    let per_pose: Vec<PoseError> = pass
+        .first_row
+        .iter()
+        .enumerate()
+        .filter_map(|(g, first)| {
+            first.map(|i| PoseError {
+                pose: pose_id(i),
+                set: labels[i],
+                baseline: base_totals.per_pose[g].mean(),
+                extended: ext_totals.per_pose[g].mean(),
+            })
         })
         .collect();
+    let rows = if opts.per_row {
+        (0..n_rows)
+            .map(|i| RowResult {
+                pose: pose_id(i),
+                set: labels[i],
+                measured: data.displacement(i),
+                baseline: base_totals.predictions[i],
+                extended: ext_totals.predictions[i],
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     progress(Progress {
         stage: "done",
         done: 1,
@@ -653,34 +814,63 @@ fn run_diagnosis(
     });
     Ok(Diagnosis {
         baseline,
-        findings: findings
-            .into_iter()
-            .map(|(c, aliases, evidence)| Finding {
-                effect: c.effect(),
-                joint: c.joint().map(|j| j + 1),
-                axis: c.axis().map(|a| a.to_string()),
-                aliases,
-                evidence,
-            })
-            .collect(),
+        findings,
         extended,
         unexplained,
+        verdict,
         gain,
         residuals: ResidualReport {
             baseline: struct_base,
             extended: struct_ext,
         },
         scores: scores_report,
-        rejected_on_holdout,
+        rejected_on_holdout: selection
+            .rejected_on_holdout
+            .iter()
+            .map(|t| cand_of(*t).label())
+            .collect(),
+        explained_by_springs: selection
+            .explained_by_guard
+            .iter()
+            .map(|t| cand_of(*t).label())
+            .collect(),
         per_pose,
         rows,
-        n_train: eng.train.len(),
-        n_test: eng.test.len(),
+        n_train,
+        n_test,
         fdr: opts.fdr,
     })
 }
 
-fn parameters(fit: &Fit) -> Vec<Parameter> {
+/// What remains, in words: the block of the alternative that carries the most significant
+/// structure; the goodness of fit when only it rejects.
+fn remaining_in_words(v: &VerdictTests) -> String {
+    let lof = &v.lack_of_fit;
+    let best = v
+        .blocks
+        .iter()
+        .filter(|b| b.f_test.df_num > 0.0)
+        .min_by(|a, b| a.f_test.p_value.total_cmp(&b.f_test.p_value));
+    match best {
+        Some(b) if b.f_test.p_value < 0.01 => format!(
+            "structure remains (lack of fit p = {:.1e}), mostly {} ({} block, p = {:.1e})",
+            lof.p_value, b.meaning, b.block, b.f_test.p_value
+        ),
+        _ => match v.goodness_of_fit {
+            Some(g) if g.p_value < 0.01 => format!(
+                "the residuals are {:.2}× the stated noise level (χ²/df; p = {:.1e}) with no structure a generic block isolates: noise above the stated level, or an effect spread over many directions",
+                g.ratio.sqrt(),
+                g.p_value
+            ),
+            _ => format!(
+                "structure remains (lack of fit p = {:.1e}) that no single generic block isolates",
+                lof.p_value
+            ),
+        },
+    }
+}
+
+fn parameters(fit: &Fit<Term, Linearisation>) -> Vec<Parameter> {
     let mut out = Vec::new();
     let mut k = 0;
     for t in &fit.terms {
@@ -700,17 +890,29 @@ fn parameters(fit: &Fit) -> Vec<Parameter> {
                         .iter()
                         .map(|a| format!("wrench_bias.{a}"))
                         .collect(),
-                    Candidate::FrameMisalignment => ["x", "y", "z"]
+                    Candidate::FrameMisalignment
+                    | Candidate::MountTranslation
+                    | Candidate::MountRotation => ["x", "y", "z"]
                         .iter()
-                        .map(|a| format!("frame_misalignment.{a}"))
+                        .map(|a| format!("{}.{a}", c.effect()))
                         .collect(),
-                    _ => vec![c.label()],
+                    _ => (0..c.n_columns()).map(|_| c.label()).collect(),
                 };
                 for name in names {
                     out.push(Parameter {
                         label: name,
                         value: fit.in_data[k].then_some(fit.coef[k]),
                         unit: c.unit(),
+                    });
+                    k += 1;
+                }
+            }
+            Term::Alt(a) => {
+                for j in 0..a.n_columns() {
+                    out.push(Parameter {
+                        label: format!("{}[{j}]", a.name()),
+                        value: fit.in_data[k].then_some(fit.coef[k]),
+                        unit: "",
                     });
                     k += 1;
                 }

@@ -160,9 +160,12 @@ pub struct Diagnosis {
     pub findings: Vec<Finding>,
     /// The baseline extended by the findings, refitted.
     pub extended: ModelSummary,
-    /// True when the extended model's residuals still have structure (per-pose ANOVA) that no
-    /// candidate explains.
+    /// True when structure remains that no catalogue effect explains: the extended model's
+    /// lack-of-fit test (no noise level needed) or, when the noise level was given, its
+    /// goodness-of-fit test rejects; see [`Verdict`].
     pub unexplained: bool,
+    /// The tests behind `unexplained`, and what remains in words.
+    pub verdict: Verdict,
     /// Relative reduction of the held-out error, 1 − extended/baseline.
     pub gain: f64,
     /// Residual statistics.
@@ -171,6 +174,9 @@ pub struct Diagnosis {
     pub scores: Vec<CandidateScore>,
     /// Candidates significant on the training rows but not confirmed on the held-out rows.
     pub rejected_on_holdout: Vec<String>,
+    /// Global candidates (mount compliance) significant against the model but not against
+    /// every joint spring: a few springs missing from the model mimic them.
+    pub explained_by_springs: Vec<String>,
     /// Per-pose errors.
     pub per_pose: Vec<PoseError>,
     /// Per-row measured and predicted displacements.
@@ -181,6 +187,34 @@ pub struct Diagnosis {
     pub n_test: usize,
     /// False discovery rate used.
     pub fdr: f64,
+}
+
+/// The tests behind [`Diagnosis::unexplained`].
+#[derive(Debug, Clone, Serialize)]
+pub struct Verdict {
+    /// F test of the extended model against the flexible alternative (the extended model
+    /// plus every spring and every block of [`Alternative`](super::candidates::Alternative)),
+    /// with the alternative's residual variance as denominator: it needs no noise level.
+    pub lack_of_fit: FTest,
+    /// χ² test of the extended model's whitened SSE, only when the noise level was given.
+    pub goodness_of_fit: Option<stiffness_core::engine::ChiSquareTest>,
+    /// The level the verdict's tests were decided at.
+    pub alpha: f64,
+    /// Each block of the alternative tested alone against the extended model.
+    pub blocks: Vec<BlockTest>,
+    /// What remains, in words (`None` when nothing does).
+    pub remaining: Option<String>,
+}
+
+/// One block of the lack-of-fit alternative tested against the extended model.
+#[derive(Debug, Clone, Serialize)]
+pub struct BlockTest {
+    /// Block name, e.g. `linear_in_wrench`.
+    pub block: String,
+    /// Its nested F test.
+    pub f_test: FTest,
+    /// What structure in this block means.
+    pub meaning: String,
 }
 
 impl Diagnosis {

@@ -14,7 +14,7 @@
 
 use faer::{Mat, Side};
 
-use super::accumulator::TriangularFactor;
+use super::TriangularFactor;
 use crate::error::VjmError;
 
 /// The triangular factor R (p×p, RᵀR = G) of the p×p row-major symmetric Gram matrix
@@ -71,5 +71,5 @@ pub fn factor_from_gram(p: usize, gram: &[f64], rows: usize) -> Result<Triangula
             out[i * p + j] = r[(i, j)] * scale[j];
         }
     }
-    TriangularFactor::from_upper(p, out, rows)
+    Ok(TriangularFactor::from_upper(p, out, rows)?)
 }

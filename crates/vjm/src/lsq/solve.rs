@@ -16,12 +16,12 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::accumulator::TriangularFactor;
 use super::nnls::nnls;
+use super::TriangularFactor;
 use crate::error::VjmError;
 
-/// Default of [`SolveOptions::zero_column_rtol`].
-pub const ZERO_COLUMN_RTOL: f64 = 1e-12;
+/// Default of [`SolveOptions::zero_column_rtol`]: the workspace's one zero-column rule.
+pub use stiffness_core::engine::ZERO_COLUMN_RTOL;
 
 /// Options of the rank-revealing solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -415,7 +415,7 @@ pub fn dense_factor(
             out[i * p + j] = r[(i, j)];
         }
     }
-    TriangularFactor::from_upper(p, out, rows)
+    Ok(TriangularFactor::from_upper(p, out, rows)?)
 }
 
 fn check_options(opts: &SolveOptions) -> Result<(), VjmError> {

@@ -191,6 +191,16 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 }
                 None
             }
+            Effect::SensorCrosstalk { coupling } => {
+                if !(coupling.is_finite() && coupling.abs() <= 0.5) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "sensor cross-talk coupling must be finite and within ±0.5, got {coupling}"
+                        ),
+                    });
+                }
+                None
+            }
             Effect::PoseDrift { sigma } => {
                 if !(sigma.is_finite() && *sigma >= 0.0) {
                     return Err(TestbedError::InvalidTruth {

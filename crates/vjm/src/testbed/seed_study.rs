@@ -11,8 +11,8 @@ use super::truth::TrueModel;
 use super::TestbedError;
 use crate::chain::SerialChain;
 use crate::diagnose::candidates::{spring_column, RowKinematics};
-use crate::diagnose::linalg::solve_columns;
 use crate::testbed::kinematics::deflected_pose;
+use stiffness_core::engine::basis::solve_columns;
 
 /// Table I of the seed, degrees: rows 1–8 identification, 9–13 verification.
 pub const SEED_TABLE_I_DEG: [[f64; 7]; 13] = [
@@ -171,6 +171,7 @@ pub fn seed_study(
                 displacement: data.displacement(i),
                 tip: [pose.tip.x, pose.tip.y, pose.tip.z],
                 tau_sigma: Vec::new(),
+                tip_rotation: nalgebra::Matrix3::identity(),
             }
         })
         .collect();

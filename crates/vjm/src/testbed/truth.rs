@@ -10,8 +10,9 @@ use super::outside::{mount_motion, moved_by_mount, tool_axial_displacement};
 use crate::chain::SerialChain;
 use crate::model::SpringAxis;
 
-/// One effect carried by a [`TrueModel`]. Joints are 0-based (base → tip), as in
-/// [`crate::model::Spring`].
+/// One effect carried by a [`TrueModel`]. Joints are 0-based (base → tip) in Rust, as in
+/// [`crate::model::Spring`], and 1-based in the serialised form (`truth.json`), like every file
+/// and output of the project.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "effect", rename_all = "snake_case")]
 #[non_exhaustive]
@@ -19,7 +20,8 @@ pub enum Effect {
     /// A tilting spring of compliance `compliance` (rad/(N·m)) at `joint` about `axis`
     /// (`X` or `Y`, see docs/conventions.md); added to the spring's linear compliance.
     JointTilt {
-        /// 0-based joint.
+        /// 0-based joint (written 1-based).
+        #[serde(serialize_with = "one_based")]
         joint: usize,
         /// `X` or `Y`.
         axis: SpringAxis,
@@ -30,7 +32,8 @@ pub enum Effect {
     /// compliance.
     #[serde(rename = "joint_torsion_nonlinear")]
     TorsionNonlinear {
-        /// 0-based joint.
+        /// 0-based joint (written 1-based).
+        #[serde(serialize_with = "one_based")]
         joint: usize,
         /// The torque → deflection curve.
         spring: HarmonicDriveSpring,
@@ -38,7 +41,8 @@ pub enum Effect {
     /// Lost motion: the joint moves an extra `½·lost_motion·sign(τ)` (rad) under load.
     #[serde(rename = "joint_backlash")]
     Backlash {
-        /// 0-based joint.
+        /// 0-based joint (written 1-based).
+        #[serde(serialize_with = "one_based")]
         joint: usize,
         /// Full dead-band width b, rad.
         lost_motion: f64,
@@ -81,6 +85,19 @@ pub enum Effect {
         /// Axial compliance 1/k_tool, m/N.
         compliance: f64,
     },
+    /// Not in the diagnosis catalogue: the force sensor's cross-axis sensitivity (a
+    /// calibration error). The recorded force is the applied one plus `coupling` times the
+    /// applied force cycled through the axes: `f_rec = f + c·(f_z, f_x, f_y)`; the moments are
+    /// recorded exactly.
+    SensorCrosstalk {
+        /// Cross-axis sensitivity c (1 = 100 %).
+        coupling: f64,
+    },
+}
+
+/// Writes a 0-based joint index as the 1-based number files and outputs use.
+fn one_based<S: serde::Serializer>(joint: &usize, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_u64(*joint as u64 + 1)
 }
 
 /// A true robot for the testbed: linear compliances of all 3n virtual springs (joint-major,
@@ -258,6 +275,11 @@ impl TrueModel {
                     for k in 0..6 {
                         wm[k] += bias[k];
                     }
+                }
+                Effect::SensorCrosstalk { coupling } => {
+                    wm[0] += coupling * wrench[2];
+                    wm[1] += coupling * wrench[0];
+                    wm[2] += coupling * wrench[1];
                 }
                 _ => {}
             }

@@ -10,6 +10,7 @@ use vjm::diagnose::stats::{
 };
 use vjm::diagnose::{
     detectability, diagnose, diagnose_with_progress, DiagnoseError, DiagnoseOptions,
+    NoiseAssumption,
 };
 use vjm::testbed::{
     simulate, Campaign, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel, NOMINAL_TORSION,
@@ -588,4 +589,80 @@ fn cluster_robust_wald_matches_hand_computation() {
         1
     )
     .is_none());
+}
+
+#[test]
+fn the_default_noise_assumption_is_the_testbeds_instruments() {
+    // The diagnosis no longer imports the testbed; its default must still be its instruments.
+    let t = vjm::testbed::TrackerNoise::default();
+    let d = NoiseAssumption::default();
+    assert_eq!(
+        d.displacement_sigma,
+        t.displacement_sigma([0.0, 0.0, t.position[2]])
+    );
+    assert_eq!(
+        d.wrench_sigma,
+        vjm::testbed::ForceSensorNoise::default().sigma()
+    );
+}
+
+#[test]
+fn a_bad_noise_level_is_refused_naming_it() {
+    let chain = SerialChain::bundled();
+    let c = simulate(&chain, &TrueModel::nominal(7), &spec(1)).unwrap();
+    let cases: [(f64, f64, f64, &str); 5] = [
+        (-1e-5, 0.5, 0.05, "tracker_sigma"),
+        (f64::NAN, 0.5, 0.05, "tracker_sigma"),
+        (0.0, 0.5, 0.05, "tracker_sigma"),
+        (2e-5, f64::INFINITY, 0.05, "force_sigma"),
+        (2e-5, 0.5, -0.05, "moment_sigma"),
+    ];
+    for (d, f, m, name) in cases {
+        let opts = DiagnoseOptions {
+            noise: NoiseAssumption {
+                displacement_sigma: d,
+                wrench_sigma: [f, f, f, m, m, m],
+            },
+            noise_known: true,
+            ..Default::default()
+        };
+        let err = diagnose(&chain, &c.dataset, &opts).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains(name) && !text.contains('\n'), "{text}");
+    }
+}
+
+#[test]
+fn the_goodness_of_fit_needs_the_true_noise_and_the_lack_of_fit_does_not() {
+    // Clean data: with the true noise the χ²/df is ≈ 1 and nothing is flagged; with a noise
+    // level stated 3× too small the χ² test rejects (unexplained, in words about the noise),
+    // while the lack-of-fit test, which needs no noise level, stays quiet either way.
+    let chain = SerialChain::bundled();
+    let c = simulate(&chain, &TrueModel::nominal(7), &spec(2)).unwrap();
+    let truth = NoiseAssumption::default();
+    let known = |scale: f64| DiagnoseOptions {
+        noise: NoiseAssumption {
+            displacement_sigma: truth.displacement_sigma * scale,
+            wrench_sigma: truth.wrench_sigma.map(|s| s * scale),
+        },
+        noise_known: true,
+        ..Default::default()
+    };
+    let right = diagnose(&chain, &c.dataset, &known(1.0)).unwrap();
+    let g = right.verdict.goodness_of_fit.unwrap();
+    assert!((0.8..1.2).contains(&g.ratio), "{g:?}");
+    assert!(!right.unexplained);
+    let wrong = diagnose(&chain, &c.dataset, &known(1.0 / 3.0)).unwrap();
+    let g = wrong.verdict.goodness_of_fit.unwrap();
+    assert!((7.0..11.0).contains(&g.ratio), "{g:?}");
+    assert!(wrong.unexplained);
+    assert!(wrong
+        .verdict
+        .remaining
+        .as_deref()
+        .unwrap()
+        .contains("noise"));
+    assert!(wrong.verdict.lack_of_fit.p_value > 0.01);
+    let unknown = diagnose(&chain, &c.dataset, &DiagnoseOptions::default()).unwrap();
+    assert!(unknown.verdict.goodness_of_fit.is_none() && !unknown.unexplained);
 }

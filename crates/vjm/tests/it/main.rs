@@ -21,3 +21,4 @@ mod dataset;
 mod diagnose;
 mod outside;
 mod testbed;
+mod truth_file;

@@ -9,6 +9,8 @@
 //! row sets merge by folding one's R into the other ([`TriangularAccumulator::merge`]),
 //! which is how per-thread factors are combined.
 
+use super::ShapeMismatch;
+
 /// Rows buffered before a fold. 64 rows × 22 columns is 11 KiB: the block stays in L1.
 pub const BLOCK_ROWS: usize = 64;
 
@@ -16,7 +18,7 @@ pub const BLOCK_ROWS: usize = 64;
 /// of a matrix given row by row, with memory independent of the number of rows.
 ///
 /// ```
-/// use vjm::lsq::TriangularAccumulator;
+/// use stiffness_core::lsq::TriangularAccumulator;
 /// let mut acc = TriangularAccumulator::new(2);
 /// for i in 0..100 {
 ///     let x = i as f64;
@@ -48,9 +50,9 @@ pub struct TriangularFactor {
 impl TriangularFactor {
     /// Builds a factor from a p×p upper-triangular row-major R (entries below the diagonal
     /// are ignored) that summarises `rows` rows.
-    pub fn from_upper(p: usize, r: Vec<f64>, rows: usize) -> Result<Self, crate::VjmError> {
+    pub fn from_upper(p: usize, r: Vec<f64>, rows: usize) -> Result<Self, ShapeMismatch> {
         if r.len() != p * p {
-            return Err(crate::VjmError::ShapeMismatch {
+            return Err(ShapeMismatch {
                 what: "triangular factor (p·p)",
                 expected: p * p,
                 got: r.len(),
@@ -115,9 +117,9 @@ impl TriangularAccumulator {
     }
 
     /// Appends one row of p values.
-    pub fn push_row(&mut self, row: &[f64]) -> Result<(), crate::VjmError> {
+    pub fn push_row(&mut self, row: &[f64]) -> Result<(), ShapeMismatch> {
         if row.len() != self.p {
-            return Err(crate::VjmError::ShapeMismatch {
+            return Err(ShapeMismatch {
                 what: "accumulator row",
                 expected: self.p,
                 got: row.len(),
@@ -127,8 +129,10 @@ impl TriangularAccumulator {
         Ok(())
     }
 
+    /// Appends one row of exactly p values without a length check (the caller guarantees
+    /// it; a short row panics on indexing).
     #[inline]
-    pub(crate) fn push_row_unchecked(&mut self, row: &[f64]) {
+    pub fn push_row_unchecked(&mut self, row: &[f64]) {
         for (k, &v) in row.iter().enumerate() {
             self.block[k * BLOCK_ROWS + self.filled] = v;
         }
@@ -142,7 +146,7 @@ impl TriangularAccumulator {
     /// Appends a row given as a scaled product `scale · a[k] · b[k]` for k < p − 1 and
     /// `scale · rhs` last: the regressor's row shape, written without a temporary.
     #[inline]
-    pub(crate) fn push_product_row(
+    pub fn push_product_row(
         &mut self,
         scale: f64,
         a: impl Iterator<Item = f64>,
@@ -199,9 +203,9 @@ impl TriangularAccumulator {
     }
 
     /// Merges the factor of another, disjoint set of rows (e.g. another thread's).
-    pub fn merge(&mut self, mut other: TriangularAccumulator) -> Result<(), crate::VjmError> {
+    pub fn merge(&mut self, mut other: TriangularAccumulator) -> Result<(), ShapeMismatch> {
         if other.p != self.p {
-            return Err(crate::VjmError::ShapeMismatch {
+            return Err(ShapeMismatch {
                 what: "merged accumulator columns",
                 expected: self.p,
                 got: other.p,

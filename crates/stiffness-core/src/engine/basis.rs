@@ -1,14 +1,27 @@
-//! Small dense least-squares kernels for the diagnosis: an incrementally grown orthonormal basis
-//! of the model's (whitened) columns, used to score many candidate column blocks cheaply, and a
-//! rank-revealing SVD solve for the final coefficients.
+//! Small dense least-squares kernels of the selection: an incrementally grown orthonormal basis
+//! of the model's columns, used to score many candidate column blocks cheaply, and a
+//! rank-revealing SVD solve for the coefficients.
 //!
-//! Columns are stored as `Vec<f64>` of length n (whitened observations).
+//! Columns are `Vec<f64>`. The engine feeds them the columns of the compressed factor R
+//! (length P, [`super::Compressed`]) rather than the whitened columns over all rows (length
+//! 3N): since `Z = Q R` with Q orthonormal, every inner product, projection, rank decision and
+//! least-squares solution is the same, and the cost no longer depends on N.
+//!
+//! The rank policy of the diagnosis lives here, once: a column whose norm is below
+//! [`ZERO_COLUMN_RTOL`] of the largest is not in the data; a column whose part outside a basis
+//! is below [`RANK_TOL`] of its own norm is in the basis's span; singular values of the
+//! column-scaled design below `RANK_TOL·σ_max` are zero.
 
 use nalgebra::{DMatrix, DVector};
 
 /// Relative tolerance under which a column's part orthogonal to the basis is treated as zero
 /// (the column lies in the span of the model: not testable on these data).
 pub const RANK_TOL: f64 = 1e-7;
+
+/// Columns whose norm is below this fraction of the largest column norm are exactly zero (the
+/// parameter does not enter the data; e.g. a torsion about an axis through the tip point, whose
+/// column is ~1e-17 of rounding). The identification solver uses the same value.
+pub const ZERO_COLUMN_RTOL: f64 = 1e-12;
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -142,7 +155,7 @@ pub struct ColumnSolution {
 
 /// Minimum-norm least-squares solution of `X β ≈ y` with `X` given by columns, through a
 /// thin SVD of the column-scaled design with singular values below `RANK_TOL · σ_max`
-/// discarded. Columns whose norm is below [`crate::lsq::ZERO_COLUMN_RTOL`] of the largest
+/// discarded. Columns whose norm is below [`ZERO_COLUMN_RTOL`] of the largest
 /// are left out (the same rule as the identification solver): scaling them to unit norm
 /// would turn rounding into a spurious, huge coefficient.
 pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
@@ -159,7 +172,7 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
     let largest = norms.iter().cloned().fold(0.0, f64::max);
     let in_data: Vec<bool> = norms
         .iter()
-        .map(|&s| s > crate::lsq::ZERO_COLUMN_RTOL * largest && s.is_finite())
+        .map(|&s| s > ZERO_COLUMN_RTOL * largest && s.is_finite())
         .collect();
     // Scale columns to unit norm so the rank tolerance is independent of units; columns not
     // in the data are zeroed.
@@ -175,8 +188,7 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
             0.0
         }
     });
-    let Ok(svd) = stiffness_core::decompose::svd(x, true, true, "SVD of the candidate columns")
-    else {
+    let Ok(svd) = crate::decompose::svd(x, true, true, "SVD of the candidate columns") else {
         // Only non-finite columns fail to converge (the data are finite-checked on entry):
         // nothing is identifiable from them.
         return ColumnSolution {

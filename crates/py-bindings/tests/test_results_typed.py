@@ -1,0 +1,225 @@
+"""Typed diagnosis results: the same classes for the VJM and the CSJM, nothing lost on the way
+from the core, the documented JSON keys, pickling, and joints 1-based in the truth file."""
+
+from __future__ import annotations
+
+import json
+import pickle
+
+import numpy as np
+import pytest
+
+from robot_stiffness import _core, csjm, results, vjm
+from robot_stiffness.results import (
+    Alias,
+    CandidateScore,
+    ConnectionTest,
+    Diagnosis,
+    DisplacementRows,
+    Evidence,
+    Finding,
+    FTest,
+    ModelSummary,
+    MomentRows,
+    Parameter,
+    ResidualStructure,
+)
+from robot_stiffness._vjm_data import _pose_list
+
+# The keys docs/diagnose.md and docs/csjm-diagnose.md document for `diagnose … --json`.
+VJM_KEYS = {"baseline", "findings", "extended", "unexplained", "gain", "residuals", "scores",
+            "rejected_on_holdout", "per_pose", "n_train", "n_test", "fdr"}
+CSJM_KEYS = {"baseline", "findings", "extended", "unexplained", "gain", "connection_term", "residuals",
+             "scores", "rejected_on_holdout", "noise_sigma", "n_train", "n_test", "fdr", "holdout_seed"}
+FINDING_KEYS = {"effect", "joint", "axis", "aliases", "evidence"}
+
+TILT = {"effect": "joint_tilt", "joint": 3, "axis": "x", "compliance": 5e-5}
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return vjm.Robot.bundled()
+
+
+@pytest.fixture(scope="module")
+def campaign(panda):
+    return vjm.simulate(panda, [TILT], n_poses=30, seed=1)
+
+
+@pytest.fixture(scope="module")
+def vjm_core(panda, campaign):
+    """The core's own values for the campaign (what the typed classes are built from)."""
+    m = campaign.measurements
+    return _core.vjm_diagnose(panda._inner, m.q, m.wrench, m.displacement, pose=_pose_list(m.pose), set=m.set)
+
+
+@pytest.fixture(scope="module")
+def vjm_result(panda, campaign):
+    return vjm.diagnose(panda, campaign.measurements)
+
+
+@pytest.fixture(scope="module")
+def csjm_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("csjm") / "c.csv"
+    path.write_text(_core.csjm_simulate([{"effect": "cable_hysteresis", "friction": 2.0}], seed=0)["csv"])
+    return path
+
+
+def _nulls(x):
+    """NaN → None, as the core's JSON writes non-finite numbers."""
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _nulls(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_nulls(v) for v in x]
+    return x
+
+
+def test_vjm_result_is_typed_all_the_way_down(vjm_result):
+    d = vjm_result
+    assert isinstance(d, Diagnosis) and d.model_kind == "vjm"
+    assert isinstance(d.baseline, ModelSummary) and isinstance(d.extended, ModelSummary)
+    assert all(isinstance(p, Parameter) for p in d.baseline.parameters)
+    assert isinstance(d.residuals.baseline, ResidualStructure)
+    assert all(isinstance(s, CandidateScore) for s in d.scores)
+    assert d.findings, "the hidden tilt must be named"
+    f = d.findings[0]
+    assert isinstance(f, Finding) and isinstance(f.evidence, Evidence) and isinstance(f.evidence.f_test, FTest)
+    assert all(isinstance(a, Alias) for a in f.aliases)
+    # Joints are 1-based: the hidden tilt at joint 3 about x is named (or one of its aliases).
+    named = {(f.effect, f.joint, f.axis)} | {(a.effect, a.joint, a.axis) for a in f.aliases}
+    assert ("joint_tilt", 3, "x") in named
+    # CSJM-only fields are absent from a VJM result.
+    assert d.connection_term is None and d.baseline.k is None and d.noise_sigma is None
+
+
+def test_rows_are_numpy_columns(vjm_result, campaign):
+    rows = vjm_result.rows
+    n = len(campaign.measurements)
+    assert isinstance(rows, DisplacementRows) and len(rows) == n
+    assert rows.measured.shape == rows.baseline.shape == rows.extended.shape == (n, 3)
+    # The measured column is the file's displacement (the core's input, not its output).
+    np.testing.assert_array_equal(rows.measured, campaign.measurements.displacement)
+    np.testing.assert_array_equal(rows.held_out, np.array(campaign.measurements.set) == "test")
+    assert rows.pose.dtype == np.int64 and rows.held_out.dtype == np.bool_
+
+
+def test_every_value_the_core_sends_has_a_field(vjm_core, csjm_path):
+    """A field the core gains must be added to results.py (one line): this lists the keys that
+    no dataclass field takes yet."""
+    summary, _ = vjm_core
+    assert results._unmapped_keys(Diagnosis, summary) == []
+    summary, _ = _core.csjm_diagnose_csv(csjm_path)
+    assert results._unmapped_keys(Diagnosis, summary) == []
+
+
+def test_to_dict_is_what_the_core_sent(vjm_core, csjm_path):
+    """Typed and back: the same keys and values as the core's result (nothing dropped, nothing
+    added), for both models."""
+    summary, rows = vjm_core
+    assert _nulls(Diagnosis._from_core("vjm", summary, rows).to_dict()) == summary
+    summary, rows = _core.csjm_diagnose_csv(csjm_path)
+    assert _nulls(Diagnosis._from_core("csjm", summary, rows).to_dict()) == summary
+
+
+def test_vjm_json_keys_and_rows_on_request(vjm_result, campaign):
+    doc = vjm_result.to_dict()
+    assert VJM_KEYS <= set(doc) and "rows" not in doc
+    assert FINDING_KEYS <= set(doc["findings"][0])
+    assert {"model", "n_params", "test_mean_rel_error"} <= set(doc["baseline"])
+    assert "connection_term" not in doc and "k" not in doc["baseline"]
+    full = json.loads(vjm_result.to_json(rows=True))
+    assert len(full["rows"]) == len(campaign.measurements)
+    assert set(full["rows"][0]) == {"pose", "set", "measured", "baseline", "extended"}
+    assert full["rows"][0]["measured"] == campaign.measurements.displacement[0].tolist()
+
+
+def test_csjm_uses_the_same_classes(csjm_path):
+    d = csjm.diagnose(csjm_path)
+    assert isinstance(d, Diagnosis) and d.model_kind == "csjm"
+    assert isinstance(d.rows, MomentRows) and d.rows.dzeta.shape == (len(d.rows), 3)
+    assert isinstance(d.connection_term, ConnectionTest)
+    assert isinstance(d.baseline, ModelSummary) and np.shape(d.baseline.k) == (3, 3)
+    assert all(isinstance(f, Finding) for f in d.findings)
+    assert "cable_hysteresis" in [f.effect for f in d.findings]
+    doc = d.to_dict()
+    assert CSJM_KEYS <= set(doc) and "rows" not in doc and "per_pose" not in doc
+    assert "lambda" in doc["connection_term"] and "lambda_" not in doc["connection_term"]
+    assert d.per_pose is None
+
+
+def test_results_pickle(vjm_result, csjm_path):
+    for d in (vjm_result, csjm.diagnose(csjm_path)):
+        back = pickle.loads(pickle.dumps(d))
+        assert back == d
+        assert back.to_dict() == d.to_dict() and back.rows == d.rows
+        assert type(back.findings[0]) is Finding
+
+
+def test_dict_access_of_earlier_versions_still_works(vjm_result):
+    d = vjm_result
+    assert d["findings"][0]["effect"] == d.findings[0].effect
+    assert d["baseline"]["model"] == "traditional"
+    assert d.findings[0].get("joint") == d.findings[0].joint
+    assert len(d["rows"]) == len(d.rows)
+    with pytest.raises(KeyError):
+        d["no_such_key"]
+
+
+def test_a_dict_result_reads_back_as_the_same_diagnosis(vjm_result):
+    back = Diagnosis._from_dict(vjm_result.to_dict(rows=True))
+    assert back == vjm_result and back.rows == vjm_result.rows
+
+
+def test_truth_counts_joints_from_one(panda, campaign, tmp_path):
+    # The truth of a campaign names the joint the user gave (1-based), in Python and in the
+    # CLI's truth.json.
+    assert campaign.truth["effects"][0]["joint"] == 3
+    from robot_stiffness.cli import main
+
+    code = main(["simulate", "vjm", str(tmp_path / "c.csv"), "--poses", "4", "--effect",
+                 "joint_backlash:joint=7,lost_motion=2e-4", "--truth", str(tmp_path / "t.json")])
+    assert code == 0
+    truth = json.loads((tmp_path / "t.json").read_text())["truth"]
+    assert truth["effects"] == [{"effect": "joint_backlash", "joint": 7, "lost_motion": 2e-4}]
+
+
+def test_csjm_fit_is_typed_and_pickles(csjm_path):
+    fit = csjm.identify_csv(csjm_path, order=2)
+    core = _core.csjm_identify_csv(csjm_path, order=2)
+    assert not hasattr(fit, "raw")
+    assert fit.to_dict()["regressor_condition"] == core["regressor_condition"]
+    assert fit.dof == core["dof"] and fit.curvature is not None and fit.curvature.shape == (3, 3, 3)
+    back = pickle.loads(pickle.dumps(fit))
+    np.testing.assert_array_equal(back.K, fit.K)
+    assert back.to_dict() == fit.to_dict()
+
+
+def test_identification_is_typed_and_covers_the_core(panda, campaign):
+    from robot_stiffness.vjm import IdentifiedParameter, _CoreIdentification
+
+    m = campaign.measurements
+    core, _ = panda._identify(m.q, m.wrench, m.displacement, "extended", None, None, False, False, False,
+                              "auto", None, False)
+    assert results._unmapped_keys(_CoreIdentification, core) == []
+    res = panda.identify(m.q, m.wrench, m.displacement, model="extended")
+    assert not hasattr(res, "raw")
+    assert all(isinstance(p, IdentifiedParameter) for p in res.parameters)
+    assert [p.label for p in res.parameters] == res.labels and res.labels[:3] == ["J1z", "J1x", "J1y"]
+    doc = res.to_dict()
+    # The JSON of `identify vjm --json` is the core's own values, reorganised as documented.
+    assert [p["compliance"] for p in doc["parameters"]] == core["compliance"]
+    assert doc["combinations"] == core["combinations"] and doc["aliases"] == core["alias_labels"]
+
+
+def test_results_with_undefined_statistics_equal_their_copies(vjm_result):
+    import dataclasses
+
+    f = vjm_result.findings[0]
+    undefined = dataclasses.replace(f.evidence.f_test, p_value=float("nan"))
+    d = dataclasses.replace(vjm_result, gain=float("nan"), findings=[
+        dataclasses.replace(f, evidence=dataclasses.replace(f.evidence, f_test=undefined))])
+    assert pickle.loads(pickle.dumps(d)) == d
+    assert d != vjm_result  # and a real difference is still one
+    assert dataclasses.replace(d, gain=0.5) != d

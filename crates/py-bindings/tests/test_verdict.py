@@ -1,0 +1,93 @@
+"""The verdict behind ``unexplained`` through Python and the CLI: noise levels given or not, bad
+levels refused in one line, the words and the typed classes."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from conftest import listing, run_cli
+from robot_stiffness import vjm
+from robot_stiffness.results import BlockTest, Verdict
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("clean")
+    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "30", "--seed", "5"], cwd=d)
+    assert proc.returncode == 0, proc.stderr
+    return d / "c.csv"
+
+
+@pytest.fixture(scope="module")
+def drift(tmp_path_factory) -> Path:
+    # A 0.2 mm offset per pose is outside the catalogue: the verdict must say so.
+    d = tmp_path_factory.mktemp("drift")
+    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "30", "--seed", "5",
+                    "--effect", "pose_drift:sigma=2e-4"], cwd=d)
+    assert proc.returncode == 0, proc.stderr
+    return d / "c.csv"
+
+
+def test_clean_data_have_no_verdict_and_a_typed_one(clean):
+    robot = vjm.Robot.bundled()
+    d = vjm.diagnose(robot, str(clean))
+    assert not d.unexplained and not d.findings
+    assert isinstance(d.verdict, Verdict)
+    assert d.verdict.goodness_of_fit is None  # no noise level given
+    assert d.verdict.remaining is None
+    assert {b.block for b in d.verdict.blocks} == {"linear_in_wrench", "tool_frame", "pose_offsets", "springs"}
+    assert all(isinstance(b, BlockTest) for b in d.verdict.blocks)
+    assert d.verdict.lack_of_fit.p_value > 0.01
+
+
+def test_a_given_noise_level_adds_the_goodness_of_fit(clean):
+    robot = vjm.Robot.bundled()
+    # The testbed's instruments: ≈ 21 µm tracker, 0.5 N and 0.05 N·m.
+    d = vjm.diagnose(robot, str(clean), tracker_sigma=2.1213e-5, force_sigma=0.5, moment_sigma=0.05)
+    g = d.verdict.goodness_of_fit
+    assert g is not None and g.df > 0
+    assert 0.8 < g.ratio < 1.2, g  # χ²/df ≈ 1 with the true noise
+    assert not d.unexplained
+    # A noise level 3× too small makes χ²/df ≈ 9: the goodness of fit rejects.
+    d = vjm.diagnose(robot, str(clean), tracker_sigma=2.1213e-5 / 3, force_sigma=0.5 / 3, moment_sigma=0.05 / 3)
+    assert d.verdict.goodness_of_fit is not None and d.verdict.goodness_of_fit.ratio > 5
+    assert d.unexplained
+    assert "noise" in (d.verdict.remaining or "")
+
+
+def test_pose_drift_is_unexplained_in_words(drift):
+    d = vjm.diagnose(vjm.Robot.bundled(), str(drift))
+    assert d.unexplained
+    assert "pose_offsets" in (d.verdict.remaining or ""), d.verdict.remaining
+    j = json.loads(d.to_json())
+    assert j["verdict"]["lack_of_fit"]["p_value"] < 1e-6
+
+
+@pytest.mark.parametrize("flag,value,message", [
+    ("--tracker-sigma", "-1e-5", "must be positive"),
+    ("--tracker-sigma", "nan", "--tracker-sigma"),
+    ("--force-sigma", "-0.5", "must be zero or positive"),
+    ("--moment-sigma", "inf", "--moment-sigma"),
+])
+def test_a_bad_noise_level_is_one_line_and_writes_nothing(clean, tmp_path, flag, value, message):
+    before = listing(tmp_path)
+    proc = run_cli(["diagnose", "vjm", str(clean), f"{flag}={value}", "--json", "d.json"], cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert any(message in line for line in lines), proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert listing(tmp_path) == before
+
+
+@pytest.mark.parametrize("kwargs,name", [
+    ({"tracker_sigma": -1e-5}, "tracker_sigma"),
+    ({"tracker_sigma": float("nan")}, "tracker_sigma"),
+    ({"force_sigma": float("inf")}, "force_sigma"),
+    ({"moment_sigma": -0.1}, "moment_sigma"),
+])
+def test_a_bad_noise_level_in_python_names_it(clean, kwargs, name):
+    with pytest.raises(ValueError) as e:
+        vjm.diagnose(vjm.Robot.bundled(), str(clean), **kwargs)
+    assert name in str(e.value) and "\n" not in str(e.value)

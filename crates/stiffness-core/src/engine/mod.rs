@@ -1,0 +1,65 @@
+//! The diagnosis engine shared by the serial-arm (VJM) and the cable-joint (CSJM) models.
+//!
+//! A model supplies a [`Problem`]: its terms (groups of columns of one whitened design), a
+//! pass over its rows that compresses the design at a linearisation point, and the
+//! re-linearisation of bilinear terms. The engine does the rest, identically for both models:
+//!
+//! 1. [`compressed`]: the design `Z = [model | candidates | alternatives | y]` is reduced to
+//!    its R factors over the training and held-out rows in one streaming pass (TSQR), so
+//!    memory and the cost of every decision are independent of the number of rows;
+//! 2. [`fit`]: rank-revealing fits of any subset of terms, nested F scores, hold-out SSEs and
+//!    cluster-robust Wald tests, all on the P×P factors;
+//! 3. [`select`](select::select): forward selection with Benjamini–Hochberg, hold-out
+//!    confirmation and alias tests;
+//! 4. [`verdict`]: lack of fit against a flexible alternative (no noise level needed) and,
+//!    when the noise is known, goodness of fit.
+//!
+//! The design is `docs/design/diagnose-engine.md`.
+
+pub mod basis;
+pub mod compressed;
+pub mod fit;
+pub mod select;
+pub mod verdict;
+
+use std::sync::Arc;
+
+pub use basis::{RANK_TOL, ZERO_COLUMN_RTOL};
+pub use compressed::{Compressed, CompressedAccumulator, RowSet};
+pub use fit::{Fit, Score};
+pub use select::{select, AliasOf, SelectOptions, Selected, Selection, SelectionEvidence};
+pub use verdict::{goodness_of_fit, nested_test, ChiSquareTest};
+
+use crate::{Cancel, Cancelled};
+
+/// What a model supplies to the engine.
+pub trait Problem {
+    /// A term of a model: a named group of columns of the compressed design.
+    type Term: Copy + Eq + std::fmt::Debug;
+    /// The point at which bilinear terms' columns (and the whitening) are evaluated.
+    type Lin: Clone;
+
+    /// The columns of `term` in the compressed design.
+    fn columns(&self, term: Self::Term) -> std::ops::Range<usize>;
+    /// The observation column `y` of the compressed design.
+    fn observation_column(&self) -> usize;
+    /// Whether `term`'s columns depend on the linearisation point.
+    fn bilinear(&self, term: Self::Term) -> bool;
+    /// One pass over the rows: the design compressed at `lin` (implementations may cache).
+    fn compress(&self, lin: &Self::Lin) -> Result<Arc<Compressed>, Cancelled>;
+    /// The linearisation point of a fit of `terms` with coefficients `coef`.
+    fn relinearise(&self, terms: &[Self::Term], coef: &[f64]) -> Self::Lin;
+    /// Per cluster (VJM: pose), the score sum `s_g = Σ_{i∈g} x_i r_i` over the training
+    /// observations of `fit`'s whitened columns `x_i` and residuals `r_i` (one pass).
+    fn cluster_sums(&self, fit: &Fit<Self::Term, Self::Lin>) -> Result<Vec<Vec<f64>>, Cancelled>;
+    /// Terms that must be in the model for `cand` to be accepted: a candidate whose F test
+    /// given them has p above the alias level is not a finding (the data cannot tell it from
+    /// those terms). VJM: a mount compliance must stand against every joint spring, since a
+    /// few springs missing from the model can mimic it. Default: none.
+    fn guard(&self, cand: Self::Term) -> Vec<Self::Term> {
+        let _ = cand;
+        Vec::new()
+    }
+    /// The token every loop of the engine polls.
+    fn cancel(&self) -> &Cancel;
+}

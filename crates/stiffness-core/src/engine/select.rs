@@ -1,0 +1,251 @@
+//! Forward selection: candidate scoring → Benjamini–Hochberg → hold-out confirmation →
+//! aliases → refit, repeated until nothing significant is left.
+
+use super::basis::cosine;
+use super::compressed::RowSet;
+use super::fit::{cluster_robust, fit, score, score_given, sse, Fit, Score};
+use super::Problem;
+use crate::stats::{benjamini_hochberg, FTest};
+use crate::{Cancelled, Progress};
+
+/// Options of [`select`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SelectOptions {
+    /// False discovery rate of the Benjamini–Hochberg step.
+    pub fdr: f64,
+    /// Most findings to name.
+    pub max_findings: usize,
+    /// |cos| at or above which two one-column candidates are aliases.
+    pub alias_cosine: f64,
+    /// A significant candidate b is an alias of a finding a when, with b in the model, the F
+    /// test of a has p above this level.
+    pub alias_alpha: f64,
+}
+
+/// A candidate the data cannot tell apart from a finding.
+#[derive(Debug, Clone)]
+pub struct AliasOf<T> {
+    /// The alias.
+    pub cand: T,
+    /// |cos| of the one-column candidates' parts outside the model (None otherwise).
+    pub cosine: Option<f64>,
+    /// (SSE with the alias − SSE with the finding)/σ̂² in the scoring step.
+    pub delta_chi2: f64,
+    /// p of the finding's F test with the alias in the model (0 when not computed).
+    pub p_finding_given_alias: f64,
+}
+
+/// The statistics that made a candidate a finding.
+#[derive(Debug, Clone)]
+pub struct SelectionEvidence {
+    /// Selection step (1 = first).
+    pub step: usize,
+    /// Nested F test against the model of that step.
+    pub f_test: FTest,
+    /// Testable candidates in the step's family.
+    pub n_candidates: usize,
+    /// The Benjamini–Hochberg threshold of its rank.
+    pub bh_threshold: f64,
+    /// 1 − SSE_full/SSE_reduced on the training rows.
+    pub sse_reduction: f64,
+    /// Cluster-robust Wald test of its coefficients in the trial fit.
+    pub cluster_robust: Option<FTest>,
+    /// Held-out SSE before and after adding it.
+    pub heldout_sse_before: f64,
+    /// Held-out SSE after adding it.
+    pub heldout_sse_after: f64,
+}
+
+/// One finding of the selection.
+#[derive(Debug, Clone)]
+pub struct Selected<T> {
+    /// The candidate.
+    pub cand: T,
+    /// Its aliases.
+    pub aliases: Vec<AliasOf<T>>,
+    /// Its evidence.
+    pub evidence: SelectionEvidence,
+}
+
+/// The outcome of [`select`].
+#[derive(Debug, Clone)]
+pub struct Selection<T, L> {
+    /// Scores of the whole pool against the baseline (the first step's family).
+    pub first_scores: Vec<Score<T>>,
+    /// Findings in order.
+    pub findings: Vec<Selected<T>>,
+    /// Significant candidates that did not lower the held-out SSE.
+    pub rejected_on_holdout: Vec<T>,
+    /// Significant candidates not significant given their [`Problem::guard`] terms.
+    pub explained_by_guard: Vec<T>,
+    /// The model with every finding, as fitted in the last accepted step.
+    pub last: Fit<T, L>,
+    /// Per extra hypothesis of the first step's family: rejected by its Benjamini–Hochberg.
+    pub extra_rejected: Vec<bool>,
+}
+
+/// Forward selection from `base` over `pool`. `extra_p` are further hypotheses of the first
+/// step's family (e.g. the lack-of-fit and goodness-of-fit tests of the baseline), so that on
+/// data with nothing to find the probability of *any* rejection is controlled at `fdr`
+/// (Simes); they never become findings ([`Selection::extra_rejected`] says which the first
+/// step rejected).
+pub fn select<P: Problem>(
+    problem: &P,
+    base: Fit<P::Term, P::Lin>,
+    mut pool: Vec<P::Term>,
+    extra_p: &[f64],
+    opts: &SelectOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Selection<P::Term, P::Lin>, Cancelled> {
+    let cancel = problem.cancel();
+    let first_scores = score(problem, &base, &pool)?;
+    cancel.check()?;
+    let mut extra_rejected = vec![false; extra_p.len()];
+    let mut current = base;
+    let mut findings: Vec<Selected<P::Term>> = Vec::new();
+    let mut rejected_on_holdout = Vec::new();
+    let mut explained_by_guard = Vec::new();
+    let mut scores = first_scores.clone();
+    for step in 1..=opts.max_findings {
+        let testable: Vec<&Score<P::Term>> = scores.iter().filter(|s| s.rank > 0).collect();
+        let mut p: Vec<f64> = testable.iter().map(|s| s.f_test.p_value).collect();
+        if step == 1 {
+            p.extend_from_slice(extra_p);
+        }
+        if p.is_empty() {
+            break;
+        }
+        let rejected = benjamini_hochberg(&p, opts.fdr);
+        if step == 1 {
+            extra_rejected.copy_from_slice(&rejected[testable.len()..]);
+        }
+        let m = p.len();
+        let mut order: Vec<usize> = (0..testable.len()).filter(|&k| rejected[k]).collect();
+        // Most significant first; p-values and F statistics equal to 9 significant digits are
+        // ties (exact aliases, e.g. two tilts about one line, differ only by rounding) and keep
+        // the catalogue's order, so that the named one does not depend on rounding.
+        order.sort_by_key(|&k| {
+            (
+                significant(p[k]),
+                std::cmp::Reverse(significant(testable[k].f_test.f)),
+            )
+        });
+        let mut accepted = None;
+        for &k in &order {
+            cancel.check()?;
+            let s = testable[k];
+            let guard: Vec<P::Term> = problem
+                .guard(s.cand)
+                .into_iter()
+                .filter(|g| !current.terms.contains(g))
+                .collect();
+            if !guard.is_empty() {
+                let given = score_given(problem, &current, &guard, &[s.cand])?;
+                if given[0].rank == 0 || given[0].f_test.p_value > opts.alias_alpha {
+                    explained_by_guard.push(s.cand);
+                    pool.retain(|c| *c != s.cand);
+                    continue;
+                }
+            }
+            let mut terms = current.terms.clone();
+            terms.push(s.cand);
+            let trial = fit(problem, &terms, &current.lin)?;
+            let before = sse(problem, &current, RowSet::Test);
+            let after = sse(problem, &trial, RowSet::Test);
+            if after < before {
+                accepted = Some((k, trial, before, after));
+                break;
+            }
+            rejected_on_holdout.push(s.cand);
+            pool.retain(|c| *c != s.cand);
+        }
+        let Some((k, trial, before, after)) = accepted else {
+            break;
+        };
+        let a = testable[k];
+        let sigma2 = a.sse_full / a.f_test.df_den.max(1.0);
+        // Aliases: significant candidates b such that, once b is in the model, the data no
+        // longer need a (its F test given b has p > alias_alpha), or whose columns are
+        // near-collinear with a's after projecting out the model.
+        let bh_cut = {
+            let mut sorted = p.clone();
+            sorted.sort_by(|x, y| x.total_cmp(y));
+            (0..m)
+                .filter(|&r| sorted[r] <= opts.fdr * (r + 1) as f64 / m as f64)
+                .map(|r| sorted[r])
+                .fold(0.0, f64::max)
+        };
+        let mut aliases = Vec::new();
+        for b in &testable {
+            cancel.check()?;
+            if b.cand == a.cand {
+                continue;
+            }
+            let delta = (b.sse_full - a.sse_full) / sigma2;
+            let one_column = |t: P::Term| problem.columns(t).len() == 1;
+            let cos = (one_column(a.cand) && one_column(b.cand))
+                .then(|| cosine(&a.first_residual, &b.first_residual).abs());
+            let collinear = cos.is_some_and(|c| c >= opts.alias_cosine);
+            let p_given = if b.f_test.p_value <= bh_cut {
+                score_given(problem, &current, &[b.cand], &[a.cand])?[0]
+                    .f_test
+                    .p_value
+            } else {
+                0.0
+            };
+            if collinear || p_given > opts.alias_alpha {
+                aliases.push(AliasOf {
+                    cand: b.cand,
+                    cosine: cos,
+                    delta_chi2: delta,
+                    p_finding_given_alias: p_given,
+                });
+            }
+        }
+        let rank_a = p.iter().filter(|&&v| v <= p[k]).count();
+        let evidence = SelectionEvidence {
+            step,
+            f_test: a.f_test,
+            n_candidates: m,
+            bh_threshold: opts.fdr * rank_a as f64 / m as f64,
+            sse_reduction: 1.0 - a.sse_full / a.sse_reduced,
+            cluster_robust: cluster_robust(problem, &trial, problem.columns(a.cand).len())?,
+            heldout_sse_before: before,
+            heldout_sse_after: after,
+        };
+        pool.retain(|c| *c != a.cand && !aliases.iter().any(|b| b.cand == *c));
+        findings.push(Selected {
+            cand: a.cand,
+            aliases,
+            evidence,
+        });
+        current = trial;
+        progress(Progress {
+            stage: "selection",
+            done: step,
+            total: opts.max_findings,
+        });
+        cancel.check()?;
+        if pool.is_empty() {
+            break;
+        }
+        scores = score(problem, &current, &pool)?;
+        cancel.check()?;
+    }
+    Ok(Selection {
+        first_scores,
+        findings,
+        rejected_on_holdout,
+        explained_by_guard,
+        last: current,
+        extra_rejected,
+    })
+}
+
+/// `x` rounded to 9 significant digits, as an orderable key (0 and non-finite values first).
+fn significant(x: f64) -> i64 {
+    if !(x.is_finite() && x > 0.0) {
+        return i64::MIN;
+    }
+    (x.log10() * 1e8).round() as i64
+}

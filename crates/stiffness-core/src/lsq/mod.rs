@@ -1,0 +1,19 @@
+//! The streaming least-squares factor shared by the identification and the diagnosis: the R of
+//! a tall matrix accumulated block by block (TSQR), mergeable across threads, partitions and
+//! machines.
+
+mod accumulator;
+
+pub use accumulator::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};
+
+/// A slice or factor has the wrong length.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("shape mismatch in {what}: expected {expected} values, got {got}")]
+pub struct ShapeMismatch {
+    /// Which input or output buffer.
+    pub what: &'static str,
+    /// Expected length.
+    pub expected: usize,
+    /// Actual length.
+    pub got: usize,
+}

@@ -1,0 +1,325 @@
+//! The engine against an independent code path: every quantity it computes on the compressed
+//! factors equals the same quantity computed by dense least squares on the explicit rows.
+
+use std::ops::Range;
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, DVector};
+use proptest::prelude::*;
+use stiffness_core::engine::verdict::nested_test_with_block;
+use stiffness_core::engine::{
+    fit::{fit, score, sse},
+    nested_test, select, Compressed, CompressedAccumulator, Fit, Problem, RowSet, SelectOptions,
+};
+use stiffness_core::lsq::TriangularAccumulator;
+use stiffness_core::stats::nested_f_test;
+use stiffness_core::{Cancel, Cancelled};
+
+/// A toy regression: y = 1 + 2t + a·t² + noise, columns [1, t, t², sin 3t, y]; cluster
+/// (group) of row i = i / 5; every 4th group held out.
+struct Toy {
+    t: Vec<f64>,
+    y: Vec<f64>,
+    cancel: Cancel,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum T {
+    Base,
+    Square,
+    Sine,
+}
+
+fn noise(seed: u64, n: usize) -> Vec<f64> {
+    // A seeded sum of 12 uniforms (Irwin–Hall), centred: close enough to N(0, 1) here.
+    let mut s = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (0..n)
+        .map(|_| {
+            (0..12)
+                .map(|_| {
+                    s = s
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (s >> 11) as f64 / (1u64 << 53) as f64
+                })
+                .sum::<f64>()
+                - 6.0
+        })
+        .collect()
+}
+
+impl Toy {
+    fn new(n: usize, a: f64, sigma: f64, seed: u64) -> Self {
+        let t: Vec<f64> = (0..n).map(|i| -1.0 + 2.0 * i as f64 / n as f64).collect();
+        let e = noise(seed, n);
+        let y = t
+            .iter()
+            .zip(&e)
+            .map(|(t, e)| 1.0 + 2.0 * t + a * t * t + sigma * e)
+            .collect();
+        Self {
+            t,
+            y,
+            cancel: Cancel::new(),
+        }
+    }
+    fn row(&self, i: usize) -> [f64; 5] {
+        let t = self.t[i];
+        [1.0, t, t * t, (3.0 * t).sin(), self.y[i]]
+    }
+    fn set(&self, i: usize) -> RowSet {
+        if (i / 5) % 4 == 3 {
+            RowSet::Test
+        } else {
+            RowSet::Train
+        }
+    }
+    fn rows(&self, set: RowSet) -> Vec<usize> {
+        (0..self.t.len()).filter(|&i| self.set(i) == set).collect()
+    }
+    fn accumulate(&self, range: Range<usize>) -> CompressedAccumulator {
+        let mut acc = CompressedAccumulator::new(5);
+        for i in range {
+            acc.push(self.set(i), &self.row(i)).unwrap();
+        }
+        acc
+    }
+}
+
+impl Problem for Toy {
+    type Term = T;
+    type Lin = ();
+    fn columns(&self, term: T) -> Range<usize> {
+        match term {
+            T::Base => 0..2,
+            T::Square => 2..3,
+            T::Sine => 3..4,
+        }
+    }
+    fn observation_column(&self) -> usize {
+        4
+    }
+    fn bilinear(&self, _: T) -> bool {
+        false
+    }
+    fn compress(&self, _: &()) -> Result<Arc<Compressed>, Cancelled> {
+        Ok(Arc::new(self.accumulate(0..self.t.len()).finish()))
+    }
+    fn relinearise(&self, _: &[T], _: &[f64]) {}
+    fn cluster_sums(&self, fit: &Fit<T, ()>) -> Result<Vec<Vec<f64>>, Cancelled> {
+        let cols: Vec<usize> = fit.terms.iter().flat_map(|t| self.columns(*t)).collect();
+        let mut sums: Vec<Vec<f64>> = Vec::new();
+        for i in self.rows(RowSet::Train) {
+            let r = self.row(i);
+            let pred: f64 = cols.iter().zip(&fit.coef).map(|(&c, b)| r[c] * b).sum();
+            let g = i / 5;
+            if sums.len() <= g {
+                sums.resize(g + 1, vec![0.0; cols.len()]);
+            }
+            for (s, &c) in sums[g].iter_mut().zip(&cols) {
+                *s += r[c] * (r[4] - pred);
+            }
+        }
+        Ok(sums
+            .into_iter()
+            .filter(|s| s.iter().any(|v| *v != 0.0))
+            .collect())
+    }
+    fn cancel(&self) -> &Cancel {
+        &self.cancel
+    }
+}
+
+/// Dense least squares of y on `cols` over `rows`: (coefficients, SSE).
+fn dense(toy: &Toy, rows: &[usize], cols: &[usize]) -> (Vec<f64>, f64) {
+    let x = DMatrix::from_fn(rows.len(), cols.len(), |i, j| toy.row(rows[i])[cols[j]]);
+    let y = DVector::from_fn(rows.len(), |i, _| toy.row(rows[i])[4]);
+    let b = x.clone().svd(true, true).solve(&y, 1e-12).unwrap();
+    let r = &y - &x * &b;
+    (b.iter().copied().collect(), r.norm_squared())
+}
+
+fn close(a: f64, b: f64, rtol: f64) -> bool {
+    (a - b).abs() <= rtol * a.abs().max(b.abs()).max(1e-300)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, failure_persistence: None, ..ProptestConfig::default() })]
+
+    #[test]
+    fn fits_on_the_factor_equal_dense_least_squares(n in 40usize..400, a in -1.0f64..1.0, seed in 0u64..1000) {
+        let toy = Toy::new(n, a, 0.05, seed);
+        let train = toy.rows(RowSet::Train);
+        let test = toy.rows(RowSet::Test);
+        let f = fit(&toy, &[T::Base, T::Square], &()).unwrap();
+        let (b, sse_train) = dense(&toy, &train, &[0, 1, 2]);
+        for (x, y) in f.coef.iter().zip(&b) {
+            prop_assert!(close(*x, *y, 1e-9), "{x} vs {y}");
+        }
+        prop_assert!(close(sse(&toy, &f, RowSet::Train), sse_train, 1e-8));
+        // Held-out SSE of the training coefficients, explicitly.
+        let held: f64 = test.iter().map(|&i| {
+            let r = toy.row(i);
+            let p: f64 = (0..3).map(|k| r[k] * b[k]).sum();
+            (r[4] - p).powi(2)
+        }).sum();
+        prop_assert!(close(sse(&toy, &f, RowSet::Test), held, 1e-8));
+        // The nested F test of the sine column given [1, t, t²], against dense fits.
+        let s = score(&toy, &f, &[T::Sine]).unwrap();
+        let (_, sse_full) = dense(&toy, &train, &[0, 1, 2, 3]);
+        let expected = nested_f_test(sse_train, sse_full, 1, train.len() - 4);
+        prop_assert!(close(s[0].f_test.f, expected.f, 1e-6), "{} vs {}", s[0].f_test.f, expected.f);
+        prop_assert!(close(s[0].f_test.p_value, expected.p_value, 1e-6));
+    }
+
+    #[test]
+    fn merging_partitions_in_any_bracketing_gives_the_same_fit(n in 60usize..300, seed in 0u64..1000) {
+        let toy = Toy::new(n, 0.3, 0.05, seed);
+        let (c1, c2) = (n / 3, 2 * n / 3);
+        let mut left = toy.accumulate(0..c1);
+        let mut mid = toy.accumulate(c1..c2);
+        let right = toy.accumulate(c2..n);
+        let mut a = left.clone();
+        let mut m2 = mid.clone();
+        m2.merge(right.clone()).unwrap();
+        a.merge(m2).unwrap(); // a ∘ (b ∘ c)
+        mid.merge(right).unwrap();
+        left.merge(mid).unwrap(); // (a ∘ b) ∘ c, as built
+        let single = toy.accumulate(0..n).finish();
+        for f in [a.finish(), left.finish()] {
+            // R is unique up to the signs of its rows: compare RᵀR.
+            let p = 5;
+            for i in 0..p {
+                for j in 0..p {
+                    let g = |c: &Compressed| -> f64 {
+                        (0..p).map(|k| c.train.r()[k * p + i] * c.train.r()[k * p + j]).sum()
+                    };
+                    prop_assert!(close(g(&f), g(&single), 1e-12) || (g(&f) - g(&single)).abs() < 1e-9);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn selection_names_the_hidden_term_and_nothing_on_clean_data() {
+    let opts = SelectOptions {
+        fdr: 0.01,
+        max_findings: 3,
+        alias_cosine: 0.99,
+        alias_alpha: 0.05,
+    };
+    let toy = Toy::new(400, 0.5, 0.05, 7);
+    let base = fit(&toy, &[T::Base], &()).unwrap();
+    let s = select(
+        &toy,
+        base,
+        vec![T::Square, T::Sine],
+        &[],
+        &opts,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(
+        s.findings.iter().map(|f| f.cand).collect::<Vec<_>>(),
+        vec![T::Square]
+    );
+    assert!(s.findings[0].evidence.heldout_sse_after < s.findings[0].evidence.heldout_sse_before);
+    let clean = Toy::new(400, 0.0, 0.05, 8);
+    let base = fit(&clean, &[T::Base], &()).unwrap();
+    let s = select(
+        &clean,
+        base,
+        vec![T::Square, T::Sine],
+        &[],
+        &opts,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(s.findings.is_empty());
+}
+
+#[test]
+fn the_offset_block_by_its_statistics_equals_explicit_dummy_columns() {
+    // y = 1 + 2t + per-group offsets; the block of one offset per group of 5 training rows,
+    // projected out row by row, against the explicit regression with one dummy per group.
+    let toy = Toy::new(200, 0.0, 0.05, 3);
+    let train = toy.rows(RowSet::Train);
+    let offsets: Vec<f64> = noise(99, 40).iter().map(|v| 0.2 * v).collect();
+    let y = |i: usize| toy.row(i)[4] + offsets[i / 5];
+    let row = |i: usize| {
+        let mut r = toy.row(i);
+        r[4] = y(i);
+        r
+    };
+    let mut full = TriangularAccumulator::new(5);
+    let mut within = TriangularAccumulator::new(5);
+    let groups: Vec<usize> = {
+        let mut g: Vec<usize> = train.iter().map(|i| i / 5).collect();
+        g.dedup();
+        g
+    };
+    for &g in &groups {
+        let rows: Vec<usize> = train.iter().copied().filter(|i| i / 5 == g).collect();
+        let mean: Vec<f64> = (0..5)
+            .map(|k| rows.iter().map(|&i| row(i)[k]).sum::<f64>() / rows.len() as f64)
+            .collect();
+        for &i in &rows {
+            let r = row(i);
+            full.push_row(&r).unwrap();
+            let w: Vec<f64> = (0..5).map(|k| r[k] - mean[k]).collect();
+            within.push_row(&w).unwrap();
+        }
+    }
+    let f = nested_test_with_block(
+        &full.finish(),
+        &[0, 1],
+        4,
+        &within.finish(),
+        &[0, 1, 2],
+        4,
+        groups.len(),
+    );
+    // Explicit: columns [1, t, t², one dummy per group] (the constant is in the dummies' span).
+    let n = train.len();
+    let q = 3 + groups.len();
+    let x = DMatrix::from_fn(n, q, |a, b| {
+        let i = train[a];
+        if b < 3 {
+            toy.row(i)[b]
+        } else {
+            (groups[b - 3] == i / 5) as u8 as f64
+        }
+    });
+    let yv = DVector::from_fn(n, |a, _| y(train[a]));
+    let svd = x.clone().svd(true, true);
+    let rank = svd.rank(1e-9 * svd.singular_values.max());
+    let b = svd.solve(&yv, 1e-12).unwrap();
+    let sse1 = (&yv - &x * &b).norm_squared();
+    let (_, sse0) = {
+        let x0 = DMatrix::from_fn(n, 2, |a, b| toy.row(train[a])[b]);
+        let b0 = x0.clone().svd(true, true).solve(&yv, 1e-12).unwrap();
+        ((), (&yv - &x0 * &b0).norm_squared())
+    };
+    let expected = nested_f_test(sse0, sse1, rank - 2, n - rank);
+    assert_eq!(f.df_num, expected.df_num);
+    assert_eq!(f.df_den, expected.df_den);
+    assert!(close(f.f, expected.f, 1e-8), "{} vs {}", f.f, expected.f);
+    // And the offsets are found: the block is significant.
+    assert!(f.p_value < 1e-10);
+}
+
+#[test]
+fn the_nested_test_of_extra_terms_equals_dense_fits() {
+    let toy = Toy::new(300, 0.4, 0.05, 11);
+    let train = toy.rows(RowSet::Train);
+    let base = fit(&toy, &[T::Base], &()).unwrap();
+    let f = nested_test(&toy, &base, &[T::Square, T::Sine]);
+    let (_, sse0) = dense(&toy, &train, &[0, 1]);
+    let (_, sse1) = dense(&toy, &train, &[0, 1, 2, 3]);
+    let expected = nested_f_test(sse0, sse1, 2, train.len() - 4);
+    assert_eq!(f.df_num, 2.0);
+    assert!(close(f.f, expected.f, 1e-8), "{} vs {}", f.f, expected.f);
+}

@@ -1,0 +1,169 @@
+//! The final pass: what is not a sufficient statistic — mean *relative* errors (a ratio per
+//! row), per-pose errors, the bounded row sample of the residual-structure statistics and, on
+//! request, the per-row predictions — accumulated while streaming the rows, in parallel parts.
+
+use std::ops::Range;
+
+use stiffness_core::engine::Fit;
+use stiffness_core::Cancelled;
+
+use super::candidates::{Linearisation, RowKinematics};
+use super::problem::{Term, VjmProblem};
+use crate::dataset::SetLabel;
+
+/// Sums of relative errors `‖d_pred − d‖/‖d‖` and their counts (rows with ‖d‖ = 0 have no
+/// relative error and are not counted).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RelSum {
+    /// Σ relative errors.
+    pub sum: f64,
+    /// Rows counted.
+    pub count: usize,
+}
+
+impl RelSum {
+    fn add(&mut self, e: Option<f64>) {
+        if let Some(e) = e {
+            self.sum += e;
+            self.count += 1;
+        }
+    }
+    fn merge(&mut self, o: RelSum) {
+        self.sum += o.sum;
+        self.count += o.count;
+    }
+    /// The mean; NaN without rows.
+    pub fn mean(&self) -> f64 {
+        if self.count == 0 {
+            f64::NAN
+        } else {
+            self.sum / self.count as f64
+        }
+    }
+}
+
+/// What one fit's predictions give in the pass.
+#[derive(Debug, Clone)]
+pub struct FitTotals {
+    /// Training rows.
+    pub train: RelSum,
+    /// Held-out rows.
+    pub test: RelSum,
+    /// Per pose group.
+    pub per_pose: Vec<RelSum>,
+    /// Residual of each sampled row (m, base frame), in sample order.
+    pub sample_residuals: Vec<[f64; 3]>,
+    /// Per-row predictions, when asked for.
+    pub predictions: Vec<[f64; 3]>,
+}
+
+/// The output of [`predictions_pass`].
+#[derive(Debug, Clone)]
+pub struct PassOut {
+    /// One entry per fit, in the order given.
+    pub fits: Vec<FitTotals>,
+    /// The sampled training rows' kinematics and per-axis noise (m).
+    pub sample: Vec<(RowKinematics, [f64; 3])>,
+    /// First row of every pose group (for its id and set).
+    pub first_row: Vec<Option<usize>>,
+}
+
+fn rel_error(d: [f64; 3], p: [f64; 3]) -> Option<f64> {
+    let e = ((d[0] - p[0]).powi(2) + (d[1] - p[1]).powi(2) + (d[2] - p[2]).powi(2)).sqrt();
+    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    (n > 0.0).then_some(e / n)
+}
+
+/// Streams every row once at `lin`, predicting with each of `fits` (whose columns must be
+/// those at `lin`). Rows `i` with `i % stride == 0` that are training rows form the sample.
+pub fn predictions_pass(
+    problem: &VjmProblem<'_>,
+    lin: &Linearisation,
+    fits: &[&Fit<Term, Linearisation>],
+    stride: usize,
+    per_row: bool,
+) -> Result<PassOut, Cancelled> {
+    let n = problem.data.len();
+    let n_groups = problem.groups.iter().copied().max().map_or(0, |g| g + 1);
+    let parts: Vec<Range<usize>> = if n < 8192 {
+        std::iter::once(0..n).collect()
+    } else {
+        vec![0..n / 2, n / 2..n]
+    };
+    let all_terms: Vec<Term> = fits.iter().flat_map(|f| f.terms.iter().copied()).collect();
+    let want = problem.mask(&all_terms);
+    let run = |range: Range<usize>| -> Result<PassOut, Cancelled> {
+        let mut out = PassOut {
+            fits: fits
+                .iter()
+                .map(|_| FitTotals {
+                    train: RelSum::default(),
+                    test: RelSum::default(),
+                    per_pose: vec![RelSum::default(); n_groups],
+                    sample_residuals: Vec::new(),
+                    predictions: Vec::new(),
+                })
+                .collect(),
+            sample: Vec::new(),
+            first_row: vec![None; n_groups],
+        };
+        problem.for_each_row_in(lin, range, Some(&want), |i, row, _, sigma, cols| {
+            let g = problem.groups[i];
+            if out.first_row[g].is_none() {
+                out.first_row[g] = Some(i);
+            }
+            let train = problem.labels[i] == SetLabel::Train;
+            let sampled = train && i % stride == 0;
+            if sampled {
+                out.sample.push((row.clone(), *sigma));
+            }
+            let d = row.displacement;
+            for (fit, t) in fits.iter().zip(out.fits.iter_mut()) {
+                let p = problem.predict(fit, cols);
+                let e = rel_error(d, p);
+                if train {
+                    t.train.add(e);
+                } else {
+                    t.test.add(e);
+                }
+                t.per_pose[g].add(e);
+                if sampled {
+                    t.sample_residuals
+                        .push([d[0] - p[0], d[1] - p[1], d[2] - p[2]]);
+                }
+                if per_row {
+                    t.predictions.push(p);
+                }
+            }
+        })?;
+        Ok(out)
+    };
+    let results: Vec<Result<PassOut, Cancelled>> = std::thread::scope(|s| {
+        let handles: Vec<_> = parts.iter().map(|r| s.spawn(|| run(r.clone()))).collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    let mut it = results.into_iter();
+    let mut acc = it.next().expect("at least one part")?;
+    for r in it {
+        let o = r?;
+        for (a, b) in acc.fits.iter_mut().zip(o.fits) {
+            a.train.merge(b.train);
+            a.test.merge(b.test);
+            for (x, y) in a.per_pose.iter_mut().zip(b.per_pose) {
+                x.merge(y);
+            }
+            a.sample_residuals.extend(b.sample_residuals);
+            a.predictions.extend(b.predictions);
+        }
+        acc.sample.extend(o.sample);
+        for (x, y) in acc.first_row.iter_mut().zip(o.first_row) {
+            if x.is_none() {
+                *x = y;
+            }
+        }
+    }
+    Ok(acc)
+}

@@ -1,0 +1,597 @@
+//! The serial arm as a [`Problem`] of the shared diagnosis engine: its terms (springs,
+//! catalogue candidates, lack-of-fit blocks), the whitening of each row, and the pass that
+//! compresses the whitened design.
+
+use std::ops::Range;
+use std::sync::{Arc, Mutex};
+
+use nalgebra::{Matrix3, Matrix6, Vector3};
+use stiffness_core::engine::{Compressed, CompressedAccumulator, Fit, Problem, RowSet};
+use stiffness_core::{Cancel, Cancelled};
+
+use super::candidates::{
+    candidate_columns, compliance_map3x6, spring_column, Alternative, Candidate, Linearisation,
+    RowKinematics,
+};
+use super::rows::RowBuilder;
+use crate::chain::SerialChain;
+use crate::dataset::{Dataset, SetLabel};
+
+/// One term of a model: a linear spring (index into the 3n springs, joint-major `[z, x, y]`),
+/// a catalogue candidate, or a block of the lack-of-fit alternative.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Term {
+    /// A linear virtual spring.
+    Spring(usize),
+    /// A candidate extension.
+    Cand(Candidate),
+    /// A block of the lack-of-fit alternative.
+    Alt(Alternative),
+}
+
+/// Rows polled between two cancellation checks.
+const CANCEL_EVERY: usize = 4096;
+/// Compressed designs kept (one per linearisation point met).
+const CACHE: usize = 16;
+
+/// The noise the whitening assumes: tracker noise plus the force-sensor noise propagated
+/// through the compliance `propagate` (`Σ_i = σ_d² I + G Σ_W Gᵀ`, `G = J_t |C| Jᵀ`).
+#[derive(Debug, Clone)]
+pub struct Whitening {
+    /// Per-axis displacement standard deviation, m.
+    pub displacement_sigma: f64,
+    /// Per-axis wrench standard deviation, N and N·m.
+    pub wrench_sigma: [f64; 6],
+    /// |compliance| (3n) the wrench noise is propagated through.
+    pub propagate_abs: Vec<f64>,
+}
+
+impl Whitening {
+    /// `(L⁻¹, √diag Σ)` for a row, with `Σ = L Lᵀ`.
+    pub fn of(&self, row: &RowKinematics) -> (Matrix3<f64>, [f64; 3]) {
+        let sd = self.displacement_sigma;
+        let mut sigma = Matrix3::identity() * (sd * sd);
+        if self.wrench_sigma.iter().any(|s| *s != 0.0) {
+            let g = compliance_map3x6(row, &self.propagate_abs);
+            let sw = Matrix6::from_diagonal(&nalgebra::Vector6::from_iterator(
+                self.wrench_sigma.iter().map(|s| s * s),
+            ));
+            sigma += g * sw * g.transpose();
+        }
+        let w = match sigma.cholesky() {
+            Some(ch) => ch
+                .l()
+                .try_inverse()
+                .unwrap_or_else(|| Matrix3::identity() / sd),
+            None => Matrix3::identity() / sd,
+        };
+        (
+            w,
+            [
+                sigma[(0, 0)].sqrt(),
+                sigma[(1, 1)].sqrt(),
+                sigma[(2, 2)].sqrt(),
+            ],
+        )
+    }
+}
+
+/// A VJM diagnosis problem: the data, the split, the whitening and the column layout.
+#[derive(Debug)]
+pub struct VjmProblem<'a> {
+    pub(super) chain: &'a SerialChain,
+    pub(super) data: &'a Dataset,
+    pub(super) labels: Vec<SetLabel>,
+    pub(super) groups: Vec<usize>,
+    pub(super) tau_scale: Vec<f64>,
+    pub(super) whitening: Whitening,
+    /// Wrench noise of the backlash candidate's torque expectation (the options' value).
+    pub(super) torque_noise: [f64; 6],
+    /// Candidates with columns of their own (not tilts) and their column ranges.
+    layout: Vec<(Candidate, Range<usize>)>,
+    alternatives: Vec<(Alternative, Range<usize>)>,
+    m: usize,
+    y: usize,
+    cache: Mutex<Vec<(Linearisation, Arc<Compressed>)>>,
+    pub(super) cancel: Cancel,
+}
+
+impl<'a> VjmProblem<'a> {
+    /// The problem for `data` on `chain` with the split `labels` and pose `groups`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        chain: &'a SerialChain,
+        data: &'a Dataset,
+        labels: Vec<SetLabel>,
+        groups: Vec<usize>,
+        tau_scale: Vec<f64>,
+        whitening: Whitening,
+        torque_noise: [f64; 6],
+        cancel: Cancel,
+    ) -> Self {
+        let n = chain.n_joints();
+        let m = 3 * n;
+        let mut next = m;
+        let mut layout = Vec::new();
+        let all = super::candidates::catalogue(&vec![true; m])
+            .into_iter()
+            .chain(super::candidates::catalogue(&vec![false; m]));
+        let mut seen: Vec<Candidate> = Vec::new();
+        for c in all {
+            if matches!(c, Candidate::JointTilt { .. }) || seen.contains(&c) {
+                continue;
+            }
+            seen.push(c);
+            layout.push((c, next..next + c.n_columns()));
+            next += c.n_columns();
+        }
+        let mut alternatives = Vec::new();
+        for a in Alternative::ALL {
+            alternatives.push((a, next..next + a.n_columns()));
+            next += a.n_columns();
+        }
+        Self {
+            chain,
+            data,
+            labels,
+            groups,
+            tau_scale,
+            whitening,
+            torque_noise,
+            layout,
+            alternatives,
+            m,
+            y: next,
+            cache: Mutex::new(Vec::new()),
+            cancel,
+        }
+    }
+
+    /// The same data with another whitening (the cache is not shared).
+    pub fn with_whitening(&self, whitening: Whitening) -> Self {
+        Self {
+            chain: self.chain,
+            data: self.data,
+            labels: self.labels.clone(),
+            groups: self.groups.clone(),
+            tau_scale: self.tau_scale.clone(),
+            whitening,
+            torque_noise: self.torque_noise,
+            layout: self.layout.clone(),
+            alternatives: self.alternatives.clone(),
+            m: self.m,
+            y: self.y,
+            cache: Mutex::new(Vec::new()),
+            cancel: self.cancel.clone(),
+        }
+    }
+
+    /// Number of columns of the compressed design (y included).
+    pub fn ncols(&self) -> usize {
+        self.y + 1
+    }
+
+    /// A row builder for this problem.
+    pub fn builder(&self) -> RowBuilder<'a> {
+        RowBuilder::new(self.chain, self.torque_noise)
+    }
+
+    /// Raw (unwhitened) columns of every term of the layout for one row, in layout order,
+    /// followed by the measured displacement. With `want`, a candidate or block none of whose
+    /// columns is wanted gets zero columns without being computed (the geometric column is
+    /// an iterative solve; the springs are always computed).
+    pub fn raw_columns(
+        &self,
+        builder: &RowBuilder<'_>,
+        row: &RowKinematics,
+        lin: &Linearisation,
+        want: Option<&[bool]>,
+        out: &mut Vec<[f64; 3]>,
+    ) {
+        out.clear();
+        for s in 0..self.m {
+            out.push(spring_column(row, s));
+        }
+        let wanted = |r: &Range<usize>| want.is_none_or(|w| w[r.clone()].iter().any(|b| *b));
+        for (c, r) in &self.layout {
+            if wanted(r) {
+                candidate_columns(builder, c, row, lin, &self.tau_scale, out);
+            } else {
+                out.extend(std::iter::repeat_n([0.0; 3], r.len()));
+            }
+        }
+        for (a, r) in &self.alternatives {
+            if wanted(r) {
+                a.columns(row, out);
+            } else {
+                out.extend(std::iter::repeat_n([0.0; 3], r.len()));
+            }
+        }
+        out.push(row.displacement);
+    }
+
+    /// The mask of the columns of `terms` (for the `want` of [`Self::for_each_row_in`]).
+    pub fn mask(&self, terms: &[Term]) -> Vec<bool> {
+        let mut m = vec![false; self.ncols()];
+        for t in terms {
+            for c in Problem::columns(self, *t) {
+                m[c] = true;
+            }
+        }
+        m
+    }
+
+    /// A problem of the springs alone (no candidate or block columns): the pre-fit that sets
+    /// the force-noise propagation needs no more.
+    pub fn springs_only(&self, whitening: Whitening) -> Self {
+        let mut p = self.with_whitening(whitening);
+        p.layout.clear();
+        p.alternatives.clear();
+        p.y = p.m;
+        p
+    }
+
+    /// The prediction `Σ_k β_k x_k` (m, base frame) of a fit for one row from its raw
+    /// columns.
+    pub fn predict(&self, fit: &Fit<Term, Linearisation>, cols: &[[f64; 3]]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        let mut k = 0;
+        for t in &fit.terms {
+            for c in self.columns(*t) {
+                for r in 0..3 {
+                    p[r] += fit.coef[k] * cols[c][r];
+                }
+                k += 1;
+            }
+        }
+        p
+    }
+
+    fn set_of(&self, i: usize) -> RowSet {
+        match self.labels[i] {
+            SetLabel::Train => RowSet::Train,
+            SetLabel::Test => RowSet::Test,
+        }
+    }
+
+    /// One pass over every row: `visit(i, row, whitening, raw columns)`; polls the cancel
+    /// token every few thousand rows.
+    pub fn for_each_row(
+        &self,
+        lin: &Linearisation,
+        want: Option<&[bool]>,
+        visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
+    ) -> Result<(), Cancelled> {
+        self.for_each_row_in(lin, 0..self.data.len(), want, visit)
+    }
+
+    /// [`Self::for_each_row`] over the rows `range` only.
+    pub fn for_each_row_in(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+        want: Option<&[bool]>,
+        mut visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
+    ) -> Result<(), Cancelled> {
+        let mut builder = self.builder();
+        let mut cols = Vec::with_capacity(self.ncols());
+        for i in range {
+            if i % CANCEL_EVERY == 0 {
+                self.cancel.check()?;
+            }
+            let row = builder.row(self.data, i);
+            let (w, sigma) = self.whitening.of(&row);
+            self.raw_columns(&builder, &row, lin, want, &mut cols);
+            visit(i, &row, &w, &sigma, &cols);
+        }
+        Ok(())
+    }
+
+    /// The compressed design of the rows `range` at `lin`.
+    fn compress_range(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+    ) -> Result<CompressedAccumulator, Cancelled> {
+        let p = self.ncols();
+        let mut acc = CompressedAccumulator::new(p);
+        let mut z = vec![[0.0; 3]; p];
+        let mut zrow = vec![0.0; p];
+        self.for_each_row_in(lin, range, None, |i, _, w, _, cols| {
+            for (zk, c) in z.iter_mut().zip(cols) {
+                let v = whiten(w, c);
+                *zk = [v.x, v.y, v.z];
+            }
+            let set = self.set_of(i);
+            for r in 0..3 {
+                for (dst, zk) in zrow.iter_mut().zip(&z) {
+                    *dst = zk[r];
+                }
+                acc.push(set, &zrow).expect("rows have the layout's width");
+            }
+        })?;
+        Ok(acc)
+    }
+}
+
+/// Rows below which a pass is not split over threads.
+const PARALLEL_ROWS: usize = 8192;
+/// The number of contiguous parts a large pass is split into, fixed (not the core count) so
+/// that the merged factors, hence every decision, are the same on every machine.
+const PARTS: usize = 2;
+
+fn whiten(w: &Matrix3<f64>, v: &[f64; 3]) -> Vector3<f64> {
+    w * Vector3::new(v[0], v[1], v[2])
+}
+
+impl Problem for VjmProblem<'_> {
+    type Term = Term;
+    type Lin = Linearisation;
+
+    fn columns(&self, term: Term) -> Range<usize> {
+        match term {
+            Term::Spring(s) => s..s + 1,
+            Term::Cand(Candidate::JointTilt { joint, axis }) => {
+                let s = 3 * joint + super::axis_index(axis);
+                s..s + 1
+            }
+            Term::Cand(c) => self
+                .layout
+                .iter()
+                .find(|(d, _)| *d == c)
+                .map(|(_, r)| r.clone())
+                .expect("every candidate has columns in the layout"),
+            Term::Alt(a) => self
+                .alternatives
+                .iter()
+                .find(|(d, _)| *d == a)
+                .map(|(_, r)| r.clone())
+                .expect("every block has columns in the layout"),
+        }
+    }
+
+    fn observation_column(&self) -> usize {
+        self.y
+    }
+
+    fn bilinear(&self, term: Term) -> bool {
+        matches!(term, Term::Cand(c) if c.bilinear())
+    }
+
+    fn compress(&self, lin: &Linearisation) -> Result<Arc<Compressed>, Cancelled> {
+        if let Some((_, c)) = self
+            .cache
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .find(|(l, _)| l == lin)
+        {
+            return Ok(c.clone());
+        }
+        let n = self.data.len();
+        let acc = if n < PARALLEL_ROWS {
+            self.compress_range(lin, 0..n)?
+        } else {
+            let bounds: Vec<Range<usize>> = (0..PARTS)
+                .map(|k| k * n / PARTS..(k + 1) * n / PARTS)
+                .collect();
+            let parts: Vec<Result<CompressedAccumulator, Cancelled>> = std::thread::scope(|s| {
+                let handles: Vec<_> = bounds
+                    .iter()
+                    .map(|r| s.spawn(|| self.compress_range(lin, r.clone())))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            });
+            let mut it = parts.into_iter();
+            let mut acc = it.next().expect("PARTS ≥ 1")?;
+            for part in it {
+                acc.merge(part?).expect("parts have the same width");
+            }
+            acc
+        };
+        let c = Arc::new(acc.finish());
+        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.len() >= CACHE {
+            cache.remove(0);
+        }
+        cache.push((lin.clone(), c.clone()));
+        Ok(c)
+    }
+
+    fn relinearise(&self, terms: &[Term], coef: &[f64]) -> Linearisation {
+        let mut c = vec![0.0; self.m];
+        let mut k = 0;
+        for t in terms {
+            if let Term::Spring(s) = t {
+                c[*s] = coef[k];
+            }
+            k += self.columns(*t).len();
+        }
+        Linearisation { compliance: c }
+    }
+
+    fn cluster_sums(&self, fit: &Fit<Term, Linearisation>) -> Result<Vec<Vec<f64>>, Cancelled> {
+        let p = fit.coef.len();
+        let n_groups = self.groups.iter().copied().max().map_or(0, |g| g + 1);
+        let mut sums = vec![vec![0.0; p]; n_groups];
+        let mut used = vec![false; n_groups];
+        let idx: Vec<usize> = fit.terms.iter().flat_map(|t| self.columns(*t)).collect();
+        let mut x = vec![Vector3::zeros(); p];
+        let want = self.mask(&fit.terms);
+        self.for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
+            if self.labels[i] != SetLabel::Train {
+                return;
+            }
+            let mut pred = Vector3::zeros();
+            for (k, &c) in idx.iter().enumerate() {
+                x[k] = whiten(w, &cols[c]);
+                pred += x[k] * fit.coef[k];
+            }
+            let r = whiten(w, &cols[self.y]) - pred;
+            let g = self.groups[i];
+            used[g] = true;
+            for (s, xk) in sums[g].iter_mut().zip(&x) {
+                *s += xk.dot(&r);
+            }
+        })?;
+        Ok(sums
+            .into_iter()
+            .zip(used)
+            .filter_map(|(s, u)| u.then_some(s))
+            .collect())
+    }
+
+    fn guard(&self, cand: Term) -> Vec<Term> {
+        match cand {
+            Term::Cand(Candidate::MountTranslation | Candidate::MountRotation) => {
+                (0..self.m).map(Term::Spring).collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    fn cancel(&self) -> &Cancel {
+        &self.cancel
+    }
+}
+
+/// The training design with a free offset per pose projected out (the per-pose-offset block
+/// of the lack-of-fit alternative, handled by its sufficient statistics instead of as G×3
+/// explicit columns). One pass over contiguous runs of a pose's rows: per run, `M = Σ WᵢᵀWᵢ`
+/// and `S = Σ Wᵢᵀ Zᵢ` (Zᵢ the 3×P whitened row block), then the projected rows
+/// `Zᵢ − Wᵢ M⁻¹ S` are folded into a triangular factor. A pose whose rows are not
+/// contiguous in the file gets one offset per run (a drift between visits is then an offset
+/// too), and a run is cut every [`MAX_RUN`] rows so that memory stays bounded.
+#[derive(Debug, Clone)]
+pub struct WithinPose {
+    /// R of the projected training design (P×P), every column of the layout and y.
+    pub factor: stiffness_core::lsq::TriangularFactor,
+    /// Offsets projected out: 3 per run with a non-singular `M`.
+    pub n_offsets: usize,
+}
+
+/// Longest run of rows given one offset.
+pub const MAX_RUN: usize = 4096;
+
+impl VjmProblem<'_> {
+    /// The [`WithinPose`] factor at `lin` over the columns `cols` of the layout (in that
+    /// order; the factor's column k is `cols[k]`).
+    pub fn within_pose(
+        &self,
+        lin: &Linearisation,
+        cols: &[usize],
+    ) -> Result<WithinPose, Cancelled> {
+        let n = self.data.len();
+        let parts: Vec<Range<usize>> = if n < PARALLEL_ROWS {
+            std::iter::once(0..n).collect()
+        } else {
+            // Cut at a pose change, so that no run is split between parts.
+            let mut cuts = vec![0];
+            for k in 1..PARTS {
+                let mut b = k * n / PARTS;
+                while b < n && b > 0 && self.groups[b] == self.groups[b - 1] {
+                    b += 1;
+                }
+                cuts.push(b.max(*cuts.last().expect("non-empty")));
+            }
+            cuts.push(n);
+            cuts.windows(2).map(|w| w[0]..w[1]).collect()
+        };
+        let results: Vec<Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled>> =
+            std::thread::scope(|s| {
+                let handles: Vec<_> = parts
+                    .iter()
+                    .map(|r| s.spawn(|| self.within_range(lin, r.clone(), cols)))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            });
+        let mut it = results.into_iter();
+        let (mut acc, mut n_offsets) = it.next().expect("at least one part")?;
+        for r in it {
+            let (a, k) = r?;
+            acc.merge(a).expect("parts have the same width");
+            n_offsets += k;
+        }
+        Ok(WithinPose {
+            factor: acc.finish(),
+            n_offsets,
+        })
+    }
+
+    fn within_range(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+        sel: &[usize],
+    ) -> Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled> {
+        let p = sel.len();
+        let mut want = vec![false; self.ncols()];
+        for &c in sel {
+            want[c] = true;
+        }
+        let mut acc = stiffness_core::lsq::TriangularAccumulator::new(p);
+        let mut n_offsets = 0;
+        // The current run: its group, whitening matrices and whitened row blocks.
+        let mut run_group = usize::MAX;
+        let mut ws: Vec<Matrix3<f64>> = Vec::new();
+        let mut zs: Vec<Vec<Vector3<f64>>> = Vec::new();
+        let mut zrow = vec![0.0; p];
+        let mut flush =
+            |ws: &mut Vec<Matrix3<f64>>,
+             zs: &mut Vec<Vec<Vector3<f64>>>,
+             acc: &mut stiffness_core::lsq::TriangularAccumulator| {
+                if ws.is_empty() {
+                    return;
+                }
+                let m: Matrix3<f64> = ws.iter().map(|w| w.transpose() * w).sum();
+                if let Some(mi) = m.try_inverse() {
+                    n_offsets += 3;
+                    let mut b = vec![Vector3::zeros(); p];
+                    for (w, z) in ws.iter().zip(zs.iter()) {
+                        let wt = w.transpose();
+                        for (bk, zk) in b.iter_mut().zip(z) {
+                            *bk += wt * zk;
+                        }
+                    }
+                    for bk in b.iter_mut() {
+                        *bk = mi * *bk;
+                    }
+                    for (w, z) in ws.iter().zip(zs.iter_mut()) {
+                        for (zk, bk) in z.iter_mut().zip(&b) {
+                            *zk -= w * bk;
+                        }
+                    }
+                }
+                for z in zs.iter() {
+                    for r in 0..3 {
+                        for (dst, zk) in zrow.iter_mut().zip(z) {
+                            *dst = zk[r];
+                        }
+                        acc.push_row_unchecked(&zrow);
+                    }
+                }
+                ws.clear();
+                zs.clear();
+            };
+        self.for_each_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
+            if self.labels[i] != SetLabel::Train {
+                return;
+            }
+            let g = self.groups[i];
+            if g != run_group || ws.len() >= MAX_RUN {
+                flush(&mut ws, &mut zs, &mut acc);
+                run_group = g;
+            }
+            ws.push(*w);
+            zs.push(sel.iter().map(|&c| whiten(w, &cols[c])).collect());
+        })?;
+        flush(&mut ws, &mut zs, &mut acc);
+        Ok((acc, n_offsets))
+    }
+}
