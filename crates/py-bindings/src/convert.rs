@@ -9,7 +9,7 @@
 use std::borrow::Cow;
 
 use numpy::ndarray::{ArrayD, Ix1, Ix2, Ix3, IxDyn};
-use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -24,16 +24,31 @@ pub struct Rows<'a> {
     pub rows: usize,
 }
 
-/// Row-major data of `arr`: borrowed if C-contiguous, one copy otherwise.
-pub fn row_major<'a>(arr: &'a PyReadonlyArrayDyn<'_, f64>) -> Cow<'a, [f64]> {
+/// Row-major data of `arr`: borrowed if C-contiguous and aligned, one copy otherwise.
+pub fn row_major<'a>(arr: &'a PyReadonlyArrayDyn<'_, f64>) -> PyResult<Cow<'a, [f64]>> {
+    // A float64 buffer at an address that is not a multiple of 8 (numpy allows it: arrays
+    // rebuilt from pickle-5 or network buffers, `frombuffer` at an odd offset) cannot be read
+    // as a Rust slice, or through ndarray: numpy copies it into a new, aligned array first.
+    if !(arr.data() as usize).is_multiple_of(std::mem::align_of::<f64>()) {
+        let copy = arr
+            .as_any()
+            .call_method1("copy", ("C",))?
+            .cast_into::<PyArrayDyn<f64>>()
+            .map_err(PyErr::from)?;
+        let copy = copy.readonly();
+        let slice = copy.as_slice().map_err(|e| {
+            crate::errors::internal_error(format!("copy of an unaligned array: {e}"))
+        })?;
+        return Ok(Cow::Owned(slice.to_vec()));
+    }
     if arr.is_c_contiguous() {
         if let Ok(slice) = arr.as_slice() {
-            return Cow::Borrowed(slice);
+            return Ok(Cow::Borrowed(slice));
         }
     }
     if arr.is_fortran_contiguous() {
         if let Ok(slice) = arr.as_slice() {
-            return Cow::Owned(fortran_to_row_major(slice, arr.shape()));
+            return Ok(Cow::Owned(fortran_to_row_major(slice, arr.shape())));
         }
     }
     // Any other strides: ndarray iterates in logical (row-major) order; fixed-dimension views
@@ -52,7 +67,7 @@ pub fn row_major<'a>(arr: &'a PyReadonlyArrayDyn<'_, f64>) -> Cow<'a, [f64]> {
         _ => Ok(view.iter().copied().collect()),
     }
     .unwrap_or_else(|_| arr.as_array().iter().copied().collect());
-    Cow::Owned(owned)
+    Ok(Cow::Owned(owned))
 }
 
 /// Reorders a Fortran-ordered buffer of `shape` into row-major order.
@@ -140,7 +155,7 @@ pub fn batch<'a>(
         }
     }
     Ok(Rows {
-        data: row_major(arr),
+        data: row_major(arr)?,
         rows: shape[0],
     })
 }
@@ -170,7 +185,7 @@ pub fn fixed<'a>(
             "{name} must have shape {expected:?}, got {shape:?}: {which}"
         )));
     }
-    Ok(row_major(arr))
+    row_major(arr)
 }
 
 /// Accepts either one item of shape `item` or a batch `(N, item…)`.
@@ -183,11 +198,11 @@ pub fn single_or_batch<'a>(
     item: &[usize],
 ) -> PyResult<(Cow<'a, [f64]>, usize, bool)> {
     if arr.shape() == item {
-        return Ok((row_major(arr), 1, false));
+        return Ok((row_major(arr)?, 1, false));
     }
     let shape = arr.shape();
     if shape.len() == item.len() + 1 && &shape[1..] == item {
-        return Ok((row_major(arr), shape[0], true));
+        return Ok((row_major(arr)?, shape[0], true));
     }
     let single = format!(
         "({}{})",

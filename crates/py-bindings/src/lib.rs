@@ -12,6 +12,7 @@ pub mod csjm;
 pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
+pub mod identify_partial;
 pub mod interrupt;
 pub mod results;
 pub mod so3;
@@ -30,6 +31,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     csjm_diagnose::register(m)?;
     diagnose::register(m)?;
     vjm::register(m)?;
+    identify_partial::register(m)?;
     vjm_data::register(m)?;
     stiffness_model::register(m)?;
     use_model::register(m)?;

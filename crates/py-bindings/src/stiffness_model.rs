@@ -20,8 +20,28 @@ pub struct PyStiffnessModel {
     chain: Arc<SerialChain>,
 }
 
+impl PyStiffnessModel {
+    /// Wraps a model of `chain`.
+    pub(crate) fn new(model: StiffnessModel, chain: Arc<SerialChain>) -> Self {
+        Self {
+            model: Arc::new(model),
+            chain,
+        }
+    }
+}
+
 #[pymethods]
 impl PyStiffnessModel {
+    /// Parses the text of a model file (`to_json`) and checks it against `robot`, as `load`
+    /// does: how a pickled model is rebuilt.
+    #[staticmethod]
+    fn from_json(text: &str, robot: &PyRobot) -> PyResult<Self> {
+        let name = "<pickled model>";
+        let model = StiffnessModel::from_json(text, name).py()?;
+        model.check_robot(&robot.chain, name).py()?;
+        Ok(Self::new(model, robot.chain.clone()))
+    }
+
     /// Reads a model file and checks it against `robot` (content hash, URDF, links, joints).
     #[staticmethod]
     fn load(py: Python<'_>, path: std::path::PathBuf, robot: &PyRobot) -> PyResult<Self> {
@@ -219,13 +239,7 @@ pub fn vjm_identify_model<'py>(
     )?;
     let result = crate::results::summary(py, &id)?;
     let built = built.ok_or_else(|| crate::errors::internal_error("no model was built"))?;
-    Ok((
-        result,
-        PyStiffnessModel {
-            model: Arc::new(built),
-            chain: robot.chain.clone(),
-        },
-    ))
+    Ok((result, PyStiffnessModel::new(built, robot.chain.clone())))
 }
 
 /// Reads a pose table (q1..qn, optional fx..mz) for `robot`: `(q (N, n), wrench (N, 6) or None)`.

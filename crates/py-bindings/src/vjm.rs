@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
+use numpy::{PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 use vjm::{IdentifyOptions, SerialChain, Spring, SpringAxis, VirtualJointModel, Workspace};
@@ -11,11 +11,18 @@ use vjm::{IdentifyOptions, SerialChain, Spring, SpringAxis, VirtualJointModel, W
 use crate::convert::{batch, fixed, to_numpy};
 use crate::errors::{run, value_error, PyResultExt};
 
+/// What a pickled robot carries: URDF text, base link, tip link, and the path the text was
+/// read from (recorded in saved models; never opened).
+type RobotState = (String, String, String, Option<String>);
+
 /// A serial chain between a base and a tip link (immutable; cheap to share).
 #[pyclass(frozen, module = "robot_stiffness._core", name = "Robot")]
 #[derive(Debug, Clone)]
 pub struct PyRobot {
     pub(crate) chain: Arc<SerialChain>,
+    /// The URDF text the chain was read from: what a pickle carries, so that the robot can be
+    /// rebuilt where the file does not exist (a Dask worker on another machine).
+    urdf: Arc<str>,
 }
 
 /// Parses a model spec: `"traditional"`, `"extended"`, or a sequence of spring labels such as
@@ -76,6 +83,7 @@ impl PyRobot {
         };
         Ok(Self {
             chain: Arc::new(chain),
+            urdf: Arc::from(vjm::BUNDLED_URDF),
         })
     }
 
@@ -93,9 +101,13 @@ impl PyRobot {
                 format!("URDF file `{}` does not exist", path.display()),
             ));
         }
-        let chain = run(py, || SerialChain::from_urdf_file(&path, base, tip))?.py()?;
+        let (chain, xml) = run(py, || {
+            SerialChain::from_urdf_file_with_text(&path, base, tip)
+        })?
+        .py()?;
         Ok(Self {
             chain: Arc::new(chain),
+            urdf: Arc::from(xml),
         })
     }
 
@@ -104,6 +116,38 @@ impl PyRobot {
     fn from_urdf_string(xml: &str, base: &str, tip: &str) -> PyResult<Self> {
         Ok(Self {
             chain: Arc::new(SerialChain::from_urdf_str(xml, base, tip).py()?),
+            urdf: Arc::from(xml),
+        })
+    }
+
+    /// Pickle support: the URDF text, base, tip and the path the text was read from (recorded,
+    /// never opened), so that unpickling needs no file.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, RobotState)> {
+        let restore = py.get_type::<PyRobot>().getattr("_from_pickle")?;
+        let path = self.chain.urdf_source().and_then(|s| s.path.clone());
+        Ok((
+            restore,
+            (
+                self.urdf.to_string(),
+                self.chain.base_link().to_string(),
+                self.chain.tip_link().to_string(),
+                path,
+            ),
+        ))
+    }
+
+    /// Rebuilds a pickled robot (see `__reduce__`).
+    #[staticmethod]
+    #[pyo3(signature = (xml, base, tip, path = None))]
+    fn _from_pickle(xml: &str, base: &str, tip: &str, path: Option<&str>) -> PyResult<Self> {
+        let chain = match path {
+            Some(p) => SerialChain::from_urdf_str_read_from(xml, p, base, tip),
+            None => SerialChain::from_urdf_str(xml, base, tip),
+        }
+        .py()?;
+        Ok(Self {
+            chain: Arc::new(chain),
+            urdf: Arc::from(xml),
         })
     }
 
@@ -168,37 +212,18 @@ impl PyRobot {
     }
 
     /// Virtual-joint Jacobians (N, 6, m): tip point, base frame, rows [linear; angular].
+    ///
+    /// Written by the core straight into the returned C-ordered array, with the GIL released.
     fn jacobian<'py>(
         &self,
         py: Python<'py>,
         q: PyReadonlyArrayDyn<'py, f64>,
         model: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let n = self.n();
         let model = parse_model(n, model)?;
-        let m = model.n_params();
         let q = batch(&q, "q", &[n])?;
-        let chain = &self.chain;
-        let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
-            let mut ws = Workspace::new(chain, &model)?;
-            // The core writes column-major 6×m blocks; numpy wants (N, 6, m) row-major.
-            let mut col_major = vec![0.0; q.rows * 6 * m];
-            vjm::jacobian_batch_in_place(chain, &model, &q.data, &mut ws, &mut col_major)?;
-            let mut out = vec![0.0; q.rows * 6 * m];
-            for (src, dst) in col_major
-                .chunks_exact(6 * m)
-                .zip(out.chunks_exact_mut(6 * m))
-            {
-                for k in 0..m {
-                    for r in 0..6 {
-                        dst[r * m + k] = src[6 * k + r];
-                    }
-                }
-            }
-            Ok(out)
-        })?
-        .py()?;
-        to_numpy(py, out, &[q.rows, 6, m])
+        jacobian_into_numpy(py, &self.chain, &model, &q.data, q.rows)
     }
 
     /// Rank-revealing identification; returns the result as JSON text (the core's serde form).
@@ -309,6 +334,48 @@ impl PyRobot {
         model_data: Option<Option<&str>>,
         robust: bool,
     ) -> PyResult<(vjm::Identification, Option<vjm::StiffnessModel>)> {
+        let c = self.checked(model, &a)?;
+        let chain = &self.chain;
+        let rot = c.r.as_ref().map(|r| &*r.data);
+        let (model, q, w, d, opts) = (&c.model, &c.q, &c.w, &c.d, &c.opts);
+        let dense = a.dense;
+        let id = run(py, || {
+            if dense {
+                c.check_measurements(chain, a.allow_outside_limits)
+                    .map_err(IdentifyFailure::Data)?;
+                return vjm::identify_dense(chain, model, &q.data, &w.data, &d.data, rot, opts)
+                    .map_err(IdentifyFailure::Core);
+            }
+            c.identify_checked(chain, a.allow_outside_limits)
+        })?
+        .py()?;
+        let Some(file) = model_data else {
+            return Ok((id, None));
+        };
+        let data = match file {
+            Some(path) => vjm::DataSource::file(path, q.rows).py()?,
+            None => vjm::DataSource::in_memory(q.rows),
+        };
+        let built = run(py, || {
+            let m = vjm::StiffnessModel::from_identification(&id, chain, model, opts, data)?;
+            if robust {
+                m.with_robust_covariance(chain, &q.data, &w.data, &d.data, rot)
+            } else {
+                Ok(m)
+            }
+        })?
+        .py()?;
+        Ok((id, Some(built)))
+    }
+
+    /// The inputs of an identification with their shapes, row counts and options checked
+    /// (shared by `identify` and `identify_partial`); the values are checked by
+    /// [`Checked::check_measurements`], with the GIL released.
+    pub(crate) fn checked<'a>(
+        &self,
+        model: &Bound<'_, PyAny>,
+        a: &'a IdentifyArgs<'_, '_>,
+    ) -> PyResult<Checked<'a>> {
         let method = match a.method {
             "auto" => vjm::SolveMethod::Auto,
             "normal_equations" => vjm::SolveMethod::NormalEquations,
@@ -332,22 +399,6 @@ impl PyRobot {
         if let Some(r) = &r {
             check_rows(q.rows, &[("rotation", r.rows)])?;
         }
-        // The same checks as a measurement file (units, magnitudes, information, joint limits):
-        // the Python API must not accept what the command line refuses. A non-finite value is
-        // left to identify's own check, which names the array, its row and column.
-        let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
-        let all_finite = finite(&q.data)
-            && finite(&w.data)
-            && finite(&d.data)
-            && r.as_ref().is_none_or(|r| finite(&r.data));
-        if all_finite {
-            vjm::dataset::check_values(n, &q.data, &w.data, &d.data, r.as_ref().map(|r| &*r.data))
-                .map_err(crate::errors::IntoPyErr::into_py_err)?;
-        }
-        if all_finite && !a.allow_outside_limits {
-            vjm::dataset::check_joint_limits(&self.chain, &q.data)
-                .map_err(crate::errors::IntoPyErr::into_py_err)?;
-        }
         let mut opts = IdentifyOptions::default();
         if let Some(s) = &a.noise_sigma {
             let s = fixed(s, "noise_sigma", &[6])?;
@@ -357,35 +408,108 @@ impl PyRobot {
         opts.nonnegative = a.nonnegative;
         opts.use_rotations = r.is_some();
         opts.method = method;
-        let chain = &self.chain;
-        let rot = r.as_ref().map(|r| &*r.data);
-        let dense = a.dense;
-        let id = run(py, || {
-            if dense {
-                vjm::identify_dense(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
-            } else {
-                vjm::identify(chain, &model, &q.data, &w.data, &d.data, rot, &opts)
-            }
-        })?
-        .py()?;
-        let Some(file) = model_data else {
-            return Ok((id, None));
-        };
-        let data = match file {
-            Some(path) => vjm::DataSource::file(path, q.rows).py()?,
-            None => vjm::DataSource::in_memory(q.rows),
-        };
-        let built = run(py, || {
-            let m = vjm::StiffnessModel::from_identification(&id, chain, &model, &opts, data)?;
-            if robust {
-                m.with_robust_covariance(chain, &q.data, &w.data, &d.data, rot)
-            } else {
-                Ok(m)
-            }
-        })?
-        .py()?;
-        Ok((id, Some(built)))
+        Ok(Checked {
+            model,
+            q,
+            w,
+            d,
+            r,
+            opts,
+        })
     }
+}
+
+/// A failure of the checks of the measurements or of the identification itself.
+#[derive(Debug)]
+pub(crate) enum IdentifyFailure {
+    /// The measurements fail the checks of a measurement file.
+    Data(vjm::dataset::DatasetError),
+    /// The identification failed.
+    Core(vjm::VjmError),
+}
+
+impl crate::errors::IntoPyErr for IdentifyFailure {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            IdentifyFailure::Data(e) => e.into_py_err(),
+            IdentifyFailure::Core(e) => e.into_py_err(),
+        }
+    }
+}
+
+impl Checked<'_> {
+    /// `vjm::identify` with the checks of [`check_measurements`](Self::check_measurements)
+    /// fused into its pass over the data (each chunk of rows is checked just before it is
+    /// read, so the data are read from memory once). The errors are the same as checking
+    /// first: a data error wins over an identification error.
+    pub(crate) fn identify_checked(
+        &self,
+        chain: &SerialChain,
+        allow_outside_limits: bool,
+    ) -> Result<vjm::Identification, IdentifyFailure> {
+        use vjm::dataset::ArrayChecks;
+        let rot = self.r.as_ref().map(|r| &*r.data);
+        let (q, w, d) = (&*self.q.data, &*self.w.data, &*self.d.data);
+        let checks = ArrayChecks::new(
+            chain.n_joints(),
+            q,
+            w,
+            d,
+            rot,
+            (!allow_outside_limits).then_some(chain),
+        );
+        let rows_ok = |start: usize, end: usize| checks.rows_ok(start, end);
+        let fused =
+            vjm::identify_checking_rows(chain, &self.model, q, w, d, rot, &self.opts, &rows_ok);
+        match fused {
+            Ok(Some(id)) => {
+                checks.information().map_err(IdentifyFailure::Data)?;
+                Ok(id)
+            }
+            // A row failed: its error, or (a non-finite value) identify's own.
+            Ok(None) => {
+                checks.report().map_err(IdentifyFailure::Data)?;
+                vjm::identify(chain, &self.model, q, w, d, rot, &self.opts)
+                    .map_err(IdentifyFailure::Core)
+            }
+            Err(e) => {
+                self.check_measurements(chain, allow_outside_limits)
+                    .map_err(IdentifyFailure::Data)?;
+                Err(IdentifyFailure::Core(e))
+            }
+        }
+    }
+
+    /// The same checks as a measurement file (units, magnitudes, information, joint limits):
+    /// the Python API must not accept what the command line refuses. A non-finite value is
+    /// left to identify's own check, which names the array, its row and column. Pure Rust:
+    /// callers run it with the GIL released.
+    pub(crate) fn check_measurements(
+        &self,
+        chain: &SerialChain,
+        allow_outside_limits: bool,
+    ) -> Result<(), vjm::dataset::DatasetError> {
+        vjm::dataset::check_arrays(
+            chain.n_joints(),
+            &self.q.data,
+            &self.w.data,
+            &self.d.data,
+            self.r.as_ref().map(|r| &*r.data),
+            (!allow_outside_limits).then_some(chain),
+        )
+        .map(|_| ())
+    }
+}
+
+/// Inputs of an identification after [`PyRobot::checked`]: row-major, borrowed when the
+/// arrays were C-contiguous.
+pub(crate) struct Checked<'a> {
+    pub model: VirtualJointModel,
+    pub q: crate::convert::Rows<'a>,
+    pub w: crate::convert::Rows<'a>,
+    pub d: crate::convert::Rows<'a>,
+    pub r: Option<crate::convert::Rows<'a>>,
+    pub opts: IdentifyOptions,
 }
 
 /// Benchmark helper (private): runs the core's streaming `vjm::identify` `repeats` times on the
@@ -422,6 +546,70 @@ pub fn vjm_identify_timed<'py>(
     .py()
 }
 
+/// The Jacobians of the `rows` configurations `q` (row-major N×n) as a new C-ordered numpy
+/// array (N, 6, m), filled by the core in place with the GIL released: no intermediate buffer.
+fn jacobian_into_numpy<'py>(
+    py: Python<'py>,
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    rows: usize,
+) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    let m = model.n_params();
+    let out = PyArray3::<f64>::zeros(py, [rows, 6, m], false);
+    {
+        let mut guard = out.readwrite();
+        let slice = guard.as_slice_mut().map_err(|e| {
+            crate::errors::internal_error(format!("new Jacobian array is not contiguous: {e}"))
+        })?;
+        run(py, || -> Result<(), vjm::VjmError> {
+            let mut ws = Workspace::new(chain, model)?;
+            vjm::jacobian_batch_with_layout(
+                chain,
+                model,
+                q,
+                &mut ws,
+                slice,
+                vjm::JacobianLayout::RowMajor,
+            )
+        })?
+        .py()?;
+    }
+    Ok(out)
+}
+
+/// Benchmark helper (private): runs the core's batched `vjm::jacobian_batch_in_place` on `q`
+/// `repeats` times, timed inside Rust with the GIL released, and returns the seconds of each
+/// run. Each run allocates and fills its own N·6·m output, as a Rust caller asking for N
+/// Jacobians would; `benches/bindings_overhead.py` compares these with `Robot.jacobian`.
+#[pyfunction]
+#[pyo3(signature = (robot, q, model, repeats = 1))]
+pub fn vjm_jacobian_timed<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q: PyReadonlyArrayDyn<'py, f64>,
+    model: &Bound<'py, PyAny>,
+    repeats: usize,
+) -> PyResult<Vec<f64>> {
+    let n = robot.n();
+    let model = parse_model(n, model)?;
+    let q = batch(&q, "q", &[n])?;
+    let chain = &robot.chain;
+    run(py, || -> Result<Vec<f64>, vjm::VjmError> {
+        let mut ws = Workspace::new(chain, &model)?;
+        let mut times = Vec::with_capacity(repeats);
+        for _ in 0..repeats {
+            let start = std::time::Instant::now();
+            let mut out = vec![0.0; q.rows * 6 * model.n_params()];
+            vjm::jacobian_batch_in_place(chain, &model, &q.data, &mut ws, &mut out)?;
+            times.push(start.elapsed().as_secs_f64());
+            std::hint::black_box(out);
+        }
+        Ok(times)
+    })?
+    .py()
+}
+
 /// All arrays must have as many rows as `q`.
 fn check_rows(n: usize, others: &[(&str, usize)]) -> PyResult<()> {
     for (name, rows) in others {
@@ -438,5 +626,6 @@ fn check_rows(n: usize, others: &[(&str, usize)]) -> PyResult<()> {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRobot>()?;
     m.add_function(wrap_pyfunction!(vjm_identify_timed, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_jacobian_timed, m)?)?;
     Ok(())
 }

@@ -103,14 +103,39 @@ pub const BUNDLED_URDF_PATH: &str = "bundled:panda_arm.urdf";
 impl SerialChain {
     /// Loads the chain from `base` to `tip` from a URDF file.
     pub fn from_urdf_file(path: impl AsRef<Path>, base: &str, tip: &str) -> Result<Self, VjmError> {
+        Self::from_urdf_file_with_text(path, base, tip).map(|(chain, _)| chain)
+    }
+
+    /// [`from_urdf_file`](Self::from_urdf_file), also returning the URDF text read, so that
+    /// the same chain can be rebuilt where the file does not exist
+    /// ([`from_urdf_str_read_from`](Self::from_urdf_str_read_from)).
+    pub fn from_urdf_file_with_text(
+        path: impl AsRef<Path>,
+        base: &str,
+        tip: &str,
+    ) -> Result<(Self, String), VjmError> {
         let path = path.as_ref();
         let xml = std::fs::read_to_string(path).map_err(|source| VjmError::Io {
             path: path.display().to_string(),
             source,
         })?;
-        let mut chain = Self::from_urdf_str(&xml, base, tip)?;
+        let chain = Self::from_urdf_str_read_from(&xml, &path.display().to_string(), base, tip)?;
+        Ok((chain, xml))
+    }
+
+    /// Loads the chain from URDF text that was read from `path` (recorded in its
+    /// [`UrdfSource`] as [`from_urdf_file`](Self::from_urdf_file) records it; the file is not
+    /// opened). A chain sent to another process is rebuilt with it, and a model saved there
+    /// names the same URDF as one saved here.
+    pub fn from_urdf_str_read_from(
+        xml: &str,
+        path: &str,
+        base: &str,
+        tip: &str,
+    ) -> Result<Self, VjmError> {
+        let mut chain = Self::from_urdf_str(xml, base, tip)?;
         if let Some(source) = chain.source.as_mut() {
-            source.path = Some(path.display().to_string());
+            source.path = Some(path.to_string());
         }
         Ok(chain)
     }
@@ -303,11 +328,7 @@ impl SerialChain {
 
     /// The bundled Panda from `panda_link0` to any of its links (e.g. [`BUNDLED_TCP`]).
     pub fn bundled_with_tip(tip: &str) -> Result<Self, VjmError> {
-        let mut chain = Self::from_urdf_str(BUNDLED_URDF, BUNDLED_BASE, tip)?;
-        if let Some(source) = chain.source.as_mut() {
-            source.path = Some(BUNDLED_URDF_PATH.to_string());
-        }
-        Ok(chain)
+        Self::from_urdf_str_read_from(BUNDLED_URDF, BUNDLED_URDF_PATH, BUNDLED_BASE, tip)
     }
 
     /// The URDF this chain was read from (path as given, SHA-256 of the text); `None` for a

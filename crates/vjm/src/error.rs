@@ -144,6 +144,17 @@ pub enum VjmError {
     /// An iterative decomposition hit its iteration cap (non-finite or extreme input).
     #[error(transparent)]
     NotConverged(#[from] stiffness_core::NotConverged),
+    /// Two partial identifications that cannot be merged or finished together (different
+    /// robot, model or options).
+    #[error("cannot combine partial identifications: different {what} ({left} vs {right})")]
+    IncompatiblePartials {
+        /// What differs: `robot kinematics`, `model`, `options`.
+        what: &'static str,
+        /// The first partial's value.
+        left: String,
+        /// The other partial's (or the robot's) value.
+        right: String,
+    },
     /// A numerical routine failed (e.g. SVD did not converge, or a load beyond buckling).
     #[error("numerical failure: {message}")]
     Numerical {

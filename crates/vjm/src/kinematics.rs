@@ -202,6 +202,17 @@ pub fn jacobian_in_place(
     Ok(())
 }
 
+/// How each configuration's 6×m Jacobian is laid out in a batched output buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum JacobianLayout {
+    /// `out[i·6m + 6k + r]`: column-major blocks, as nalgebra stores a 6×m matrix.
+    ColumnMajor,
+    /// `out[i·6m + r·m + k]`: row-major blocks, i.e. a C-ordered (N, 6, m) array (numpy's
+    /// layout, so the Python bindings write straight into the array they return).
+    RowMajor,
+}
+
 /// Jacobians of N configurations: `q` is N×n row-major, `out` is N blocks of 6·m
 /// column-major Jacobians. One workspace, no allocation per configuration.
 pub fn jacobian_batch_in_place(
@@ -210,6 +221,18 @@ pub fn jacobian_batch_in_place(
     q: &[f64],
     ws: &mut Workspace,
     out: &mut [f64],
+) -> Result<(), VjmError> {
+    jacobian_batch_with_layout(chain, model, q, ws, out, JacobianLayout::ColumnMajor)
+}
+
+/// [`jacobian_batch_in_place`] with the blocks of `out` laid out as `layout` says.
+pub fn jacobian_batch_with_layout(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    ws: &mut Workspace,
+    out: &mut [f64],
+    layout: JacobianLayout,
 ) -> Result<(), VjmError> {
     ws.check(chain, model)?;
     let n = chain.n_joints();
@@ -233,7 +256,7 @@ pub fn jacobian_batch_in_place(
         check_finite("q", qi, i, 0)?;
     }
     // Lane-wise over configurations (see `crate::lanes`), on the workspace's flattened chain.
-    crate::lanes::gram::jacobian_batch(&ws.lanes, q, out);
+    crate::lanes::gram::jacobian_batch(&ws.lanes, q, out, layout);
     Ok(())
 }
 

@@ -47,6 +47,7 @@ pub mod diagnose;
 mod error;
 mod hashing;
 mod identify;
+mod identify_partial;
 mod kinematics;
 mod lanes;
 pub mod lsq;
@@ -70,13 +71,16 @@ pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
 pub use hashing::{kinematics_sha256, sha256_hex};
 pub use identify::{
-    accumulate, build_design, identify, identify_dense, identify_from_factor, Combination,
-    CombinationTerm, Identification, IdentifyOptions, ParameterEstimate, SolveMethod,
-    NORMAL_EQUATIONS_MAX_CONDITION, NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
+    accumulate, build_design, identify, identify_checking_rows, identify_dense,
+    identify_from_factor, Combination, CombinationTerm, Identification, IdentifyOptions,
+    ParameterEstimate, RowCheck, SolveMethod, NORMAL_EQUATIONS_MAX_CONDITION,
+    NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
 };
+pub use identify_partial::IdentificationPartial;
 pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,
-    jacobian, jacobian_batch_in_place, jacobian_deflected, jacobian_in_place, Workspace,
+    jacobian, jacobian_batch_in_place, jacobian_batch_with_layout, jacobian_deflected,
+    jacobian_in_place, JacobianLayout, Workspace,
 };
 pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};

@@ -17,6 +17,7 @@ _CoreValue = Union[None, bool, int, float, str, List["_CoreValue"], Dict[str, "_
 _CoreDiagnosis = Tuple[Dict[str, _CoreValue], Dict[str, npt.NDArray[np.generic]]]
 
 __all__ = [
+    "IdentificationPartial",
     "Robot",
     "StiffnessModel",
     "__version__",
@@ -45,6 +46,7 @@ __all__ = [
     "vjm_diagnose",
     "vjm_identify_model",
     "vjm_identify_timed",
+    "vjm_jacobian_timed",
     "vjm_read_csv",
     "vjm_read_poses",
     "vjm_seed_study",
@@ -132,6 +134,7 @@ def vjm_identify_timed(
     model: _Model,
     repeats: int = 1,
 ) -> List[float]: ...
+def vjm_jacobian_timed(robot: Robot, q: _F64, model: _Model, repeats: int = 1) -> List[float]: ...
 def vjm_identify_model(
     robot: Robot,
     q: _F64,
@@ -227,6 +230,9 @@ class Robot:
     def base_link(self) -> str: ...
     @property
     def tip_link(self) -> str: ...
+    def __reduce__(self) -> Tuple[Any, Tuple[str, str, str, Optional[str]]]: ...
+    @staticmethod
+    def _from_pickle(xml: str, base: str, tip: str, path: Optional[str] = None) -> Robot: ...
     def model_labels(self, model: _Model) -> List[str]: ...
     def forward_kinematics(self, q: _F64) -> _F64: ...
     def jacobian(self, q: _F64, model: _Model) -> _F64: ...
@@ -254,7 +260,47 @@ class Robot:
     ) -> _F64: ...
 
 @final
+class IdentificationPartial:
+    @staticmethod
+    def empty(
+        robot: Robot,
+        model: _Model,
+        noise_sigma: Optional[_F64] = None,
+        noise_scale_known: bool = False,
+        nonnegative: bool = False,
+        rotations: bool = False,
+    ) -> IdentificationPartial: ...
+    @staticmethod
+    def accumulate(
+        robot: Robot,
+        q: _F64,
+        wrench: _F64,
+        displacement: _F64,
+        model: _Model,
+        rotation: Optional[_F64] = None,
+        noise_sigma: Optional[_F64] = None,
+        noise_scale_known: bool = False,
+        nonnegative: bool = False,
+        allow_outside_limits: bool = False,
+    ) -> IdentificationPartial: ...
+    def merge(self, other: IdentificationPartial) -> IdentificationPartial: ...
+    def finish(self) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
+    @property
+    def n_measurements(self) -> int: ...
+    @property
+    def n_equations(self) -> int: ...
+    @property
+    def labels(self) -> List[str]: ...
+    @property
+    def robot(self) -> Robot: ...
+    def __reduce__(self) -> Tuple[Any, Tuple[Robot, Any]]: ...
+    @staticmethod
+    def _from_pickle(robot: Robot, state: Any) -> IdentificationPartial: ...
+
+@final
 class StiffnessModel:
+    @staticmethod
+    def from_json(text: str, robot: Robot) -> StiffnessModel: ...
     @staticmethod
     def load(path: _Path, robot: Robot) -> StiffnessModel: ...
     def save(self, path: _Path) -> None: ...

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Union, cast
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -129,6 +129,11 @@ class StiffnessModel:
         """The model file's text."""
         return str(self._inner.to_json())
 
+    def __reduce__(self) -> Tuple[Any, ...]:
+        # Pickled as the model file's text and the robot (which pickles its URDF text): no
+        # file is needed where it is unpickled, and the text is checked again there.
+        return (_model_from_json, (self.to_json(), self._robot))
+
     def to_dict(self) -> Dict[str, Any]:
         """The model's content as a dict (``robot``, ``springs``, ``identification``,
         ``estimate``, ``noise``, ``data``, ``created_by``; see ``docs/model-file.md``)."""
@@ -225,3 +230,9 @@ class StiffnessModel:
 
     def __repr__(self) -> str:
         return repr(self._inner)
+
+
+def _model_from_json(text: str, robot: "Robot") -> StiffnessModel:
+    """Rebuilds a pickled :class:`StiffnessModel` (the model file's text, checked against
+    ``robot`` as :meth:`StiffnessModel.load` checks a file)."""
+    return StiffnessModel(_core.StiffnessModel.from_json(text, robot._inner), robot)

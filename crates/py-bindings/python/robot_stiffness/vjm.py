@@ -50,6 +50,7 @@ from ._vjm_data import (
     simulate,
 )
 from .model import StiffnessModel
+from ._identify_partial import IdentificationPartial
 from .results import _build
 from ._use_model import (  # planning and compensation (docs/use-the-model.md)
     Compensation,
@@ -73,6 +74,7 @@ from ._tables import (
 __all__ = [
     "Robot",
     "Identification",
+    "IdentificationPartial",
     "Combination",
     "ModelSpec",
     "Measurements",
@@ -461,6 +463,20 @@ class Robot:
         naming the array and dimension, :class:`~robot_stiffness.InvalidValueError` for NaN,
         :class:`~robot_stiffness.IdentificationError` for too few measurements.
         """
+        from_table, q, wrench, displacement, rotation = self._measurement_arrays(
+            "identify", q, wrench, displacement, rotation)
+        q_arr = f64(q, "q")
+        # A table's cells are named by column and row; arrays keep the core's array/row/column.
+        with blame_rows() if from_table else contextlib.nullcontext():
+            core, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
+                                              noise_scale_known, nonnegative, dense, method, data_file,
+                                              robust_covariance, allow_outside_limits)
+        return Identification._from_core(core, StiffnessModel(core_model, self))
+
+    def _measurement_arrays(self, what: str, q: Any, wrench: Any, displacement: Any,
+                            rotation: Any) -> Tuple[bool, Any, Any, Any, Any]:
+        """The arrays of a measurement table passed as ``q``, or the arrays as given; whether
+        they came from a table comes first."""
         from_table = is_table(q) and wrench is None and displacement is None
         if from_table:
             table = q
@@ -471,16 +487,53 @@ class Robot:
                 rotation = optional_columns(table, ROTATION, "rotation")
         elif wrench is None or displacement is None:
             raise ShapeError(
-                "identify needs q, wrench and displacement arrays, or one table with the "
+                f"{what} needs q, wrench and displacement arrays, or one table with the "
                 "measurement columns as its first argument"
             )
-        q_arr = f64(q, "q")
-        # A table's cells are named by column and row; arrays keep the core's array/row/column.
+        return from_table, q, wrench, displacement, rotation
+
+    @checked
+    def identify_partial(
+        self,
+        q: Any,
+        wrench: Any = None,
+        displacement: Any = None,
+        model: ModelSpec = "traditional",
+        *,
+        rotation: Any = None,
+        noise_sigma: Any = None,
+        noise_scale_known: bool = False,
+        nonnegative: bool = False,
+        allow_outside_limits: bool = False,
+    ) -> IdentificationPartial:
+        """The identification statistics of these measurements, to be merged with those of the
+        campaign's other parts (:meth:`IdentificationPartial.merge`) and solved once
+        (:meth:`IdentificationPartial.finish`): for campaigns split across processes or
+        machines (``docs/fleet.md``). Same inputs, units and checks as :meth:`identify`; the
+        statistic is the streaming QR factor, so the finished result equals
+        ``identify(..., method="qr")`` on all the rows to rounding.
+        """
+        from_table, q, wrench, displacement, rotation = self._measurement_arrays(
+            "identify_partial", q, wrench, displacement, rotation)
         with blame_rows() if from_table else contextlib.nullcontext():
-            core, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
-                                              noise_scale_known, nonnegative, dense, method, data_file,
-                                              robust_covariance, allow_outside_limits)
-        return Identification._from_core(core, StiffnessModel(core_model, self))
+            inner = _core.IdentificationPartial.accumulate(
+                self._inner,
+                f64(q, "q"),
+                f64(wrench, "wrench"),
+                f64(displacement, "displacement"),
+                _model(model),
+                rotation=None if rotation is None else f64(rotation, "rotation"),
+                noise_sigma=None if noise_sigma is None else f64(noise_sigma, "noise_sigma"),
+                noise_scale_known=bool(noise_scale_known),
+                nonnegative=bool(nonnegative),
+                allow_outside_limits=bool(allow_outside_limits),
+            )
+        return IdentificationPartial(inner, self)
+
+    def __reduce__(self) -> Tuple[Any, ...]:
+        # The core robot pickles its URDF text (and the path it was read from, recorded but
+        # never opened), base and tip: a worker rebuilds it without the file.
+        return (Robot, (self._inner,))
 
     def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
                   noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str,

@@ -92,6 +92,20 @@ impl TriangularAccumulator {
         }
     }
 
+    /// An accumulator that continues from a finished factor (e.g. one received from another
+    /// process): merging into it, or pushing rows, goes on exactly as if the factor's rows had
+    /// been pushed here.
+    pub fn from_factor(factor: TriangularFactor) -> Self {
+        let p = factor.p;
+        Self {
+            p,
+            r: factor.r,
+            block: vec![0.0; BLOCK_ROWS * p],
+            filled: 0,
+            rows: factor.rows,
+        }
+    }
+
     /// Number of columns p.
     pub fn ncols(&self) -> usize {
         self.p

@@ -12,6 +12,7 @@ use pulp::{Simd, WithSimd};
 use super::kinematics::{ChainLanes, FramesLanes};
 use super::vector::{cross3, dot3, MAX_LANES};
 use super::V;
+use crate::kinematics::JacobianLayout;
 
 /// One identification problem's inputs, row-major as `crate::identify` takes them.
 #[derive(Debug, Clone, Copy)]
@@ -159,14 +160,19 @@ fn gram_lanes<S: Simd, const R: usize>(
 
 /// Jacobians of the configurations in `q` (N×n row-major, rad) into `out`: N blocks of 6·m
 /// values, each a column-major 6×m Jacobian (`[w × (p − c); w]` per spring, base frame).
-pub(crate) fn jacobian_batch(chain: &ChainLanes, q: &[f64], out: &mut [f64]) {
-    struct Task<'a>(&'a ChainLanes, &'a [f64], &'a mut [f64]);
+pub(crate) fn jacobian_batch(
+    chain: &ChainLanes,
+    q: &[f64],
+    out: &mut [f64],
+    layout: JacobianLayout,
+) {
+    struct Task<'a>(&'a ChainLanes, &'a [f64], &'a mut [f64], JacobianLayout);
     impl WithSimd for Task<'_> {
         type Output = ();
         #[inline(always)]
         fn with_simd<S: Simd>(self, s: S) {
-            let Task(chain, q, out) = self;
-            jacobian_lanes(s, chain, q, out)
+            let Task(chain, q, out, layout) = self;
+            jacobian_lanes(s, chain, q, out, layout)
         }
     }
     // AVX2 even where AVX-512 is available: the output is written lane by lane (126 values per
@@ -174,13 +180,24 @@ pub(crate) fn jacobian_batch(chain: &ChainLanes, q: &[f64], out: &mut [f64]) {
     // docs/benchmarks.md).
     #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
     if let Some(v3) = pulp::x86::V3::try_new() {
-        return Simd::vectorize(v3, Task(chain, q, out));
+        return Simd::vectorize(v3, Task(chain, q, out, layout));
     }
-    pulp::Arch::new().dispatch(Task(chain, q, out))
+    pulp::Arch::new().dispatch(Task(chain, q, out, layout))
 }
 
 #[inline(always)]
-fn jacobian_lanes<S: Simd>(s: S, chain: &ChainLanes, q: &[f64], out: &mut [f64]) {
+fn jacobian_lanes<S: Simd>(
+    s: S,
+    chain: &ChainLanes,
+    q: &[f64],
+    out: &mut [f64],
+    layout: JacobianLayout,
+) {
+    // Where row r of column k goes within a configuration's block of 6·m values.
+    let (row_stride, col_stride) = match layout {
+        JacobianLayout::ColumnMajor => (1, 6),
+        JacobianLayout::RowMajor => (chain.n_springs(), 1),
+    };
     let lanes = V::<S>::LANES;
     let nj = chain.n_joints();
     let m = chain.n_springs();
@@ -213,8 +230,8 @@ fn jacobian_lanes<S: Simd>(s: S, chain: &ChainLanes, q: &[f64], out: &mut [f64])
                 .take(count)
                 .enumerate()
             {
-                for (d, od) in block[6 * k..6 * k + 6].iter_mut().enumerate() {
-                    *od = buf[d][l];
+                for (d, b) in buf.iter().enumerate() {
+                    block[k * col_stride + d * row_stride] = b[l];
                 }
             }
         }
@@ -331,13 +348,13 @@ mod tests {
         }
     }
 
-    struct Jac<'a>(&'a ChainLanes, &'a [f64], usize);
+    struct Jac<'a>(&'a ChainLanes, &'a [f64], usize, JacobianLayout);
     impl WithSimd for Jac<'_> {
         type Output = Vec<f64>;
         #[inline(always)]
         fn with_simd<S: Simd>(self, s: S) -> Vec<f64> {
             let mut out = vec![0.0; self.2];
-            jacobian_lanes(s, self.0, self.1, &mut out);
+            jacobian_lanes(s, self.0, self.1, &mut out, self.3);
             out
         }
     }
@@ -360,22 +377,48 @@ mod tests {
         for (qi, oi) in q.chunks_exact(7).zip(expect.chunks_exact_mut(126)) {
             crate::jacobian_in_place(&chain, &model, qi, &mut ws, oi).unwrap();
         }
-        let mut got = vec![("scalar", Jac(&lanes, &q, n * 126).with_simd(pulp::Scalar))];
-        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        // Row-major blocks hold the same values at (r, k) → r·m + k instead of 6k + r.
+        let mut expect_row_major = vec![0.0; n * 126];
+        for (src, dst) in expect
+            .chunks_exact(126)
+            .zip(expect_row_major.chunks_exact_mut(126))
         {
-            if let Some(v3) = pulp::x86::V3::try_new() {
-                got.push(("avx2", Simd::vectorize(v3, Jac(&lanes, &q, n * 126))));
-            }
-            if let Some(v4) = pulp::x86::V4::try_new() {
-                got.push(("avx512", Simd::vectorize(v4, Jac(&lanes, &q, n * 126))));
+            for k in 0..21 {
+                for r in 0..6 {
+                    dst[r * 21 + k] = src[6 * k + r];
+                }
             }
         }
-        for (name, g) in got {
-            let worst = g
-                .iter()
-                .zip(&expect)
-                .fold(0.0f64, |s, (a, b)| s.max((a - b).abs()));
-            assert!(worst <= 1e-14 * 8.0, "{name}: {worst:e}");
+        for (layout, expect) in [
+            (JacobianLayout::ColumnMajor, &expect),
+            (JacobianLayout::RowMajor, &expect_row_major),
+        ] {
+            let mut got = vec![(
+                "scalar",
+                Jac(&lanes, &q, n * 126, layout).with_simd(pulp::Scalar),
+            )];
+            #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+            {
+                if let Some(v3) = pulp::x86::V3::try_new() {
+                    got.push((
+                        "avx2",
+                        Simd::vectorize(v3, Jac(&lanes, &q, n * 126, layout)),
+                    ));
+                }
+                if let Some(v4) = pulp::x86::V4::try_new() {
+                    got.push((
+                        "avx512",
+                        Simd::vectorize(v4, Jac(&lanes, &q, n * 126, layout)),
+                    ));
+                }
+            }
+            for (name, g) in got {
+                let worst = g
+                    .iter()
+                    .zip(expect.iter())
+                    .fold(0.0f64, |s, (a, b)| s.max((a - b).abs()));
+                assert!(worst <= 1e-14 * 8.0, "{name}, {layout:?}: {worst:e}");
+            }
         }
     }
 }

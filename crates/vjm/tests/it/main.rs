@@ -3,9 +3,11 @@
 mod strategies;
 
 mod bad_input;
+mod check_arrays;
 mod compensation;
 mod design;
 mod identification;
+mod identify_partial;
 mod kinematics;
 mod lsq;
 mod pinocchio;
