@@ -46,6 +46,7 @@ The check: the peer's first finding equals the library's on the hidden-tilt camp
 Usage (from the workspace root, with the release extension installed in the interpreter):
     python benches/diagnose_scale.py                          # 1e4, 1e5, 1e6 + peer at 1e4, 1e5
     python benches/diagnose_scale.py --sizes 10000 --peer-sizes 10000 --repeat 1   # quick
+    python benches/diagnose_scale.py --stages 1000000    # where one diagnosis spends time/memory
 """
 from __future__ import annotations
 
@@ -187,6 +188,34 @@ def worker_library(path: Path, repeat: int) -> Dict[str, Any]:
         "findings": [finding_key(f.effect, f.joint, f.axis) for f in d.findings],
         "unexplained": bool(d.unexplained),
     }
+
+
+def worker_stages(path: Path) -> Dict[str, Any]:
+    """One diagnosis with a progress callback: wall, CPU and peak memory beyond the input per
+    stage (the stage named by a report ends at that report; "kinematics" is the preparation:
+    split, torque scales, pre-fit and the baseline fit that compresses the whole design)."""
+    from robot_stiffness import vjm
+
+    z = load_campaign(path)
+    data = vjm.Measurements(q=z["q"], wrench=z["wrench"], displacement=z["displacement"],
+                            pose=z["pose"], set=["test" if t else "train" for t in z["test"]])
+    robot = vjm.Robot.bundled()
+    rss = _status_kb("VmRSS")
+    reset_peak()
+    stages: List[Dict[str, Any]] = []
+    t0, c0 = time.perf_counter(), time.process_time()
+    last = [t0, c0]
+
+    def progress(stage: str, done: int, total: int) -> None:
+        t, c = time.perf_counter(), time.process_time()
+        stages.append({"stage": f"{stage} {done}/{total}", "wall_s": t - last[0], "cpu_s": c - last[1],
+                       "peak_mb": peak_beyond(rss)})
+        last[:] = [t, c]
+
+    vjm.diagnose(robot, data, per_row=False, progress=progress)
+    stages.append({"stage": "returned to Python", "wall_s": time.perf_counter() - last[0],
+                   "cpu_s": time.process_time() - last[1], "peak_mb": peak_beyond(rss)})
+    return {"rows": len(data), "stages": stages}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -418,16 +447,30 @@ def main() -> int:
     ap.add_argument("--peer-sizes", default="10000,100000")
     ap.add_argument("--repeat", type=int, default=3, help="diagnose runs per size (median)")
     ap.add_argument("--out", default=str(RESULTS / "diagnose_scale.md"))
-    ap.add_argument("--worker", choices=["library", "peer"], help=argparse.SUPPRESS)
+    ap.add_argument("--stages", type=int, metavar="N",
+                    help="only: one diagnosis of N rows, time and peak memory per stage")
+    ap.add_argument("--worker", choices=["library", "peer", "stages"], help=argparse.SUPPRESS)
     ap.add_argument("--file", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
 
     if args.worker:
-        res = worker_library(Path(args.file), args.repeat) if args.worker == "library" \
-            else worker_peer(Path(args.file))
-        print(json.dumps(res))
+        workers = {"library": lambda: worker_library(Path(args.file), args.repeat),
+                   "peer": lambda: worker_peer(Path(args.file)),
+                   "stages": lambda: worker_stages(Path(args.file))}
+        print(json.dumps(workers[args.worker]()))
+        return 0
+    if args.stages:
+        with tempfile.TemporaryDirectory(prefix="diagnose_scale_") as tmp:
+            path = Path(tmp) / "campaign.npz"
+            make_campaign(args.stages, path)
+            res = run_worker("stages", path, 1)
+        print(f"# diagnose of {fmt_rows(args.stages)} rows per stage (load average {os.getloadavg()[0]:.2f})")
+        print("| stage (ends at) | wall (s) | CPU (s) | peak beyond input so far (MB) |")
+        print("|---|---:|---:|---:|")
+        for st in res["stages"]:
+            print(f"| {st['stage']} | {st['wall_s']:.2f} | {st['cpu_s']:.2f} | {st['peak_mb']:.0f} |")
         return 0
 
     sizes = [int(s) for s in args.sizes.split(",") if s]
