@@ -41,7 +41,8 @@ is the forward selection written the way a Python user would, with numpy only:
   held-out whitened SSE), aliases by |cos| ≥ 0.99 of the orthogonalised columns and by the
   F test of the finding given each other significant candidate (p > 0.05), ≤ 6 findings.
 
-The check: the peer's first finding equals the library's on the hidden-tilt campaign.
+The check: the peer's first finding equals the library's on the hidden-tilt campaign (the
+script exits with status 1 when it does not).
 
 Usage (from the workspace root, with the release extension installed in the interpreter):
     python benches/diagnose_scale.py                          # 1e4, 1e5, 1e6 + peer at 1e4, 1e5
@@ -490,6 +491,7 @@ def main() -> int:
     say()
     lib: Dict[int, Dict[str, Any]] = {}
     peer: Dict[int, Dict[str, Any]] = {}
+    disagree = False
     with tempfile.TemporaryDirectory(prefix="diagnose_scale_") as tmp:
         for n in sorted(set(sizes) | set(peer_sizes)):
             path = Path(tmp) / f"campaign_{n}.npz"
@@ -526,6 +528,7 @@ def main() -> int:
             td = float(np.median(r["diagnose_s"]))
             tc = float(np.median(r["diagnose_cpu_s"]))
             same = bool(p["findings"]) and bool(r["findings"]) and p["findings"][0] == r["findings"][0]
+            disagree = disagree or not same
             say(f"| {fmt_rows(n)} | {p['peer_s']:.2f} | {p['jacobian_s']:.3f} | {p['build_s']:.2f} | "
                 f"{p['lstsq_fits']} | {td:.3f} | {p['peer_s'] / td:.1f} | {p['peer_cpu_s'] / tc:.1f} | "
                 f"{', '.join(p['findings']) or '—'} | {'yes' if same else 'NO'} |")
@@ -559,6 +562,9 @@ def main() -> int:
     out.write_text("\n".join(lines) + "\n")
     out.with_suffix(".json").write_text(json.dumps({"library": lib, "peer": peer}, indent=1) + "\n")
     print(f"wrote {out} and {out.with_suffix('.json')}")
+    if disagree:
+        print("the peer's first finding differs from the library's (table above)", file=sys.stderr)
+        return 1
     return 0
 
 
