@@ -26,6 +26,37 @@ pub fn process_cpu_seconds() -> Option<f64> {
     Some(total_ns as f64 * 1e-9)
 }
 
+/// CPU time (user + system) of this process so far, s, from `/proc/self/stat`: unlike
+/// [`process_cpu_seconds`] it includes threads that have already exited (scoped worker
+/// threads), at the kernel's clock-tick resolution (10 ms); `None` where unavailable.
+pub fn process_cpu_seconds_with_exited() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = fields.get(11)?.parse().ok()?;
+    let stime: f64 = fields.get(12)?.parse().ok()?;
+    // USER_HZ is 100 on every Linux ABI Rust targets.
+    Some((utime + stime) / 100.0)
+}
+
+/// `VmRSS` and `VmHWM` of this process in bytes (Linux), if available.
+pub fn rss_and_peak() -> Option<(u64, u64)> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let field = |name: &str| -> Option<u64> {
+        let line = status.lines().find(|l| l.starts_with(name))?;
+        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kib * 1024)
+    };
+    Some((field("VmRSS:")?, field("VmHWM:")?))
+}
+
+/// Resets the peak-RSS counter (`VmHWM`) to the current RSS (Linux ≥ 4.0); `false` where
+/// `/proc/self/clear_refs` cannot be written.
+pub fn reset_peak() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
 /// A deterministic generator for stream `seed`.
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use robot_stiffness_benches::{process_cpu_seconds, VjmBatch, SEED};
+use robot_stiffness_benches::{process_cpu_seconds, reset_peak, rss_and_peak, VjmBatch, SEED};
 use vjm::{identify, IdentifyOptions, SerialChain, VirtualJointModel};
 
 struct Args {
@@ -98,22 +98,6 @@ fn read_f64(path: &Path, rows: usize, cols: usize) -> Result<Vec<f64>, String> {
         .chunks_exact(8)
         .map(|b| f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]))
         .collect())
-}
-
-/// `VmRSS` and `VmHWM` of this process in bytes (Linux), if available.
-fn rss_and_peak() -> Option<(u64, u64)> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let field = |name: &str| -> Option<u64> {
-        let line = status.lines().find(|l| l.starts_with(name))?;
-        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-        Some(kib * 1024)
-    };
-    Some((field("VmRSS:")?, field("VmHWM:")?))
-}
-
-/// Resets the peak-RSS counter to the current RSS (Linux ≥ 4.0).
-fn reset_peak() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 fn run() -> Result<(), String> {
