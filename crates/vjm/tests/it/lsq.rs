@@ -25,10 +25,13 @@ fn gram(f: &TriangularFactor) -> Vec<f64> {
 }
 
 /// The streaming factor equals faer's QR R up to the signs of its rows, for row counts
-/// that are not multiples of the block, with merges of uneven pieces.
+/// that are not multiples of the block, with merges of uneven pieces, and for widths of one,
+/// several and a ragged last panel of the compact-WY fold (16 columns a panel).
 #[test]
 fn accumulator_matches_dense_qr() {
     for (rows, cols, splits) in [
+        (1300, 40, vec![0, 256, 257, 900]),
+        (700, 86, vec![0, 300]),
         (1000, 8, vec![0, 333, 700]),
         (150, 22, vec![0, 64, 65]),
         (9, 5, vec![0]),
