@@ -42,11 +42,15 @@ cargo_package() {
     # may leave ignored or generated files; the package contents are what git tracks.
     #
     # Why a CARGO_HOME of its own: cargo unpacks the sibling crates it verifies against into
-    # $CARGO_HOME/registry/src/<hash of this checkout's target/package path>/<crate>-<version>/
+    # $CARGO_HOME/registry/src/<hash of the path of its temporary registry>/<crate>-<version>/
     # and reuses such a folder as it is. A CARGO_HOME kept from an earlier run at the same path
     # therefore verifies against that run's sources: CI failed so, compiling a stiffness-core
     # without `engine`. The private home is made here and shares only the user's downloaded
     # index, .crate files and config, not the unpacked sources; it is removed when the step ends.
+    # The verification builds go to a target dir of their own (target/package-verify): with
+    # another CARGO_HOME the dependencies' sources have other paths, and building them into the
+    # workspace's target dir replaced its artifacts, which the fuzz step then rebuilt (seen in
+    # a clean-clone run: faer compiled a third time).
     local user_home="${CARGO_HOME:-$HOME/.cargo}" home rc=0
     home="$(mktemp -d "${TMPDIR:-/tmp}/robot-stiffness-package-home.XXXXXX")"
     mkdir -p "$home/registry" "$user_home/registry/index" "$user_home/registry/cache"
@@ -55,7 +59,7 @@ cargo_package() {
     for f in config.toml config credentials.toml credentials; do
         if [ -e "$user_home/$f" ]; then ln -s "$user_home/$f" "$home/$f"; fi
     done
-    CARGO_HOME="$home" cargo package "${args[@]}" --allow-dirty \
+    CARGO_HOME="$home" cargo package "${args[@]}" --allow-dirty --target-dir target/package-verify \
         --config 'profile.dev.opt-level=1' --config 'profile.dev.package."*".opt-level=2' || rc=$?
     # Only the folder made above; rm removes the links in it, never what they point at.
     rm -rf -- "$home"
