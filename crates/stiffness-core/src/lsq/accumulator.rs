@@ -114,16 +114,11 @@ impl TriangularAccumulator {
     /// process): merging into it, or pushing rows, goes on exactly as if the factor's rows had
     /// been pushed here.
     pub fn from_factor(factor: TriangularFactor) -> Self {
-        let p = factor.p;
+        // The workspaces are those of a new accumulator; only R and the row count carry over.
         Self {
-            p,
             r: factor.r,
-            block: vec![0.0; BLOCK_ROWS * p],
-            filled: 0,
             rows: factor.rows,
-            v: vec![0.0; BLOCK_ROWS * PANEL],
-            t: vec![0.0; PANEL * PANEL],
-            w: vec![0.0; PANEL * p],
+            ..Self::new(factor.p)
         }
     }
 
