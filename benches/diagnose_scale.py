@@ -209,8 +209,14 @@ def worker_stages(path: Path) -> Dict[str, Any]:
 
     def progress(stage: str, done: int, total: int) -> None:
         t, c = time.perf_counter(), time.process_time()
-        stages.append({"stage": f"{stage} {done}/{total}", "wall_s": t - last[0], "cpu_s": c - last[1],
-                       "peak_mb": peak_beyond(rss)})
+        prev = stages[-1] if stages else None
+        if prev is not None and prev["name"] == stage and stage == "pass over the rows" and done > prev["done"]:
+            # The reports of one pass over the rows (every 4096 rows) make one line.
+            prev.update(stage=f"{stage} (to {done}/{total})", done=done, wall_s=prev["wall_s"] + t - last[0],
+                        cpu_s=prev["cpu_s"] + c - last[1], peak_mb=peak_beyond(rss))
+        else:
+            stages.append({"stage": f"{stage} {done}/{total}", "name": stage, "done": done, "wall_s": t - last[0],
+                           "cpu_s": c - last[1], "peak_mb": peak_beyond(rss)})
         last[:] = [t, c]
 
     vjm.diagnose(robot, data, per_row=False, progress=progress)

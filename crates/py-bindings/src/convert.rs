@@ -11,7 +11,8 @@ use std::borrow::Cow;
 use numpy::ndarray::{ArrayD, Ix1, Ix2, Ix3, IxDyn};
 use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyString};
+use vjm::dataset::SetLabel;
 
 use crate::errors::{shape_error, value_error};
 
@@ -30,16 +31,7 @@ pub fn row_major<'a>(arr: &'a PyReadonlyArrayDyn<'_, f64>) -> PyResult<Cow<'a, [
     // rebuilt from pickle-5 or network buffers, `frombuffer` at an odd offset) cannot be read
     // as a Rust slice, or through ndarray: numpy copies it into a new, aligned array first.
     if !(arr.data() as usize).is_multiple_of(std::mem::align_of::<f64>()) {
-        let copy = arr
-            .as_any()
-            .call_method1("copy", ("C",))?
-            .cast_into::<PyArrayDyn<f64>>()
-            .map_err(PyErr::from)?;
-        let copy = copy.readonly();
-        let slice = copy.as_slice().map_err(|e| {
-            crate::errors::internal_error(format!("copy of an unaligned array: {e}"))
-        })?;
-        return Ok(Cow::Owned(slice.to_vec()));
+        return Ok(Cow::Owned(numpy_copy(arr)?));
     }
     if arr.is_c_contiguous() {
         if let Ok(slice) = arr.as_slice() {
@@ -68,6 +60,69 @@ pub fn row_major<'a>(arr: &'a PyReadonlyArrayDyn<'_, f64>) -> PyResult<Cow<'a, [
     }
     .unwrap_or_else(|_| arr.as_array().iter().copied().collect());
     Ok(Cow::Owned(owned))
+}
+
+/// Pose ids of an `(N,)` int64 array: borrowed if contiguous and aligned, one copy otherwise.
+pub fn pose_ids<'a>(arr: &'a PyReadonlyArrayDyn<'_, i64>) -> PyResult<Cow<'a, [i64]>> {
+    if arr.ndim() != 1 {
+        return Err(shape_error(format!(
+            "pose must be a one-dimensional array of N pose ids, got shape {:?}",
+            arr.shape()
+        )));
+    }
+    if (arr.data() as usize).is_multiple_of(std::mem::align_of::<i64>()) {
+        if let Ok(slice) = arr.as_slice() {
+            return Ok(Cow::Borrowed(slice));
+        }
+    }
+    // Strided or unaligned (see `row_major`).
+    numpy_copy(arr).map(Cow::Owned)
+}
+
+/// The values of `arr` in C order, copied by numpy into a new (aligned, contiguous) array first:
+/// the one way to read an unaligned buffer without `unsafe`.
+fn numpy_copy<T: numpy::Element + Copy>(arr: &PyReadonlyArrayDyn<'_, T>) -> PyResult<Vec<T>> {
+    let copy = arr
+        .as_any()
+        .call_method1("copy", ("C",))?
+        .cast_into::<PyArrayDyn<T>>()
+        .map_err(PyErr::from)?;
+    let copy = copy.readonly();
+    let slice = copy.as_slice().map_err(|e| {
+        crate::errors::internal_error(format!("numpy's C-ordered copy is not contiguous: {e}"))
+    })?;
+    Ok(slice.to_vec())
+}
+
+/// The train/test labels of a sequence of strings (`"train"`/`"test"`, any case, spaces
+/// trimmed), read one item at a time: no list of Rust strings is built beside the caller's.
+pub fn set_labels(seq: &Bound<'_, PyAny>) -> PyResult<Vec<SetLabel>> {
+    let mut labels = Vec::with_capacity(seq.len().unwrap_or(0));
+    for (i, item) in seq.try_iter()?.enumerate() {
+        let item = item?;
+        let text = item.cast::<PyString>().map_err(|_| {
+            value_error(format!(
+                "set[{i}] must be the string \"train\" or \"test\", got {}",
+                item.get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            ))
+        })?;
+        let text = text.to_cow()?;
+        let label = text.trim();
+        labels.push(if label.eq_ignore_ascii_case("train") {
+            SetLabel::Train
+        } else if label.eq_ignore_ascii_case("test") {
+            SetLabel::Test
+        } else {
+            return Err(value_error(format!(
+                "set[{i}] = `{}`: expected \"train\" or \"test\"",
+                label.to_ascii_lowercase()
+            )));
+        });
+    }
+    Ok(labels)
 }
 
 /// Reorders a Fortran-ordered buffer of `shape` into row-major order.

@@ -27,8 +27,8 @@ pub fn vjm_diagnose<'py>(
     wrench: PyReadonlyArrayDyn<'py, f64>,
     displacement: PyReadonlyArrayDyn<'py, f64>,
     rotation: Option<PyReadonlyArrayDyn<'py, f64>>,
-    pose: Option<Vec<i64>>,
-    set: Option<Vec<String>>,
+    pose: Option<PyReadonlyArrayDyn<'py, i64>>,
+    set: Option<Bound<'py, PyAny>>,
     baseline: Option<Bound<'py, PyAny>>,
     fdr: Option<f64>,
     test_fraction: Option<f64>,
@@ -43,7 +43,15 @@ pub fn vjm_diagnose<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let chain = &robot.chain;
     let n = chain.n_joints();
-    let data = dataset_from_arrays(n, &q, &wrench, &displacement, rotation.as_ref(), pose, set)?;
+    let data = dataset_from_arrays(
+        n,
+        &q,
+        &wrench,
+        &displacement,
+        rotation.as_ref(),
+        pose.as_ref(),
+        set.as_ref(),
+    )?;
     let mut opts = DiagnoseOptions {
         allow_outside_limits,
         per_row,

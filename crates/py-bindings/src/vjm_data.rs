@@ -8,14 +8,14 @@ use vjm::dataset::{Dataset, SetLabel};
 use vjm::testbed::{self, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
 use vjm::SpringAxis;
 
-use crate::convert::{batch, check_effect_keys, fixed, to_numpy};
+use crate::convert::{batch, check_effect_keys, fixed, pose_ids, set_labels, to_numpy};
 use crate::errors::{run, value_error, IntoPyErr, PyResultExt};
 use crate::interrupt::run_interruptible;
 use crate::vjm::PyRobot;
 
 /// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
 /// (N, 3) or None, `pose` `list[int]` or None, `set` `list[str]` or None.
-pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset) -> PyResult<Bound<'py, PyDict>> {
+pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset<'_>) -> PyResult<Bound<'py, PyDict>> {
     let n = d.len();
     let out = PyDict::new(py);
     out.set_item("q", to_numpy(py, d.q_flat().to_vec(), &[n, d.n_joints()])?)?;
@@ -39,42 +39,30 @@ pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset) -> PyResult<Bound<'py,
     Ok(out)
 }
 
-/// A dataset from arrays, validated exactly as the file reader validates (row i = line i + 2).
-#[allow(clippy::too_many_arguments)]
-pub fn dataset_from_arrays(
+/// A dataset over the caller's arrays, validated exactly as the file reader validates (row i =
+/// line i + 2). Contiguous float64 and int64 columns are borrowed, not copied (a campaign of 10⁶
+/// Panda rows is 128 MB of them).
+pub fn dataset_from_arrays<'a>(
     n_joints: usize,
-    q: &PyReadonlyArrayDyn<'_, f64>,
-    wrench: &PyReadonlyArrayDyn<'_, f64>,
-    displacement: &PyReadonlyArrayDyn<'_, f64>,
-    rotation: Option<&PyReadonlyArrayDyn<'_, f64>>,
-    pose: Option<Vec<i64>>,
-    set: Option<Vec<String>>,
-) -> PyResult<Dataset> {
+    q: &'a PyReadonlyArrayDyn<'_, f64>,
+    wrench: &'a PyReadonlyArrayDyn<'_, f64>,
+    displacement: &'a PyReadonlyArrayDyn<'_, f64>,
+    rotation: Option<&'a PyReadonlyArrayDyn<'_, f64>>,
+    pose: Option<&'a PyReadonlyArrayDyn<'_, i64>>,
+    set: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Dataset<'a>> {
     let q = batch(q, "q", &[n_joints])?;
     let w = batch(wrench, "wrench", &[6])?;
     let d = batch(displacement, "displacement", &[3])?;
     let r = rotation.map(|r| batch(r, "rotation", &[3])).transpose()?;
-    let set = set
-        .map(|labels| {
-            labels
-                .iter()
-                .enumerate()
-                .map(|(i, s)| match s.trim().to_ascii_lowercase().as_str() {
-                    "train" => Ok(SetLabel::Train),
-                    "test" => Ok(SetLabel::Test),
-                    other => Err(value_error(format!(
-                        "set[{i}] = `{other}`: expected \"train\" or \"test\""
-                    ))),
-                })
-                .collect::<PyResult<Vec<_>>>()
-        })
-        .transpose()?;
-    Dataset::new(
+    let pose = pose.map(pose_ids).transpose()?;
+    let set = set.map(set_labels).transpose()?;
+    Dataset::from_columns(
         n_joints,
-        q.data.into_owned(),
-        w.data.into_owned(),
-        d.data.into_owned(),
-        r.map(|r| r.data.into_owned()),
+        q.data,
+        w.data,
+        d.data,
+        r.map(|r| r.data),
         pose,
         set,
     )
@@ -102,8 +90,8 @@ pub fn vjm_to_csv(
     wrench: PyReadonlyArrayDyn<'_, f64>,
     displacement: PyReadonlyArrayDyn<'_, f64>,
     rotation: Option<PyReadonlyArrayDyn<'_, f64>>,
-    pose: Option<Vec<i64>>,
-    set: Option<Vec<String>>,
+    pose: Option<PyReadonlyArrayDyn<'_, i64>>,
+    set: Option<Bound<'_, PyAny>>,
 ) -> PyResult<String> {
     let data = dataset_from_arrays(
         n_joints,
@@ -111,8 +99,8 @@ pub fn vjm_to_csv(
         &wrench,
         &displacement,
         rotation.as_ref(),
-        pose,
-        set,
+        pose.as_ref(),
+        set.as_ref(),
     )?;
     let mut buf = Vec::new();
     data.to_writer(&mut buf).py()?;

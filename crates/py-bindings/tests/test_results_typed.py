@@ -24,7 +24,7 @@ from robot_stiffness.results import (
     Parameter,
     ResidualStructure,
 )
-from robot_stiffness._vjm_data import _pose_list
+from robot_stiffness._vjm_data import _pose_array
 
 # The keys docs/diagnose.md and docs/csjm-diagnose.md document for `diagnose … --json`.
 VJM_KEYS = {"baseline", "findings", "extended", "unexplained", "gain", "residuals", "scores",
@@ -50,7 +50,7 @@ def campaign(panda):
 def vjm_core(panda, campaign):
     """The core's own values for the campaign (what the typed classes are built from)."""
     m = campaign.measurements
-    return _core.vjm_diagnose(panda._inner, m.q, m.wrench, m.displacement, pose=_pose_list(m.pose), set=m.set)
+    return _core.vjm_diagnose(panda._inner, m.q, m.wrench, m.displacement, pose=_pose_array(m.pose), set=m.set)
 
 
 @pytest.fixture(scope="module")

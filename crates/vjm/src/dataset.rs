@@ -24,6 +24,7 @@
 //! # Ok::<(), vjm::dataset::DatasetError>(())
 //! ```
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::io::{Read, Write};
@@ -253,14 +254,18 @@ pub enum DatasetError {
 
 /// A validated VJM measurement campaign. All vectors have base-frame components (see
 /// `docs/conventions.md`); arrays are row-major flat slices.
+///
+/// The numeric columns are owned (a file read, [`Dataset::new`]: `Dataset<'static>`) or borrowed
+/// from the caller's arrays ([`Dataset::from_columns`]), so that a large campaign held elsewhere (a
+/// numpy array in the Python package) is validated and diagnosed without a copy.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Dataset {
+pub struct Dataset<'a> {
     n_joints: usize,
-    q: Vec<f64>,
-    wrench: Vec<f64>,
-    displacement: Vec<f64>,
-    rotation: Option<Vec<f64>>,
-    pose: Option<Vec<i64>>,
+    q: Cow<'a, [f64]>,
+    wrench: Cow<'a, [f64]>,
+    displacement: Cow<'a, [f64]>,
+    rotation: Option<Cow<'a, [f64]>>,
+    pose: Option<Cow<'a, [i64]>>,
     set: Option<Vec<SetLabel>>,
 }
 
@@ -602,7 +607,7 @@ pub fn check_joint_limits(chain: &crate::SerialChain, q: &[f64]) -> Result<(), D
     Ok(())
 }
 
-impl Dataset {
+impl Dataset<'static> {
     /// Builds a dataset from row-major arrays: `q` N×n (rad), `wrench` N×6 (N, N·m),
     /// `displacement` N×3 (m), optional `rotation` N×3 (rad), `pose` and `set` of length N.
     /// Validates shapes, finiteness and plausibility exactly as [`Dataset::from_reader`] does
@@ -614,6 +619,58 @@ impl Dataset {
         displacement: Vec<f64>,
         rotation: Option<Vec<f64>>,
         pose: Option<Vec<i64>>,
+        set: Option<Vec<SetLabel>>,
+    ) -> Result<Self, DatasetError> {
+        Dataset::from_columns(
+            n_joints,
+            Cow::Owned(q),
+            Cow::Owned(wrench),
+            Cow::Owned(displacement),
+            rotation.map(Cow::Owned),
+            pose.map(Cow::Owned),
+            set,
+        )
+    }
+}
+
+impl<'a> Dataset<'a> {
+    /// The same data, owned (copies what was borrowed).
+    pub fn into_owned(self) -> Dataset<'static> {
+        Dataset {
+            n_joints: self.n_joints,
+            q: Cow::Owned(self.q.into_owned()),
+            wrench: Cow::Owned(self.wrench.into_owned()),
+            displacement: Cow::Owned(self.displacement.into_owned()),
+            rotation: self.rotation.map(|r| Cow::Owned(r.into_owned())),
+            pose: self.pose.map(|p| Cow::Owned(p.into_owned())),
+            set: self.set,
+        }
+    }
+
+    /// A dataset over columns that are borrowed (`Cow::Borrowed`: the caller's arrays, not
+    /// copied) or owned; the shapes and the validation of [`Dataset::new`], which calls it.
+    ///
+    /// ```
+    /// use std::borrow::Cow;
+    /// use vjm::dataset::Dataset;
+    /// let q = [0.1, 0.2, 0.3, 0.4];
+    /// let wrench = [10.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 0.0];
+    /// let displacement = [1e-4, 2e-4, 0.0, 2e-4, 1e-4, 0.0];
+    /// let columns = |q: &[f64]| {
+    ///     let (w, d) = (Cow::Borrowed(&wrench[..]), Cow::Borrowed(&displacement[..]));
+    ///     Dataset::from_columns(2, Cow::Borrowed(q), w, d, None, None, None).map(|d| d.q(1).to_vec())
+    /// };
+    /// assert_eq!(columns(&q)?, [0.3, 0.4]);
+    /// assert!(columns(&q[..3]).is_err()); // 3 angles for 2 rows of 2 joints
+    /// # Ok::<(), vjm::dataset::DatasetError>(())
+    /// ```
+    pub fn from_columns(
+        n_joints: usize,
+        q: Cow<'a, [f64]>,
+        wrench: Cow<'a, [f64]>,
+        displacement: Cow<'a, [f64]>,
+        rotation: Option<Cow<'a, [f64]>>,
+        pose: Option<Cow<'a, [i64]>>,
         set: Option<Vec<SetLabel>>,
     ) -> Result<Self, DatasetError> {
         let rows = displacement.len() / 3;
@@ -682,17 +739,23 @@ impl Dataset {
     }
 
     /// Reads and validates a measurement file for a chain with `n_joints` actuated joints.
-    pub fn read_csv(path: impl AsRef<Path>, n_joints: usize) -> Result<Self, DatasetError> {
+    pub fn read_csv(
+        path: impl AsRef<Path>,
+        n_joints: usize,
+    ) -> Result<Dataset<'static>, DatasetError> {
         let path = path.as_ref();
         let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
             path: path.to_path_buf(),
             source,
         })?;
-        Self::from_reader(std::io::BufReader::new(file), n_joints)
+        Dataset::from_reader(std::io::BufReader::new(file), n_joints)
     }
 
     /// Reads and validates a measurement file from any reader (see the module docs for columns).
-    pub fn from_reader(reader: impl Read, n_joints: usize) -> Result<Self, DatasetError> {
+    pub fn from_reader(
+        reader: impl Read,
+        n_joints: usize,
+    ) -> Result<Dataset<'static>, DatasetError> {
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(true)
             .trim(csv::Trim::All)
@@ -852,11 +915,11 @@ impl Dataset {
         check_information(&wrench, &displacement)?;
         Ok(Dataset {
             n_joints,
-            q,
-            wrench,
-            displacement,
-            rotation,
-            pose,
+            q: Cow::Owned(q),
+            wrench: Cow::Owned(wrench),
+            displacement: Cow::Owned(displacement),
+            rotation: rotation.map(Cow::Owned),
+            pose: pose.map(Cow::Owned),
             set,
         })
     }
@@ -1006,7 +1069,7 @@ impl Dataset {
         match &self.pose {
             Some(p) => {
                 let mut map: BTreeMap<i64, usize> = BTreeMap::new();
-                for &id in p {
+                for &id in p.iter() {
                     let next = map.len();
                     ids.push(*map.entry(id).or_insert(next));
                 }

@@ -111,7 +111,7 @@ def vjm_to_csv(
     wrench: _F64,
     displacement: _F64,
     rotation: Optional[_F64] = None,
-    pose: Optional[Sequence[int]] = None,
+    pose: Optional[npt.NDArray[np.int64]] = None,
     set: Optional[Sequence[str]] = None,
 ) -> str: ...
 def vjm_simulate(
@@ -197,7 +197,7 @@ def vjm_diagnose(
     wrench: _F64,
     displacement: _F64,
     rotation: Optional[_F64] = None,
-    pose: Optional[Sequence[int]] = None,
+    pose: Optional[npt.NDArray[np.int64]] = None,
     set: Optional[Sequence[str]] = None,
     baseline: Optional[_Model] = None,
     fdr: Optional[float] = None,

@@ -73,7 +73,7 @@ class Measurements:
                 f64(self.wrench, "wrench"),
                 f64(self.displacement, "displacement"),
                 rotation=None if self.rotation is None else f64(self.rotation, "rotation"),
-                pose=None if self.pose is None else _pose_list(self.pose),
+                pose=None if self.pose is None else _pose_array(self.pose),
                 set=None if self.set is None else list(self.set),
             )
         )
@@ -123,13 +123,17 @@ def _pose_ids(values: Array) -> npt.NDArray[np.int64]:
     return values.astype(np.int64)
 
 
-def _pose_list(pose: Any) -> List[int]:
+def _pose_array(pose: Any) -> npt.NDArray[np.int64]:
+    """Pose ids as an (N,) int64 array, passed to the core without a per-id Python object."""
     arr = np.asarray(pose)
     if arr.ndim != 1:
         raise ShapeError(f"pose must be a one-dimensional sequence of pose ids, got shape {arr.shape}")
     if arr.dtype.kind in "iu":
-        return [int(p) for p in arr]
-    return [int(p) for p in _pose_ids(f64(arr, "pose"))]
+        if arr.dtype.kind == "u" and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
+            row = int(np.argmax(arr))
+            raise DataFileError(f"column 'pose', row {row} (counting from 0): pose id {int(arr[row])} is beyond int64")
+        return arr.astype(np.int64, copy=False)
+    return _pose_ids(f64(arr, "pose"))
 
 
 def as_measurements(data: Any, n_joints: int) -> Measurements:
@@ -287,7 +291,7 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
         f64(m.wrench, "wrench"),
         f64(m.displacement, "displacement"),
         rotation=None if m.rotation is None else f64(m.rotation, "rotation"),
-        pose=None if m.pose is None else _pose_list(m.pose),
+        pose=None if m.pose is None else _pose_array(m.pose),
         set=m.set,
         baseline=None if baseline is None else (baseline if isinstance(baseline, str) else list(baseline)),
         fdr=fdr,

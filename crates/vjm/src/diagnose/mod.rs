@@ -214,7 +214,7 @@ pub use stiffness_core::Progress;
 /// Diagnoses `data` measured on `chain`; see the module docs.
 pub fn diagnose(
     chain: &SerialChain,
-    data: &Dataset,
+    data: &Dataset<'_>,
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
     diagnose_with_progress(chain, data, opts, &mut |_| {})
@@ -225,7 +225,7 @@ pub fn diagnose(
 /// the run promptly with [`DiagnoseError::Cancelled`].
 pub fn diagnose_monitored(
     chain: &SerialChain,
-    data: &Dataset,
+    data: &Dataset<'_>,
     opts: &DiagnoseOptions,
     monitor: &Monitor<'_>,
 ) -> Result<Diagnosis, DiagnoseError> {
@@ -284,7 +284,7 @@ pub const STRUCTURE_ROWS: usize = 20_000;
 
 fn prepare<'a>(
     chain: &'a SerialChain,
-    data: &'a Dataset,
+    data: &'a Dataset<'a>,
     opts: &DiagnoseOptions,
     cancel: &Cancel,
     sink: Option<&'a (dyn Fn(Progress) + Sync)>,
@@ -412,7 +412,7 @@ fn prepare<'a>(
 /// of noise variance. `docs/diagnose.md` states the threshold the acceptance tests use.
 pub fn detectability(
     chain: &SerialChain,
-    data: &Dataset,
+    data: &Dataset<'_>,
     signal: &[[f64; 3]],
     opts: &DiagnoseOptions,
 ) -> Result<f64, DiagnoseError> {
@@ -465,7 +465,7 @@ pub fn detectability(
 /// [`diagnose`] with a progress callback, called after each stage and each selection step.
 pub fn diagnose_with_progress(
     chain: &SerialChain,
-    data: &Dataset,
+    data: &Dataset<'_>,
     opts: &DiagnoseOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Diagnosis, DiagnoseError> {
@@ -564,7 +564,7 @@ fn verdict_tests(
 /// every pass, per scored candidate and per step.
 fn run_diagnosis<'a>(
     chain: &'a SerialChain,
-    data: &'a Dataset,
+    data: &'a Dataset<'a>,
     opts: &DiagnoseOptions,
     cancel: &Cancel,
     sink: Option<&'a (dyn Fn(Progress) + Sync)>,

@@ -80,7 +80,7 @@ impl Whitening {
 /// A VJM diagnosis problem: the data, the split, the whitening and the column layout.
 pub struct VjmProblem<'a> {
     pub(super) chain: &'a SerialChain,
-    pub(super) data: &'a Dataset,
+    pub(super) data: &'a Dataset<'a>,
     pub(super) labels: Vec<SetLabel>,
     pub(super) groups: Vec<usize>,
     pub(super) tau_scale: Vec<f64>,
@@ -115,7 +115,7 @@ impl<'a> VjmProblem<'a> {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         chain: &'a SerialChain,
-        data: &'a Dataset,
+        data: &'a Dataset<'a>,
         labels: Vec<SetLabel>,
         groups: Vec<usize>,
         tau_scale: Vec<f64>,

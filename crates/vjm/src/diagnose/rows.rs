@@ -49,7 +49,7 @@ impl<'a> RowBuilder<'a> {
 
     /// The kinematics of row `i` of `data` (finite-checked on entry, so the evaluation
     /// cannot fail).
-    pub fn row(&mut self, data: &Dataset, i: usize) -> RowKinematics {
+    pub fn row(&mut self, data: &Dataset<'_>, i: usize) -> RowKinematics {
         let q = data.q(i).to_vec();
         jacobian_in_place(self.chain, &self.model, &q, &mut self.ws, &mut self.jac)
             .expect("dataset rows are checked against the chain");

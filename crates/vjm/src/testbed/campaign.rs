@@ -71,7 +71,7 @@ impl Default for CampaignSpec {
 #[derive(Debug, Clone)]
 pub struct Campaign {
     /// What the instruments recorded (with `pose` and `set` columns).
-    pub dataset: Dataset,
+    pub dataset: Dataset<'static>,
     /// The wrench actually applied, base frame (N, N·m), per row.
     pub applied_wrench: Vec<[f64; 6]>,
     /// The true displacement before measurement effects and noise, base frame (m), per row.

@@ -4,7 +4,7 @@ use vjm::dataset::{Dataset, DatasetError, SetLabel};
 
 const HEADER: &str = "q1,q2,fx,fy,fz,mx,my,mz,dx,dy,dz";
 
-fn read(text: &str) -> Result<Dataset, DatasetError> {
+fn read(text: &str) -> Result<Dataset<'static>, DatasetError> {
     Dataset::from_reader(text.as_bytes(), 2)
 }
 
@@ -256,4 +256,66 @@ fn a_failed_write_leaves_nothing_behind() {
     let path = dir.join("sub").join("out.csv");
     assert!(matches!(d.write_csv(&path), Err(DatasetError::Io { .. })));
     assert!(!path.exists());
+}
+
+/// A campaign over borrowed columns (the Python package's numpy arrays, not copied) is the same
+/// dataset as its owned copy, diagnoses identically, and is validated the same way.
+#[test]
+fn borrowed_columns_are_the_same_dataset_as_owned_ones() {
+    use std::borrow::Cow;
+    use vjm::diagnose::{diagnose, DiagnoseOptions};
+    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+    use vjm::SerialChain;
+
+    let chain = SerialChain::bundled();
+    let spec = CampaignSpec {
+        n_poses: 24,
+        wrenches_per_pose: 4,
+        seed: 5,
+        ..Default::default()
+    };
+    let owned = simulate(&chain, &TrueModel::nominal(7), &spec)
+        .unwrap()
+        .dataset;
+    let n = owned.len();
+    let rotation: Option<Vec<f64>> = (0..n)
+        .map(|i| owned.rotation(i))
+        .collect::<Option<Vec<[f64; 3]>>>()
+        .map(|r| r.concat());
+    let pose: Vec<i64> = (0..n).map(|i| owned.pose(i).unwrap()).collect();
+    let set: Option<Vec<SetLabel>> = (0..n).map(|i| owned.set(i)).collect();
+    let borrowed = Dataset::from_columns(
+        7,
+        Cow::Borrowed(owned.q_flat()),
+        Cow::Borrowed(owned.wrench_flat()),
+        Cow::Borrowed(owned.displacement_flat()),
+        rotation.as_deref().map(Cow::Borrowed),
+        Some(Cow::Borrowed(&pose[..])),
+        set,
+    )
+    .unwrap();
+    assert_eq!(borrowed, owned);
+    assert_eq!(borrowed.clone().into_owned(), owned);
+    let opts = DiagnoseOptions::default();
+    let a = diagnose(&chain, &owned, &opts).unwrap();
+    let b = diagnose(&chain, &borrowed, &opts).unwrap();
+    assert_eq!(format!("{a:?}"), format!("{b:?}"));
+
+    // A NaN in a borrowed column is named by line and column, as in a file.
+    let mut q = owned.q_flat().to_vec();
+    q[3 * 7 + 2] = f64::NAN;
+    let e = Dataset::from_columns(
+        7,
+        Cow::Borrowed(&q[..]),
+        Cow::Borrowed(owned.wrench_flat()),
+        Cow::Borrowed(owned.displacement_flat()),
+        None,
+        None,
+        None,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&e, DatasetError::NonFinite { line: 5, column, .. } if column == "q3"),
+        "{e}"
+    );
 }

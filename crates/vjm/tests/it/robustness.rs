@@ -284,7 +284,7 @@ mod validation {
 
     const HEADER: &str = "q1,q2,fx,fy,fz,mx,my,mz,dx,dy,dz";
 
-    fn arrays(wrench: [f64; 6], disp: [f64; 3]) -> Result<Dataset, DatasetError> {
+    fn arrays(wrench: [f64; 6], disp: [f64; 3]) -> Result<Dataset<'static>, DatasetError> {
         Dataset::new(
             2,
             vec![0.1, 0.2],
@@ -326,7 +326,7 @@ mod validation {
         );
     }
 
-    fn panda_campaign() -> (SerialChain, Dataset) {
+    fn panda_campaign() -> (SerialChain, Dataset<'static>) {
         let chain = SerialChain::bundled();
         let spec = CampaignSpec {
             n_poses: 24,
@@ -338,7 +338,7 @@ mod validation {
         (chain, c.dataset)
     }
 
-    fn with_q(data: &Dataset, row: usize, joint: usize, value: f64) -> Dataset {
+    fn with_q(data: &Dataset<'_>, row: usize, joint: usize, value: f64) -> Dataset<'static> {
         let mut q = data.q_flat().to_vec();
         q[row * 7 + joint] = value;
         let poses = (0..data.len()).map(|i| data.pose(i).unwrap()).collect();

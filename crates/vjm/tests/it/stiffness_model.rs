@@ -61,7 +61,7 @@ fn all_springs(n: usize, seed: u64) -> TrueModel {
     }
 }
 
-fn rows_of(data: &Dataset, set: SetLabel) -> Vec<usize> {
+fn rows_of(data: &Dataset<'_>, set: SetLabel) -> Vec<usize> {
     (0..data.len())
         .filter(|&i| data.set(i) == Some(set))
         .collect()
@@ -72,7 +72,7 @@ fn rows_of(data: &Dataset, set: SetLabel) -> Vec<usize> {
 fn fit(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    data: &Dataset,
+    data: &Dataset<'_>,
     opts: &IdentifyOptions,
 ) -> (vjm::Identification, StiffnessModel) {
     let train = rows_of(data, SetLabel::Train);
@@ -264,7 +264,7 @@ fn payload_wrench_is_gravity_on_a_point_mass_in_the_tip_frame() {
 }
 
 /// A small identified Panda model (noise-free campaign, extended model, aliases).
-fn panda_model() -> (SerialChain, StiffnessModel, Dataset) {
+fn panda_model() -> (SerialChain, StiffnessModel, Dataset<'static>) {
     let chain = SerialChain::bundled();
     let spec = CampaignSpec {
         n_poses: 12,
@@ -549,7 +549,7 @@ fn standard_deviations_cover_the_true_deflection() {
     );
 }
 
-fn robust(sm: StiffnessModel, chain: &SerialChain, data: &Dataset) -> StiffnessModel {
+fn robust(sm: StiffnessModel, chain: &SerialChain, data: &Dataset<'_>) -> StiffnessModel {
     let train = rows_of(data, SetLabel::Train);
     let q: Vec<f64> = train.iter().flat_map(|&i| data.q(i).to_vec()).collect();
     let w: Vec<f64> = train.iter().flat_map(|&i| data.wrench(i)).collect();

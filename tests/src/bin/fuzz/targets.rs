@@ -91,7 +91,7 @@ fn run_vjm_csv(input: &[u8]) -> Result<String, String> {
 fn identify_dataset(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    data: &Dataset,
+    data: &Dataset<'_>,
     with_rotation: bool,
     method: SolveMethod,
     nonnegative: bool,
