@@ -330,18 +330,27 @@ fn prepare<'a>(
     }
     let m = 3 * n;
     // RMS torsion torque per joint over the training rows: the knots of the hinge candidate.
-    let mut builder = rows::RowBuilder::new(chain, opts.noise.wrench_sigma);
+    let parts = problem::in_parts(data.len(), |range| {
+        let mut builder = rows::RowBuilder::new(chain, opts.noise.wrench_sigma);
+        let mut sq = vec![0.0; n];
+        for i in range {
+            if i % 4096 == 0 {
+                cancel.check()?;
+            }
+            if labels[i] != SetLabel::Train {
+                continue;
+            }
+            let row = builder.row(data, i);
+            for (j, s) in sq.iter_mut().enumerate() {
+                *s += row.tau[3 * j].powi(2);
+            }
+        }
+        Ok::<_, stiffness_core::Cancelled>(sq)
+    });
     let mut sq = vec![0.0; n];
-    for (i, label) in labels.iter().enumerate() {
-        if i % 4096 == 0 {
-            cancel.check()?;
-        }
-        if *label != SetLabel::Train {
-            continue;
-        }
-        let row = builder.row(data, i);
-        for (j, s) in sq.iter_mut().enumerate() {
-            *s += row.tau[3 * j].powi(2);
+    for part in parts {
+        for (s, p) in sq.iter_mut().zip(part?) {
+            *s += p;
         }
     }
     let tau_scale: Vec<f64> = sq.iter().map(|s| (s / n_train as f64).sqrt()).collect();

@@ -358,6 +358,26 @@ const PARALLEL_ROWS: usize = 8192;
 /// that the merged factors, hence every decision, are the same on every machine.
 const PARTS: usize = 2;
 
+/// `f` over the rows `0..n`: one call for a small pass, else one per contiguous part, each on a
+/// thread of its own; the results in row order. A panic in a part is resumed here.
+pub(super) fn in_parts<T: Send>(n: usize, f: impl Fn(Range<usize>) -> T + Sync) -> Vec<T> {
+    if n < PARALLEL_ROWS {
+        return vec![f(0..n)];
+    }
+    std::thread::scope(|s| {
+        let handles: Vec<_> = (0..PARTS)
+            .map(|k| {
+                let f = &f;
+                s.spawn(move || f(k * n / PARTS..(k + 1) * n / PARTS))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    })
+}
+
 fn whiten(w: &Matrix3<f64>, v: &[f64; 3]) -> Vector3<f64> {
     w * Vector3::new(v[0], v[1], v[2])
 }
@@ -407,30 +427,12 @@ impl Problem for VjmProblem<'_> {
             return Ok(c.clone());
         }
         self.begin_pass();
-        let n = self.data.len();
-        let acc = if n < PARALLEL_ROWS {
-            self.compress_range(lin, 0..n)?
-        } else {
-            let bounds: Vec<Range<usize>> = (0..PARTS)
-                .map(|k| k * n / PARTS..(k + 1) * n / PARTS)
-                .collect();
-            let parts: Vec<Result<CompressedAccumulator, Cancelled>> = std::thread::scope(|s| {
-                let handles: Vec<_> = bounds
-                    .iter()
-                    .map(|r| s.spawn(|| self.compress_range(lin, r.clone())))
-                    .collect();
-                handles
-                    .into_iter()
-                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                    .collect()
-            });
-            let mut it = parts.into_iter();
-            let mut acc = it.next().expect("PARTS ≥ 1")?;
-            for part in it {
-                acc.merge(part?).expect("parts have the same width");
-            }
-            acc
-        };
+        let parts = in_parts(self.data.len(), |r| self.compress_range(lin, r));
+        let mut it = parts.into_iter();
+        let mut acc = it.next().expect("at least one part")?;
+        for part in it {
+            acc.merge(part?).expect("parts have the same width");
+        }
         let c = Arc::new(acc.finish());
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if cache.len() >= CACHE {
