@@ -23,7 +23,7 @@ import json
 import math
 import typing
 from dataclasses import dataclass, field
-from typing import Dict, Iterator, List, Mapping, Optional, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -573,6 +573,38 @@ def _fits(tp: object, value: object) -> bool:
     return True
 
 
+_FLAT: Dict[object, Optional[Callable[[Any], object]]] = {}
+
+
+def _float(v: object) -> float:
+    return math.nan if v is None else float(v)  # type: ignore[arg-type]
+
+
+def _flat_builder(tp: object) -> Optional[Callable[[Any], object]]:
+    """For a dataclass whose fields are all ``int``, ``float``, ``str`` or ``bool``: a function
+    that builds it from a core mapping as :func:`_build` does, without the per-field dispatch
+    (lists of such items are the long ones). ``None`` for any other type."""
+    if tp not in _FLAT:
+        builder: Optional[Callable[[Any], object]] = None
+        if dataclasses.is_dataclass(tp) and isinstance(tp, type):
+            hints = _hints(tp)
+            convert: Dict[object, Optional[Callable[[Any], object]]] = {int: int, float: _float, str: None, bool: None}
+            fields = dataclasses.fields(tp)
+            if all(hints[f.name] in convert for f in fields):
+                plan = [(f.name, _key(f), convert[hints[f.name]]) for f in fields]
+                cls: type = tp
+
+                def build(value: Any) -> object:
+                    if not isinstance(value, dict):
+                        raise TypeError(f"{cls.__name__} expects a mapping, got {type(value).__name__}")
+                    return cls(**{name: (value[key] if conv is None else conv(value[key]))
+                                  for name, key, conv in plan if key in value})
+
+                builder = build
+        _FLAT[tp] = builder
+    return _FLAT[tp]
+
+
 def _build(tp: object, value: object) -> object:
     """``value`` (plain core values) as type ``tp``: dataclasses field by field (by JSON key),
     lists item by item, a Union by its first fitting arm, null floats as NaN."""
@@ -592,6 +624,9 @@ def _build(tp: object, value: object) -> object:
         return tp(**kwargs)
     if origin in (list, List):
         (item,) = typing.get_args(tp)
+        flat = _flat_builder(item)
+        if flat is not None:  # e.g. per_pose: one entry per pose, 10⁵ of them in a large campaign
+            return [flat(v) for v in value]  # type: ignore[attr-defined]
         return [_build(item, v) for v in value]  # type: ignore[attr-defined]
     if origin is tuple:
         return tuple(_build(a, v) for a, v in zip(typing.get_args(tp), value))  # type: ignore[call-overload]
