@@ -85,11 +85,6 @@ pub fn predictions_pass(
 ) -> Result<PassOut, Cancelled> {
     let n = problem.data.len();
     let n_groups = problem.groups.iter().copied().max().map_or(0, |g| g + 1);
-    let parts: Vec<Range<usize>> = if n < 8192 {
-        std::iter::once(0..n).collect()
-    } else {
-        vec![0..n / 2, n / 2..n]
-    };
     let all_terms: Vec<Term> = fits.iter().flat_map(|f| f.terms.iter().copied()).collect();
     let want = problem.mask(&all_terms);
     problem.begin_pass();
@@ -139,13 +134,7 @@ pub fn predictions_pass(
         })?;
         Ok(out)
     };
-    let results: Vec<Result<PassOut, Cancelled>> = std::thread::scope(|s| {
-        let handles: Vec<_> = parts.iter().map(|r| s.spawn(|| run(r.clone()))).collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-            .collect()
-    });
+    let results = super::problem::in_parts(n, run);
     let mut it = results.into_iter();
     let mut acc = it.next().expect("at least one part")?;
     for r in it {

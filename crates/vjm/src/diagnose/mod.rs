@@ -442,6 +442,7 @@ pub fn detectability(
     let mut acc = stiffness_core::lsq::TriangularAccumulator::new(idx.len() + 1);
     let mut z = vec![0.0; idx.len() + 1];
     let want = p.problem.mask(&fit.terms);
+    p.problem.begin_pass();
     p.problem
         .for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
             if p.problem.labels[i] != SetLabel::Train {

@@ -364,11 +364,27 @@ pub(super) fn in_parts<T: Send>(n: usize, f: impl Fn(Range<usize>) -> T + Sync) 
     if n < PARALLEL_ROWS {
         return vec![f(0..n)];
     }
+    let parts: Vec<Range<usize>> = (0..PARTS)
+        .map(|k| k * n / PARTS..(k + 1) * n / PARTS)
+        .collect();
+    over_parts(&parts, f)
+}
+
+/// `f` over each of `parts`, one thread per part when there are several; the results in the
+/// order of `parts`. A panic in a part is resumed here.
+pub(super) fn over_parts<T: Send>(
+    parts: &[Range<usize>],
+    f: impl Fn(Range<usize>) -> T + Sync,
+) -> Vec<T> {
+    if let [only] = parts {
+        return vec![f(only.clone())];
+    }
     std::thread::scope(|s| {
-        let handles: Vec<_> = (0..PARTS)
-            .map(|k| {
+        let handles: Vec<_> = parts
+            .iter()
+            .map(|r| {
                 let f = &f;
-                s.spawn(move || f(k * n / PARTS..(k + 1) * n / PARTS))
+                s.spawn(move || f(r.clone()))
             })
             .collect();
         handles
@@ -542,17 +558,8 @@ impl VjmProblem<'_> {
             cuts.push(n);
             cuts.windows(2).map(|w| w[0]..w[1]).collect()
         };
-        let results: Vec<Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled>> =
-            std::thread::scope(|s| {
-                let handles: Vec<_> = parts
-                    .iter()
-                    .map(|r| s.spawn(|| self.within_range(lin, r.clone(), cols)))
-                    .collect();
-                handles
-                    .into_iter()
-                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                    .collect()
-            });
+        self.begin_pass();
+        let results = over_parts(&parts, |r| self.within_range(lin, r, cols));
         let mut it = results.into_iter();
         let (mut acc, mut n_offsets) = it.next().expect("at least one part")?;
         for r in it {

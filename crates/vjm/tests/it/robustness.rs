@@ -164,6 +164,38 @@ mod cancellation {
         );
     }
 
+    /// Every pass over the rows counts its own rows from 0: no report of a pass says it is
+    /// complete before it ends (a pass that did not reset the count showed `total/total` from
+    /// its first report). 10 000 rows, so that the passes run in two parts.
+    #[test]
+    fn every_pass_over_the_rows_reports_its_own_progress() {
+        let chain = SerialChain::bundled();
+        let spec = CampaignSpec {
+            n_poses: 1000,
+            wrenches_per_pose: 10,
+            seed: 8,
+            ..Default::default()
+        };
+        let data = simulate(&chain, &TrueModel::nominal(7), &spec)
+            .unwrap()
+            .dataset;
+        let reports = Mutex::new(Vec::new());
+        let sink = |p: Progress| {
+            if p.stage == "pass over the rows" {
+                reports.lock().unwrap().push((p.done, p.total));
+            }
+        };
+        let monitor = Monitor::new(Cancel::new()).with_progress(&sink);
+        diagnose_monitored(&chain, &data, &DiagnoseOptions::default(), &monitor).unwrap();
+        let reports = reports.into_inner().unwrap();
+        let passes = reports.iter().filter(|(done, _)| *done == 0).count();
+        assert!(passes >= 4, "{passes} passes reported: {reports:?}");
+        for (done, total) in &reports {
+            assert_eq!(*total, data.len());
+            assert!(done < total, "a pass reported {done}/{total}: {reports:?}");
+        }
+    }
+
     #[test]
     fn a_cancelled_token_stops_diagnose_and_an_idle_one_changes_nothing() {
         let chain = SerialChain::bundled();
