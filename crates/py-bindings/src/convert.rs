@@ -97,6 +97,11 @@ fn numpy_copy<T: numpy::Element + Copy>(arr: &PyReadonlyArrayDyn<'_, T>) -> PyRe
 /// The train/test labels of a sequence of strings (`"train"`/`"test"`, any case, spaces
 /// trimmed), read one item at a time: no list of Rust strings is built beside the caller's.
 pub fn set_labels(seq: &Bound<'_, PyAny>) -> PyResult<Vec<SetLabel>> {
+    if seq.is_instance_of::<PyString>() {
+        return Err(value_error(
+            "set must be a sequence with one \"train\" or \"test\" label per row, not one string",
+        ));
+    }
     let mut labels = Vec::with_capacity(seq.len().unwrap_or(0));
     for (i, item) in seq.try_iter()?.enumerate() {
         let item = item?;

@@ -41,7 +41,8 @@ pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset<'_>) -> PyResult<Bound<
 
 /// A dataset over the caller's arrays, validated exactly as the file reader validates (row i =
 /// line i + 2). Contiguous float64 and int64 columns are borrowed, not copied (a campaign of 10⁶
-/// Panda rows is 128 MB of them).
+/// Panda rows is 128 MB of them), as `identify` borrows its input: the caller's arrays must not
+/// be written by another Python thread while the call runs without the GIL.
 pub fn dataset_from_arrays<'a>(
     n_joints: usize,
     q: &'a PyReadonlyArrayDyn<'_, f64>,

@@ -96,3 +96,9 @@ def test_a_two_dimensional_pose_column_is_a_shape_error(panda, measurements):
     m = measurements
     with pytest.raises(rs.ShapeError):
         vjm.diagnose(panda, _with(m, pose=np.asarray(m.pose).reshape(-1, 1)))
+
+
+def test_a_single_string_as_set_is_refused_as_such(panda, measurements):
+    with pytest.raises(ValueError) as e:
+        vjm.diagnose(panda, _with(measurements, set="train"))
+    assert "one string" in str(e.value)

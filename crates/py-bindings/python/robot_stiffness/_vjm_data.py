@@ -268,6 +268,9 @@ def diagnose(
     verdict adds a χ² goodness-of-fit test; not given, a default assumption sets only the relative
     weights and ``unexplained`` rests on the lack-of-fit test, which needs no noise level.
     ``per_row=False`` leaves out the per-row predictions (large campaigns).
+
+    The arrays of ``data`` are read where they are, without a copy, while other Python threads
+    run: do not write to them from another thread during the call.
     """
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
