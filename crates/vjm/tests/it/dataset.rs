@@ -264,19 +264,8 @@ fn a_failed_write_leaves_nothing_behind() {
 fn borrowed_columns_are_the_same_dataset_as_owned_ones() {
     use std::borrow::Cow;
     use vjm::diagnose::{diagnose, DiagnoseOptions};
-    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
-    use vjm::SerialChain;
 
-    let chain = SerialChain::bundled();
-    let spec = CampaignSpec {
-        n_poses: 24,
-        wrenches_per_pose: 4,
-        seed: 5,
-        ..Default::default()
-    };
-    let owned = simulate(&chain, &TrueModel::nominal(7), &spec)
-        .unwrap()
-        .dataset;
+    let (chain, owned) = crate::strategies::nominal_panda_campaign(24, 4, 5);
     let n = owned.len();
     let rotation: Option<Vec<f64>> = (0..n)
         .map(|i| owned.rotation(i))

@@ -169,16 +169,7 @@ mod cancellation {
     /// its first report). 10 000 rows, so that the passes run in two parts.
     #[test]
     fn every_pass_over_the_rows_reports_its_own_progress() {
-        let chain = SerialChain::bundled();
-        let spec = CampaignSpec {
-            n_poses: 1000,
-            wrenches_per_pose: 10,
-            seed: 8,
-            ..Default::default()
-        };
-        let data = simulate(&chain, &TrueModel::nominal(7), &spec)
-            .unwrap()
-            .dataset;
+        let (chain, data) = crate::strategies::nominal_panda_campaign(1000, 10, 8);
         let reports = Mutex::new(Vec::new());
         let sink = |p: Progress| {
             if p.stage == "pass over the rows" {
@@ -359,15 +350,7 @@ mod validation {
     }
 
     fn panda_campaign() -> (SerialChain, Dataset<'static>) {
-        let chain = SerialChain::bundled();
-        let spec = CampaignSpec {
-            n_poses: 24,
-            wrenches_per_pose: 4,
-            seed: 5,
-            ..Default::default()
-        };
-        let c = simulate(&chain, &TrueModel::nominal(7), &spec).unwrap();
-        (chain, c.dataset)
+        crate::strategies::nominal_panda_campaign(24, 4, 5)
     }
 
     fn with_q(data: &Dataset<'_>, row: usize, joint: usize, value: f64) -> Dataset<'static> {

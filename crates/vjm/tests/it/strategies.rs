@@ -125,3 +125,22 @@ pub fn random_compliances(m: usize, seed: u64) -> Vec<f64> {
         .map(|_| 10f64.powf(rng.random_range(-7.0..-5.0)))
         .collect()
 }
+
+/// A seeded campaign of the bundled Panda with nominal torsion springs and nothing hidden:
+/// `n_poses` poses × `wrenches_per_pose` loads (the testbed's default noise and split).
+pub fn nominal_panda_campaign(
+    n_poses: usize,
+    wrenches_per_pose: usize,
+    seed: u64,
+) -> (SerialChain, vjm::dataset::Dataset<'static>) {
+    let chain = SerialChain::bundled();
+    let spec = vjm::testbed::CampaignSpec {
+        n_poses,
+        wrenches_per_pose,
+        seed,
+        ..Default::default()
+    };
+    let c = vjm::testbed::simulate(&chain, &vjm::testbed::TrueModel::nominal(7), &spec)
+        .expect("the bundled Panda simulates");
+    (chain, c.dataset)
+}
