@@ -8,7 +8,7 @@ use vjm::diagnose::{diagnose_monitored, DiagnoseOptions};
 
 use crate::errors::IntoPyErr;
 use crate::interrupt::run_interruptible;
-use crate::results::{summary, vjm_rows};
+use crate::results::{summary, vjm_per_pose, vjm_rows};
 use crate::vjm::{parse_model, PyRobot};
 use crate::vjm_data::dataset_from_arrays;
 
@@ -91,7 +91,10 @@ pub fn vjm_diagnose<'py>(
     })?
     .map_err(IntoPyErr::into_py_err)?;
     let rows = vjm_rows(py, &std::mem::take(&mut result.rows))?;
-    Ok((summary(py, &result)?, rows))
+    let per_pose = vjm_per_pose(py, &std::mem::take(&mut result.per_pose))?;
+    let out = summary(py, &result)?;
+    out.set_item("per_pose", per_pose)?;
+    Ok((out, rows))
 }
 
 /// Registers the function on `m`.

@@ -89,6 +89,28 @@ pub fn vjm_rows<'py>(
     Ok(out)
 }
 
+/// The per-pose errors of a VJM diagnosis as columns (10⁵ poses in a large campaign: four
+/// arrays instead of 10⁵ dicts): `pose` (G,) int64, `held_out` (G,) bool, `baseline`,
+/// `extended` (G,) mean relative errors.
+pub fn vjm_per_pose<'py>(
+    py: Python<'py>,
+    poses: &[vjm::diagnose::report::PoseError],
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    let pose: Vec<i64> = poses.iter().map(|p| p.pose).collect();
+    out.set_item("pose", PyArray1::from_vec(py, pose))?;
+    let held_out: Vec<bool> = poses
+        .iter()
+        .map(|p| p.set == vjm::dataset::SetLabel::Test)
+        .collect();
+    out.set_item("held_out", PyArray1::from_vec(py, held_out))?;
+    let baseline: Vec<f64> = poses.iter().map(|p| p.baseline).collect();
+    out.set_item("baseline", PyArray1::from_vec(py, baseline))?;
+    let extended: Vec<f64> = poses.iter().map(|p| p.extended).collect();
+    out.set_item("extended", PyArray1::from_vec(py, extended))?;
+    Ok(out)
+}
+
 /// The per-row part of a CSJM diagnosis as columns: `row` (N,) int64 (1-based data row of the
 /// file, 0 for arrays), `held_out` (N,) bool, `dzeta` (N, 3) rad, `dtau`, `baseline_residual`,
 /// `extended_residual` (N, 3) N·m.

@@ -118,7 +118,13 @@ def test_to_dict_is_what_the_core_sent(vjm_core, csjm_path):
     """Typed and back: the same keys and values as the core's result (nothing dropped, nothing
     added), for both models."""
     summary, rows = vjm_core
-    assert _nulls(Diagnosis._from_core("vjm", summary, rows).to_dict()) == summary
+    # per_pose crosses as columns; its JSON form is one dict per pose, built here by hand.
+    cols = summary["per_pose"]
+    as_json = {**summary, "per_pose": [
+        {"pose": int(cols["pose"][k]), "set": "test" if cols["held_out"][k] else "train",
+         "baseline": float(cols["baseline"][k]), "extended": float(cols["extended"][k])}
+        for k in range(len(cols["pose"]))]}
+    assert _nulls(Diagnosis._from_core("vjm", summary, rows).to_dict()) == _nulls(as_json)
     summary, rows = _core.csjm_diagnose_csv(csjm_path)
     assert _nulls(Diagnosis._from_core("csjm", summary, rows).to_dict()) == summary
 
@@ -241,3 +247,33 @@ def test_long_lists_of_flat_results_are_built_as_single_items_are():
     assert np.isnan(fast[0].extended)
     with pytest.raises(TypeError):
         results._build(List[results.PoseError], [[1, "test", 0.1, 0.2]])
+
+
+def test_per_pose_errors_are_columns_read_as_a_sequence(vjm_result, campaign):
+    """per_pose crosses as four arrays (10⁵ poses in a large campaign) and reads as a sequence
+    of PoseError: length, indexing from either end, slices, iteration, its JSON form, pickling,
+    and a clear error for an index out of range or a column of the wrong length."""
+    from robot_stiffness.results import PoseError, PoseErrors
+
+    pp = vjm_result.per_pose
+    assert isinstance(pp, PoseErrors)
+    poses = list(dict.fromkeys(campaign.measurements.pose.tolist()))
+    assert len(pp) == len(poses) and pp.pose.tolist() == poses
+    assert pp.pose.dtype == np.int64 and pp.held_out.dtype == np.bool_ and pp.baseline.dtype == np.float64
+    first, last = pp[0], pp[-1]
+    assert isinstance(first, PoseError) and first.pose == poses[0] and last.pose == poses[-1]
+    assert first.baseline == pp.baseline[0] and first.set in ("train", "test")
+    # A pose is held out exactly when its rows are.
+    test_rows = {p for p, s in zip(campaign.measurements.pose.tolist(), campaign.measurements.set) if s == "test"}
+    assert {e.pose for e in pp if e.set == "test"} == test_rows
+    assert [e.pose for e in pp[1:4]] == poses[1:4] and isinstance(pp[1:4], PoseErrors)
+    with pytest.raises(IndexError, match="out of range"):
+        pp[len(pp)]
+    doc = vjm_result.to_dict()["per_pose"]
+    assert doc[0] == {"pose": first.pose, "set": first.set, "baseline": first.baseline, "extended": first.extended}
+    assert PoseErrors._from_core(doc) == pp
+    assert pickle.loads(pickle.dumps(pp)) == pp
+    with pytest.raises(ValueError, match="'baseline' has shape"):
+        PoseErrors([1, 2], [False, True], [0.1], [0.2, 0.3])
+    with pytest.raises(AttributeError):
+        pp.pose = pp.pose  # type: ignore[misc]

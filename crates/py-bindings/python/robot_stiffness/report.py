@@ -47,6 +47,7 @@ from .results import (
     Evidence,
     Finding,
     MomentRows,
+    PoseErrors,
     ResidualStructure,
 )
 
@@ -280,10 +281,10 @@ def _plot_per_pose(result: Diagnosis, path: _Target) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    poses = result.per_pose or []
-    b = np.array([100.0 * p.baseline for p in poses], dtype=float)
-    e = np.array([100.0 * p.extended for p in poses], dtype=float)
-    test = np.array([p.set == "test" for p in poses], dtype=bool)
+    poses = result.per_pose if result.per_pose is not None else PoseErrors([], [], [], [])
+    b = 100.0 * poses.baseline
+    e = 100.0 * poses.extended
+    test = poses.held_out
     x = np.arange(len(poses))
     fig, ax = plt.subplots(figsize=(9, 3.8))
     # Points: 2 bars of 4 corners (or 2 segments of 2 ends) per pose, up to one shaded span of
@@ -292,7 +293,7 @@ def _plot_per_pose(result: Diagnosis, path: _Target) -> None:
         ax.bar(x - 0.2, b, width=0.4, label="baseline", color="tab:red")
         ax.bar(x + 0.2, e, width=0.4, label="extended", color="tab:green")
         ax.set_xticks(x)
-        ax.set_xticklabels([str(p.pose) for p in poses], fontsize=7)
+        ax.set_xticklabels([str(p) for p in poses.pose.tolist()], fontsize=7)
         ax.set_xlabel("pose (shaded: held out)")
     elif 7 * len(poses) <= MAX_POINTS:
         # Many poses: one line collection per model instead of one rectangle per pose (ax.bar

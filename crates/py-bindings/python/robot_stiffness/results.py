@@ -21,7 +21,9 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import operator
 import typing
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Union
 
@@ -50,6 +52,7 @@ __all__ = [
     "ResidualStructure",
     "ResidualReport",
     "PoseError",
+    "PoseErrors",
     "DisplacementRows",
     "MomentRows",
 ]
@@ -345,6 +348,99 @@ class PoseError(_Result):
     extended: float
 
 
+class PoseErrors(Sequence[PoseError]):
+    """The per-pose errors of a VJM diagnosis: a read-only sequence of :class:`PoseError`
+    kept as numpy columns, ``pose`` id (G,) int64, ``held_out`` (G,) bool, and the mean relative
+    errors ``baseline`` and ``extended`` (G,). A campaign of 10⁵ poses crosses from the core as
+    four arrays; a :class:`PoseError` is made only for an item read."""
+
+    __slots__ = ("pose", "held_out", "baseline", "extended")
+
+    pose: npt.NDArray[np.int64]
+    held_out: npt.NDArray[np.bool_]
+    baseline: npt.NDArray[np.float64]
+    extended: npt.NDArray[np.float64]
+
+    def __init__(self, pose: npt.ArrayLike, held_out: npt.ArrayLike, baseline: npt.ArrayLike,
+                 extended: npt.ArrayLike) -> None:
+        cols = {"pose": np.asarray(pose, dtype=np.int64), "held_out": np.asarray(held_out, dtype=np.bool_),
+                "baseline": np.asarray(baseline, dtype=np.float64),
+                "extended": np.asarray(extended, dtype=np.float64)}
+        n = cols["pose"].shape
+        for name, col in cols.items():
+            if col.ndim != 1 or col.shape != n:
+                raise ValueError(f"PoseErrors: column {name!r} has shape {col.shape}; every column must "
+                                 f"be 1-D with the length of 'pose' {n}")
+            object.__setattr__(self, name, col)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"PoseErrors is read-only (cannot set {name!r})")
+
+    def __getstate__(self) -> Dict[str, object]:
+        return {n: getattr(self, n) for n in self.__slots__}
+
+    def __setstate__(self, state: Dict[str, object]) -> None:
+        for n in self.__slots__:
+            object.__setattr__(self, n, state[n])
+
+    def __len__(self) -> int:
+        return int(self.pose.shape[0])
+
+    def _item(self, i: int) -> PoseError:
+        return PoseError(pose=int(self.pose[i]), set="test" if self.held_out[i] else "train",
+                         baseline=float(self.baseline[i]), extended=float(self.extended[i]))
+
+    @typing.overload
+    def __getitem__(self, i: int) -> PoseError: ...
+
+    @typing.overload
+    def __getitem__(self, i: slice) -> "PoseErrors": ...
+
+    def __getitem__(self, i: Union[int, slice]) -> Union[PoseError, "PoseErrors"]:
+        if isinstance(i, slice):
+            return PoseErrors(self.pose[i], self.held_out[i], self.baseline[i], self.extended[i])
+        k = operator.index(i)
+        n = len(self)
+        if not -n <= k < n:
+            raise IndexError(f"pose index {k} out of range for {n} poses")
+        return self._item(k % n)
+
+    def __iter__(self) -> Iterator[PoseError]:
+        return (self._item(i) for i in range(len(self)))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PoseErrors):
+            return NotImplemented
+        return all(np.array_equal(getattr(self, n), getattr(other, n), equal_nan=n in ("baseline", "extended"))
+                   for n in self.__slots__)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"PoseErrors({len(self)} poses, {int(self.held_out.sum())} held out)"
+
+    def records(self) -> Iterator[Dict[str, Json]]:
+        """One JSON-ready dict per pose, with the keys of the core's JSON."""
+        sets = np.where(self.held_out, "test", "train").tolist()
+        for p, st, b, e in zip(self.pose.tolist(), sets, self.baseline.tolist(), self.extended.tolist()):
+            yield {"pose": p, "set": st, "baseline": b, "extended": e}
+
+    @classmethod
+    def _from_core(cls, value: object) -> "PoseErrors":
+        """From the core's columns, or from the JSON form (a list of per-pose dicts)."""
+        if isinstance(value, PoseErrors):
+            return value
+        if isinstance(value, Mapping):
+            return cls(value["pose"], value["held_out"], value["baseline"], value["extended"])
+        if isinstance(value, list):
+            for k, v in enumerate(value):
+                if not isinstance(v, Mapping):
+                    raise TypeError(f"per_pose[{k}]: PoseError expects a mapping, got {type(v).__name__}")
+            return cls([v["pose"] for v in value], [v["set"] == "test" for v in value],
+                       [_float(v["baseline"]) for v in value], [_float(v["extended"]) for v in value])
+        raise TypeError(f"PoseErrors expects columns or a list of per-pose mappings, got {type(value).__name__}")
+
+
 # ----------------------------------------------------------------------------- rows
 
 Array = npt.NDArray[np.float64]
@@ -490,7 +586,7 @@ class Diagnosis(_Result):
     n_train: int
     n_test: int
     fdr: float
-    per_pose: Optional[List[PoseError]] = _only(VJM)
+    per_pose: Optional[PoseErrors] = _only(VJM)
     verdict: Optional[Verdict] = _only(VJM)
     explained_by_springs: Optional[List[str]] = _only(VJM)
     connection_term: Optional[ConnectionTest] = _only(CSJM)
@@ -615,6 +711,8 @@ def _build(tp: object, value: object) -> object:
             return None
         arm = next((a for a in args if _fits(a, value)), args[0])
         return _build(arm, value)
+    if tp is PoseErrors:
+        return PoseErrors._from_core(value)
     if dataclasses.is_dataclass(tp) and isinstance(tp, type):
         if not isinstance(value, dict):
             raise TypeError(f"{tp.__name__} expects a mapping, got {type(value).__name__}")
@@ -638,7 +736,7 @@ def _build(tp: object, value: object) -> object:
 
 
 def _unbuild(obj: object, model: Optional[str]) -> Json:
-    if isinstance(obj, _Rows):
+    if isinstance(obj, (_Rows, PoseErrors)):
         return list(obj.records())
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         out: Dict[str, Json] = {}
@@ -678,6 +776,8 @@ def _unmapped_keys(tp: type, value: object, path: str = "") -> List[str]:
             return out
         arm = next((a for a in args if _fits(a, value)), args[0])
         return _unmapped_keys(arm, value, path)
+    if tp is PoseErrors and isinstance(value, dict):
+        return [f"{path}{k}" for k in value if k not in PoseErrors.__slots__]
     if dataclasses.is_dataclass(tp) and isinstance(value, dict):
         hints = _hints(tp)
         by_key = {_key(f): f for f in dataclasses.fields(tp)}

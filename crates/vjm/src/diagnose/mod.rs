@@ -329,31 +329,6 @@ fn prepare<'a>(
         });
     }
     let m = 3 * n;
-    // RMS torsion torque per joint over the training rows: the knots of the hinge candidate.
-    let parts = problem::in_parts(data.len(), |range| {
-        let mut builder = rows::RowBuilder::new(chain, opts.noise.wrench_sigma);
-        let mut sq = vec![0.0; n];
-        for i in range {
-            if i % 4096 == 0 {
-                cancel.check()?;
-            }
-            if labels[i] != SetLabel::Train {
-                continue;
-            }
-            let row = builder.row(data, i);
-            for (j, s) in sq.iter_mut().enumerate() {
-                *s += row.tau[3 * j].powi(2);
-            }
-        }
-        Ok::<_, stiffness_core::Cancelled>(sq)
-    });
-    let mut sq = vec![0.0; n];
-    for part in parts {
-        for (s, p) in sq.iter_mut().zip(part?) {
-            *s += p;
-        }
-    }
-    let tau_scale: Vec<f64> = sq.iter().map(|s| (s / n_train as f64).sqrt()).collect();
     let groups = data.pose_groups();
     let base_terms: Vec<Term> = baseline_model
         .springs()
@@ -374,7 +349,9 @@ fn prepare<'a>(
         data,
         labels,
         groups,
-        tau_scale,
+        // The hinge knots come from the pre-fit's pass below; the springs-only pre-fit has no
+        // hinge columns.
+        Vec::new(),
         Whitening {
             displacement_sigma: opts.noise.displacement_sigma,
             wrench_sigma: opts.noise.wrench_sigma,
@@ -389,22 +366,27 @@ fn prepare<'a>(
         wrench_sigma: [0.0; 6],
         propagate_abs: zeros.clone(),
     });
-    let pre = fit::fit(
-        &pre_problem,
-        &base_terms,
-        &Linearisation {
-            compliance: zeros.clone(),
-        },
-    )?;
+    let lin0 = Linearisation {
+        compliance: zeros.clone(),
+    };
+    // The pre-fit's pass also gives the RMS torsion torque per joint over the training rows:
+    // the knots of the hinge candidate.
+    let tau_scale = pre_problem.compress_with_torque_rms(&lin0)?;
+    let pre = fit::fit(&pre_problem, &base_terms, &lin0)?;
     cancel.check()?;
     let c_pre = stiffness_core::engine::Problem::relinearise(&pre_problem, &pre.terms, &pre.coef)
         .compliance;
-    let problem = problem.with_whitening(Whitening {
+    let mut problem = problem.with_whitening(Whitening {
         displacement_sigma: opts.noise.displacement_sigma,
         wrench_sigma: opts.noise.wrench_sigma,
         propagate_abs: c_pre.iter().map(|v| v.abs()).collect(),
     });
-    let base_fit = fit::fit(&problem, &base_terms, &Linearisation { compliance: c_pre })?;
+    problem.tau_scale = tau_scale;
+    let lin = Linearisation { compliance: c_pre };
+    // The baseline's fit and its verdict's within-pose factor from one pass (the baseline is
+    // not bilinear: its fit is at `lin`).
+    problem.compress_with_within(&lin, &within_selection(&problem, &base_terms))?;
+    let base_fit = fit::fit(&problem, &base_terms, &lin)?;
     Ok(Prepared {
         problem,
         baseline_model,
@@ -502,6 +484,21 @@ struct VerdictTests {
 /// The name of the per-pose-offset block.
 pub const POSE_OFFSETS: &str = "pose_offsets";
 
+/// The columns of the within-pose factor of a model's verdict, in the factor's order: model ∪
+/// lack-of-fit alternative, ascending, then y.
+fn within_selection(problem: &VjmProblem<'_>, model: &[Term]) -> Vec<usize> {
+    use stiffness_core::engine::Problem as _;
+    let mut sel: Vec<usize> = model
+        .iter()
+        .chain(&alternative_terms(3 * problem.chain.n_joints()))
+        .flat_map(|t| problem.columns(*t))
+        .collect();
+    sel.sort_unstable();
+    sel.dedup();
+    sel.push(problem.observation_column());
+    sel
+}
+
 fn verdict_tests(
     problem: &VjmProblem<'_>,
     fit: &Fit<Term, Linearisation>,
@@ -514,11 +511,7 @@ fn verdict_tests(
     let model = cols(&fit.terms);
     let alt = cols(&alternative_terms(3 * problem.chain.n_joints()));
     let y = problem.observation_column();
-    // The within-pose factor over model ∪ alternative ∪ y only, in its own numbering.
-    let mut sel: Vec<usize> = model.iter().chain(&alt).copied().collect();
-    sel.sort_unstable();
-    sel.dedup();
-    sel.push(y);
+    let sel = within_selection(problem, &fit.terms);
     let at = |c: usize| sel.iter().position(|&s| s == c).expect("selected");
     let within = problem.within_pose(&fit.lin, &sel)?;
     let model_w: Vec<usize> = model.iter().map(|&c| at(c)).collect();

@@ -77,12 +77,17 @@ impl Whitening {
     }
 }
 
+/// A within-pose factor and what it was made for.
+type WithinKey = (Linearisation, Vec<usize>, Arc<WithinPose>);
+
 /// A VJM diagnosis problem: the data, the split, the whitening and the column layout.
 pub struct VjmProblem<'a> {
     pub(super) chain: &'a SerialChain,
     pub(super) data: &'a Dataset<'a>,
     pub(super) labels: Vec<SetLabel>,
     pub(super) groups: Vec<usize>,
+    /// RMS torsion torque per joint over the training rows, N·m: the unit of the hinge
+    /// candidate's knots (empty in the springs-only pre-fit, which has no hinge columns).
     pub(super) tau_scale: Vec<f64>,
     pub(super) whitening: Whitening,
     /// Wrench noise of the backlash candidate's torque expectation (the options' value).
@@ -93,6 +98,9 @@ pub struct VjmProblem<'a> {
     m: usize,
     y: usize,
     cache: Mutex<Vec<(Linearisation, Arc<Compressed>)>>,
+    /// Within-pose factors made, by linearisation and selected columns: the verdict of an
+    /// extended model whose findings are springs (tilts) needs the baseline's factor again.
+    within_cache: Mutex<Vec<WithinKey>>,
     pub(super) cancel: Cancel,
     /// Where the passes report their progress (rows done of the pass), from any thread.
     pub(super) sink: Option<&'a (dyn Fn(Progress) + Sync)>,
@@ -157,6 +165,7 @@ impl<'a> VjmProblem<'a> {
             m,
             y: next,
             cache: Mutex::new(Vec::new()),
+            within_cache: Mutex::new(Vec::new()),
             cancel,
             sink: None,
             rows_done: AtomicUsize::new(0),
@@ -189,6 +198,7 @@ impl<'a> VjmProblem<'a> {
             m: self.m,
             y: self.y,
             cache: Mutex::new(Vec::new()),
+            within_cache: Mutex::new(Vec::new()),
             cancel: self.cancel.clone(),
             sink: self.sink,
             rows_done: AtomicUsize::new(0),
@@ -325,20 +335,24 @@ impl<'a> VjmProblem<'a> {
         Ok(())
     }
 
-    /// The compressed design of the rows `range` at `lin`.
+    /// The compressed design of the rows `range` at `lin`, and what `extras` asks for from
+    /// the same rows.
     fn compress_range(
         &self,
         lin: &Linearisation,
         range: Range<usize>,
-    ) -> Result<CompressedAccumulator, Cancelled> {
+        extras: Extras<'_>,
+    ) -> Result<PartOut, Cancelled> {
         let p = self.ncols();
         let mut acc = CompressedAccumulator::new(p);
-        let mut z = vec![[0.0; 3]; p];
+        let mut runs = extras.within.map(|sel| WithinRuns::new(sel.len()));
+        let n_joints = self.chain.n_joints();
+        let mut torque_sq = vec![0.0; if extras.torque_squares { n_joints } else { 0 }];
+        let mut z = vec![Vector3::zeros(); p];
         let mut zrow = vec![0.0; p];
-        self.for_each_row_in(lin, range, None, |i, _, w, _, cols| {
+        self.for_each_row_in(lin, range, None, |i, row, w, _, cols| {
             for (zk, c) in z.iter_mut().zip(cols) {
-                let v = whiten(w, c);
-                *zk = [v.x, v.y, v.z];
+                *zk = whiten(w, c);
             }
             let set = self.set_of(i);
             for r in 0..3 {
@@ -347,9 +361,147 @@ impl<'a> VjmProblem<'a> {
                 }
                 acc.push(set, &zrow).expect("rows have the layout's width");
             }
+            if set == RowSet::Train {
+                if let (Some(runs), Some(sel)) = (&mut runs, extras.within) {
+                    runs.push(self.groups[i], w, sel.iter().map(|&c| z[c]));
+                }
+                for (j, sq) in torque_sq.iter_mut().enumerate() {
+                    *sq += row.tau[3 * j].powi(2);
+                }
+            }
         })?;
-        Ok(acc)
+        Ok(PartOut {
+            acc,
+            runs,
+            torque_sq,
+        })
     }
+
+    /// Contiguous parts of the rows, one per thread for a large pass, cut at a change of pose
+    /// so that no run of a pose's rows is split between parts (the [`WithinPose`] offsets).
+    fn pose_parts(&self) -> Vec<Range<usize>> {
+        let n = self.data.len();
+        if n < PARALLEL_ROWS {
+            return std::iter::once(0..n).collect();
+        }
+        let mut cuts = vec![0];
+        for k in 1..PARTS {
+            let mut b = k * n / PARTS;
+            while b < n && b > 0 && self.groups[b] == self.groups[b - 1] {
+                b += 1;
+            }
+            cuts.push(b.max(*cuts.last().expect("non-empty")));
+        }
+        cuts.push(n);
+        cuts.windows(2).map(|w| w[0]..w[1]).collect()
+    }
+
+    /// One pass at `lin` that makes both the compressed design and the [`WithinPose`] factor
+    /// over `sel` (the baseline's verdict needs both at the baseline's point), unless both
+    /// are cached already. Later calls of [`Problem::compress`] and [`Self::within_pose`]
+    /// find them.
+    pub fn compress_with_within(
+        &self,
+        lin: &Linearisation,
+        sel: &[usize],
+    ) -> Result<(), Cancelled> {
+        if self.cached_compressed(lin).is_some() && self.cached_within(lin, sel).is_some() {
+            return Ok(());
+        }
+        let extras = Extras {
+            within: Some(sel),
+            ..Extras::default()
+        };
+        let out = self.compress_pass(lin, extras)?;
+        self.store_compressed(lin, Arc::new(out.acc.finish()));
+        if let Some(runs) = out.runs {
+            self.store_within(lin, sel, Arc::new(runs.finish()));
+        }
+        Ok(())
+    }
+
+    /// One pass at `lin` that makes the compressed design (cached for [`Problem::compress`])
+    /// and returns the RMS torsion torque of each joint over the training rows, N·m (the
+    /// knots of the hinge candidate; the pre-fit's pass computes the torques anyway).
+    pub fn compress_with_torque_rms(&self, lin: &Linearisation) -> Result<Vec<f64>, Cancelled> {
+        let extras = Extras {
+            torque_squares: true,
+            ..Extras::default()
+        };
+        let out = self.compress_pass(lin, extras)?;
+        let n_train = self.labels.iter().filter(|l| **l == SetLabel::Train).count();
+        self.store_compressed(lin, Arc::new(out.acc.finish()));
+        Ok(out
+            .torque_sq
+            .iter()
+            .map(|s| (s / n_train.max(1) as f64).sqrt())
+            .collect())
+    }
+
+    /// The pass of [`Problem::compress`] with `extras`, its parts merged in row order.
+    fn compress_pass(&self, lin: &Linearisation, extras: Extras<'_>) -> Result<PartOut, Cancelled> {
+        self.begin_pass();
+        let parts = over_parts(&self.pose_parts(), |r| self.compress_range(lin, r, extras));
+        let mut it = parts.into_iter();
+        let mut out = it.next().expect("at least one part")?;
+        for part in it {
+            let part = part?;
+            out.acc.merge(part.acc).expect("parts have the same width");
+            if let (Some(runs), Some(r)) = (&mut out.runs, part.runs) {
+                runs.merge(r);
+            }
+            for (a, b) in out.torque_sq.iter_mut().zip(part.torque_sq) {
+                *a += b;
+            }
+        }
+        Ok(out)
+    }
+
+    fn cached_compressed(&self, lin: &Linearisation) -> Option<Arc<Compressed>> {
+        let cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache.iter().find(|(l, _)| l == lin).map(|(_, c)| c.clone())
+    }
+
+    fn store_compressed(&self, lin: &Linearisation, c: Arc<Compressed>) {
+        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.len() >= CACHE {
+            cache.remove(0);
+        }
+        cache.push((lin.clone(), c));
+    }
+
+    fn cached_within(&self, lin: &Linearisation, sel: &[usize]) -> Option<Arc<WithinPose>> {
+        let cache = self.within_cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .iter()
+            .find(|(l, c, _)| l == lin && c == sel)
+            .map(|(_, _, w)| w.clone())
+    }
+
+    fn store_within(&self, lin: &Linearisation, sel: &[usize], w: Arc<WithinPose>) {
+        let mut cache = self.within_cache.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.len() >= CACHE {
+            cache.remove(0);
+        }
+        cache.push((lin.clone(), sel.to_vec(), w));
+    }
+}
+
+/// What a compress pass accumulates besides the compressed design, from the same rows.
+#[derive(Debug, Clone, Copy, Default)]
+struct Extras<'s> {
+    /// The [`WithinPose`] factor over these columns.
+    within: Option<&'s [usize]>,
+    /// Σ τ_jz² over the training rows, per joint.
+    torque_squares: bool,
+}
+
+/// One part's share of a compress pass.
+struct PartOut {
+    acc: CompressedAccumulator,
+    runs: Option<WithinRuns>,
+    /// Per joint (empty unless asked for).
+    torque_sq: Vec<f64>,
 }
 
 /// Rows below which a pass is not split over threads.
@@ -433,28 +585,11 @@ impl Problem for VjmProblem<'_> {
     }
 
     fn compress(&self, lin: &Linearisation) -> Result<Arc<Compressed>, Cancelled> {
-        if let Some((_, c)) = self
-            .cache
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .iter()
-            .find(|(l, _)| l == lin)
-        {
-            return Ok(c.clone());
+        if let Some(c) = self.cached_compressed(lin) {
+            return Ok(c);
         }
-        self.begin_pass();
-        let parts = in_parts(self.data.len(), |r| self.compress_range(lin, r));
-        let mut it = parts.into_iter();
-        let mut acc = it.next().expect("at least one part")?;
-        for part in it {
-            acc.merge(part?).expect("parts have the same width");
-        }
-        let c = Arc::new(acc.finish());
-        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
-        if cache.len() >= CACHE {
-            cache.remove(0);
-        }
-        cache.push((lin.clone(), c.clone()));
+        let c = Arc::new(self.compress_pass(lin, Extras::default())?.acc.finish());
+        self.store_compressed(lin, c.clone());
         Ok(c)
     }
 
@@ -473,28 +608,46 @@ impl Problem for VjmProblem<'_> {
     fn cluster_sums(&self, fit: &Fit<Term, Linearisation>) -> Result<Vec<Vec<f64>>, Cancelled> {
         let p = fit.coef.len();
         let n_groups = self.groups.iter().copied().max().map_or(0, |g| g + 1);
-        let mut sums = vec![vec![0.0; p]; n_groups];
-        let mut used = vec![false; n_groups];
         let idx: Vec<usize> = fit.terms.iter().flat_map(|t| self.columns(*t)).collect();
-        let mut x = vec![Vector3::zeros(); p];
         let want = self.mask(&fit.terms);
         self.begin_pass();
-        self.for_each_row(&fit.lin, Some(&want), |i, _, w, _, cols| {
-            if self.labels[i] != SetLabel::Train {
-                return;
+        // Each part's sums per cluster (a pose split between parts gets a share from each);
+        // the parts are added in row order.
+        let parts = in_parts(self.data.len(), |range| {
+            let mut sums = vec![vec![0.0; p]; n_groups];
+            let mut used = vec![false; n_groups];
+            let mut x = vec![Vector3::zeros(); p];
+            self.for_each_row_in(&fit.lin, range, Some(&want), |i, _, w, _, cols| {
+                if self.labels[i] != SetLabel::Train {
+                    return;
+                }
+                let mut pred = Vector3::zeros();
+                for (k, &c) in idx.iter().enumerate() {
+                    x[k] = whiten(w, &cols[c]);
+                    pred += x[k] * fit.coef[k];
+                }
+                let r = whiten(w, &cols[self.y]) - pred;
+                let g = self.groups[i];
+                used[g] = true;
+                for (s, xk) in sums[g].iter_mut().zip(&x) {
+                    *s += xk.dot(&r);
+                }
+            })?;
+            Ok::<_, Cancelled>((sums, used))
+        });
+        let mut it = parts.into_iter();
+        let (mut sums, mut used) = it.next().expect("at least one part")?;
+        for part in it {
+            let (s2, u2) = part?;
+            for (g, (s, u)) in s2.into_iter().zip(u2).enumerate() {
+                if u {
+                    used[g] = true;
+                    for (a, b) in sums[g].iter_mut().zip(s) {
+                        *a += b;
+                    }
+                }
             }
-            let mut pred = Vector3::zeros();
-            for (k, &c) in idx.iter().enumerate() {
-                x[k] = whiten(w, &cols[c]);
-                pred += x[k] * fit.coef[k];
-            }
-            let r = whiten(w, &cols[self.y]) - pred;
-            let g = self.groups[i];
-            used[g] = true;
-            for (s, xk) in sums[g].iter_mut().zip(&x) {
-                *s += xk.dot(&r);
-            }
-        })?;
+        }
         Ok(sums
             .into_iter()
             .zip(used)
@@ -536,41 +689,27 @@ pub const MAX_RUN: usize = 4096;
 
 impl VjmProblem<'_> {
     /// The [`WithinPose`] factor at `lin` over the columns `cols` of the layout (in that
-    /// order; the factor's column k is `cols[k]`).
+    /// order; the factor's column k is `cols[k]`). One pass over the rows, unless the same
+    /// factor was made before (the last [`CACHE`] are kept; [`Self::compress_with_within`]
+    /// makes one along with the compressed design).
     pub fn within_pose(
         &self,
         lin: &Linearisation,
         cols: &[usize],
-    ) -> Result<WithinPose, Cancelled> {
-        let n = self.data.len();
-        let parts: Vec<Range<usize>> = if n < PARALLEL_ROWS {
-            std::iter::once(0..n).collect()
-        } else {
-            // Cut at a pose change, so that no run is split between parts.
-            let mut cuts = vec![0];
-            for k in 1..PARTS {
-                let mut b = k * n / PARTS;
-                while b < n && b > 0 && self.groups[b] == self.groups[b - 1] {
-                    b += 1;
-                }
-                cuts.push(b.max(*cuts.last().expect("non-empty")));
-            }
-            cuts.push(n);
-            cuts.windows(2).map(|w| w[0]..w[1]).collect()
-        };
-        self.begin_pass();
-        let results = over_parts(&parts, |r| self.within_range(lin, r, cols));
-        let mut it = results.into_iter();
-        let (mut acc, mut n_offsets) = it.next().expect("at least one part")?;
-        for r in it {
-            let (a, k) = r?;
-            acc.merge(a).expect("parts have the same width");
-            n_offsets += k;
+    ) -> Result<Arc<WithinPose>, Cancelled> {
+        if let Some(w) = self.cached_within(lin, cols) {
+            return Ok(w);
         }
-        Ok(WithinPose {
-            factor: acc.finish(),
-            n_offsets,
-        })
+        self.begin_pass();
+        let results = over_parts(&self.pose_parts(), |r| self.within_range(lin, r, cols));
+        let mut it = results.into_iter();
+        let mut runs = it.next().expect("at least one part")?;
+        for r in it {
+            runs.merge(r?);
+        }
+        let w = Arc::new(runs.finish());
+        self.store_within(lin, cols, w.clone());
+        Ok(w)
     }
 
     fn within_range(
@@ -578,69 +717,109 @@ impl VjmProblem<'_> {
         lin: &Linearisation,
         range: Range<usize>,
         sel: &[usize],
-    ) -> Result<(stiffness_core::lsq::TriangularAccumulator, usize), Cancelled> {
-        let p = sel.len();
+    ) -> Result<WithinRuns, Cancelled> {
         let mut want = vec![false; self.ncols()];
         for &c in sel {
             want[c] = true;
         }
-        let mut acc = stiffness_core::lsq::TriangularAccumulator::new(p);
-        let mut n_offsets = 0;
-        // The current run: its group, whitening matrices and whitened row blocks.
-        let mut run_group = usize::MAX;
-        let mut ws: Vec<Matrix3<f64>> = Vec::new();
-        let mut zs: Vec<Vec<Vector3<f64>>> = Vec::new();
-        let mut zrow = vec![0.0; p];
-        let mut flush =
-            |ws: &mut Vec<Matrix3<f64>>,
-             zs: &mut Vec<Vec<Vector3<f64>>>,
-             acc: &mut stiffness_core::lsq::TriangularAccumulator| {
-                if ws.is_empty() {
-                    return;
-                }
-                let m: Matrix3<f64> = ws.iter().map(|w| w.transpose() * w).sum();
-                if let Some(mi) = m.try_inverse() {
-                    n_offsets += 3;
-                    let mut b = vec![Vector3::zeros(); p];
-                    for (w, z) in ws.iter().zip(zs.iter()) {
-                        let wt = w.transpose();
-                        for (bk, zk) in b.iter_mut().zip(z) {
-                            *bk += wt * zk;
-                        }
-                    }
-                    for bk in b.iter_mut() {
-                        *bk = mi * *bk;
-                    }
-                    for (w, z) in ws.iter().zip(zs.iter_mut()) {
-                        for (zk, bk) in z.iter_mut().zip(&b) {
-                            *zk -= w * bk;
-                        }
-                    }
-                }
-                for z in zs.iter() {
-                    for r in 0..3 {
-                        for (dst, zk) in zrow.iter_mut().zip(z) {
-                            *dst = zk[r];
-                        }
-                        acc.push_row_unchecked(&zrow);
-                    }
-                }
-                ws.clear();
-                zs.clear();
-            };
+        let mut runs = WithinRuns::new(sel.len());
         self.for_each_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
-            if self.labels[i] != SetLabel::Train {
-                return;
+            if self.labels[i] == SetLabel::Train {
+                runs.push(self.groups[i], w, sel.iter().map(|&c| whiten(w, &cols[c])));
             }
-            let g = self.groups[i];
-            if g != run_group || ws.len() >= MAX_RUN {
-                flush(&mut ws, &mut zs, &mut acc);
-                run_group = g;
-            }
-            ws.push(*w);
-            zs.push(sel.iter().map(|&c| whiten(w, &cols[c])).collect());
         })?;
-        flush(&mut ws, &mut zs, &mut acc);
-        Ok((acc, n_offsets))
+        Ok(runs)
+    }
+}
+
+/// The per-pose-offset projection of one part's training rows, a run of a pose's rows at a
+/// time (see [`WithinPose`]): the run's whitening matrices and whitened row blocks are kept
+/// until the pose changes (or [`MAX_RUN`] rows), then projected and folded.
+struct WithinRuns {
+    acc: stiffness_core::lsq::TriangularAccumulator,
+    n_offsets: usize,
+    /// Columns per row block.
+    p: usize,
+    /// The current run: its group, whitening matrices and whitened row blocks (p per row).
+    group: usize,
+    ws: Vec<Matrix3<f64>>,
+    zs: Vec<Vector3<f64>>,
+    zrow: Vec<f64>,
+}
+
+impl WithinRuns {
+    fn new(p: usize) -> Self {
+        Self {
+            acc: stiffness_core::lsq::TriangularAccumulator::new(p),
+            n_offsets: 0,
+            p,
+            group: usize::MAX,
+            ws: Vec::new(),
+            zs: Vec::new(),
+            zrow: vec![0.0; p],
+        }
+    }
+
+    /// A training row of pose `group` with whitening `w` and whitened columns `z` (p).
+    fn push(&mut self, group: usize, w: &Matrix3<f64>, z: impl Iterator<Item = Vector3<f64>>) {
+        if group != self.group || self.ws.len() >= MAX_RUN {
+            self.flush();
+            self.group = group;
+        }
+        self.ws.push(*w);
+        self.zs.extend(z);
+    }
+
+    /// Projects the run's offset out of its rows (`Zᵢ − Wᵢ M⁻¹ S`) and folds them.
+    fn flush(&mut self) {
+        if self.ws.is_empty() {
+            return;
+        }
+        let p = self.p;
+        let m: Matrix3<f64> = self.ws.iter().map(|w| w.transpose() * w).sum();
+        if let Some(mi) = m.try_inverse() {
+            self.n_offsets += 3;
+            let mut b = vec![Vector3::zeros(); p];
+            for (w, z) in self.ws.iter().zip(self.zs.chunks_exact(p)) {
+                let wt = w.transpose();
+                for (bk, zk) in b.iter_mut().zip(z) {
+                    *bk += wt * zk;
+                }
+            }
+            for bk in b.iter_mut() {
+                *bk = mi * *bk;
+            }
+            for (w, z) in self.ws.iter().zip(self.zs.chunks_exact_mut(p)) {
+                for (zk, bk) in z.iter_mut().zip(&b) {
+                    *zk -= w * bk;
+                }
+            }
+        }
+        for z in self.zs.chunks_exact(p) {
+            for r in 0..3 {
+                for (dst, zk) in self.zrow.iter_mut().zip(z) {
+                    *dst = zk[r];
+                }
+                self.acc.push_row_unchecked(&self.zrow);
+            }
+        }
+        self.ws.clear();
+        self.zs.clear();
+    }
+
+    /// Adds another part's rows (later rows of the file).
+    fn merge(&mut self, mut other: WithinRuns) {
+        self.flush();
+        other.flush();
+        self.acc.merge(other.acc).expect("parts have the same width");
+        self.n_offsets += other.n_offsets;
+    }
+
+    fn finish(mut self) -> WithinPose {
+        self.flush();
+        WithinPose {
+            factor: self.acc.finish(),
+            n_offsets: self.n_offsets,
+        }
     }
 }

@@ -720,3 +720,118 @@ fn the_exact_deflection_matches_the_testbeds() {
         );
     }
 }
+
+/// The backlash candidate's error function against an independent route, the regularised
+/// incomplete gamma function (erf(x) = sign(x)·P(½, x²)), and against tabulated values
+/// (30-digit values), across the range its argument takes (|τ|/(√2 σ_τ) from 0 to far beyond
+/// the point where erf is 1 in double precision). The gamma route is the less accurate of the
+/// two (at x = 1.138 it is 1.1e-15 off, `libm` 1e-17: it forms 1 − Q near the switch from
+/// its series to its continued fraction), hence 8 ulp of 1 between them.
+#[test]
+fn backlash_erf_agrees_with_the_incomplete_gamma_function() {
+    use vjm::diagnose::candidates::erf;
+    for (x, want) in [
+        (0.5, 0.520_499_877_813_046_5),
+        (1.0, 0.842_700_792_949_714_9),
+        (2.0, 0.995_322_265_018_952_7),
+        (1.142, 0.893_696_210_553_441),
+        (1.138, 0.892_465_639_009_885_3),
+    ] {
+        assert!((erf(x) - want).abs() <= 2e-16, "erf({x}) = {}", erf(x));
+        assert_eq!(erf(-x), -erf(x));
+    }
+    for k in 0..=4000 {
+        let x = k as f64 * 2e-3 - 4.0;
+        let via_gamma = (1.0 - vjm::stats::gamma_q(0.5, x * x)).copysign(x);
+        assert!(
+            (erf(x) - via_gamma).abs() <= 8.0 * f64::EPSILON,
+            "x = {x}: {} against {via_gamma}",
+            erf(x)
+        );
+    }
+    assert_eq!(erf(0.0), 0.0);
+    assert_eq!(erf(40.0), 1.0);
+}
+
+/// The baseline's pass makes the compressed design and its verdict's within-pose factor
+/// together, and the pre-fit's pass the RMS torsion torques: each equals what a pass of its
+/// own makes (to the bit: the same rows, in the same parts, in the same order), on 10⁴ rows
+/// so that the passes run in two parts. A different selection is a different factor.
+#[test]
+fn a_fused_pass_makes_what_separate_passes_make() {
+    use std::sync::Arc;
+    use stiffness_core::engine::Problem as _;
+    use vjm::diagnose::candidates::Linearisation;
+    use vjm::diagnose::problem::{VjmProblem, Whitening};
+    use vjm::diagnose::NoiseAssumption;
+
+    let (chain, data) = crate::strategies::nominal_panda_campaign(1000, 10, 21);
+    let noise = NoiseAssumption::default();
+    let labels = data.split(0.25, 0).unwrap();
+    let make = |propagate: Vec<f64>, tau_scale: Vec<f64>| {
+        VjmProblem::new(
+            &chain,
+            &data,
+            labels.clone(),
+            data.pose_groups(),
+            tau_scale,
+            Whitening {
+                displacement_sigma: noise.displacement_sigma,
+                wrench_sigma: noise.wrench_sigma,
+                propagate_abs: propagate,
+            },
+            noise.wrench_sigma,
+            stiffness_core::Cancel::new(),
+        )
+    };
+    let compliance: Vec<f64> = (0..21)
+        .map(|s| if s % 3 == 0 { 1.5e-4 } else { 0.0 })
+        .collect();
+    let lin = Linearisation {
+        compliance: compliance.clone(),
+    };
+    // The RMS torques, by hand from the crate's Jacobian, against the pre-fit pass's.
+    let mut sq = [0.0; 7];
+    let mut n_train = 0;
+    for (i, label) in labels.iter().enumerate() {
+        if *label != vjm::dataset::SetLabel::Train {
+            continue;
+        }
+        n_train += 1;
+        let j = jacobian(&chain, &VirtualJointModel::traditional(7), data.q(i)).unwrap();
+        let w = data.wrench(i);
+        for (k, s) in sq.iter_mut().enumerate() {
+            let tau: f64 = (0..6).map(|r| j[(r, k)] * w[r]).sum();
+            *s += tau * tau;
+        }
+    }
+    let pre = make(vec![0.0; 21], Vec::new()).springs_only(Whitening {
+        displacement_sigma: noise.displacement_sigma,
+        wrench_sigma: [0.0; 6],
+        propagate_abs: vec![0.0; 21],
+    });
+    let rms = pre.compress_with_torque_rms(&lin).unwrap();
+    for (k, r) in rms.iter().enumerate() {
+        let want = (sq[k] / n_train as f64).sqrt();
+        assert!((r - want).abs() <= 1e-12 * want, "joint {k}: {r} against {want}");
+    }
+    // The fused pass against a compress pass and a within-pose pass of their own.
+    let alone = make(compliance.clone(), rms.clone());
+    let fused = make(compliance.clone(), rms.clone());
+    let mut sel: Vec<usize> = (0..21).collect();
+    sel.push(alone.observation_column());
+    fused.compress_with_within(&lin, &sel).unwrap();
+    let c_alone = alone.compress(&lin).unwrap();
+    let w_alone = alone.within_pose(&lin, &sel).unwrap();
+    let c_fused = fused.compress(&lin).unwrap();
+    let w_fused = fused.within_pose(&lin, &sel).unwrap();
+    assert_eq!(*c_fused, *c_alone);
+    assert_eq!(w_fused.factor, w_alone.factor);
+    assert_eq!(w_fused.n_offsets, w_alone.n_offsets);
+    assert_eq!(w_fused.n_offsets, 3 * 750, "one offset per training pose");
+    // Asked again, the same factor (cached); asked for other columns, another one.
+    assert!(Arc::ptr_eq(&fused.within_pose(&lin, &sel).unwrap(), &w_fused));
+    let fewer = &sel[3..];
+    let w_fewer = fused.within_pose(&lin, fewer).unwrap();
+    assert_eq!(w_fewer.factor.ncols(), sel.len() - 3);
+}
