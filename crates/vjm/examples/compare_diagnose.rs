@@ -60,11 +60,21 @@ fn main() {
                 .iter()
                 .map(|f| format!("{}{:?}{:?}", f.effect, f.joint, f.axis))
                 .collect();
+            // The verdict: lack of fit, then each block's F statistic.
+            let blocks: Vec<String> = d
+                .verdict
+                .blocks
+                .iter()
+                .map(|b| format!("{}={:.15e}", b.block, b.f_test.f))
+                .collect();
             println!(
-                "{name} {seed} poses={n_poses} gain={:.15e} base={:.15e} ext={:.15e} findings={}",
+                "{name} {seed} poses={n_poses} gain={:.15e} base={:.15e} ext={:.15e} lof={:.15e} {} unexplained={} findings={}",
                 d.gain,
                 d.baseline.test_mean_rel_error,
                 d.extended.test_mean_rel_error,
+                d.verdict.lack_of_fit.f,
+                blocks.join(" "),
+                d.unexplained,
                 f.join(",")
             );
         }

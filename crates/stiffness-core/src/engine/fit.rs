@@ -57,6 +57,8 @@ pub fn term_columns<P: Problem>(problem: &P, terms: &[P::Term]) -> Vec<usize> {
 
 /// Fits `terms` on the training rows. Models with bilinear terms are re-linearised at the new
 /// coefficients and refitted until they settle (relative change ≤ 1e-9), at most 6 passes.
+/// The iterations solve with the model's own columns ([`Problem::model_columns`]); the whole
+/// design is compressed once, at the final point, and the coefficients solved on it.
 pub fn fit<P: Problem>(
     problem: &P,
     terms: &[P::Term],
@@ -68,32 +70,36 @@ pub fn fit<P: Problem>(
     let y = problem.observation_column();
     let mut lin = lin0.clone();
     let mut coef: Vec<f64> = Vec::new();
-    let mut rank = 0;
-    let mut in_data = Vec::new();
     let mut comp = problem.compress(&lin)?;
+    let mut x = comp.columns(RowSet::Train, &cols);
+    let mut yv = comp.column(RowSet::Train, y);
+    let mut moved = false;
     for pass in 0..passes {
-        let x = comp.columns(RowSet::Train, &cols);
-        let sol = solve_columns(&x, &comp.column(RowSet::Train, y));
-        rank = sol.rank;
-        in_data = sol.in_data;
-        let settled =
-            !coef.is_empty()
-                && sol.beta.iter().zip(&coef).all(|(a, b): (&f64, &f64)| {
-                    (a - b).abs() <= 1e-9 * (a.abs() + b.abs()) + 1e-300
-                });
-        coef = sol.beta;
+        let beta = solve_columns(&x, &yv).beta;
+        let settled = !coef.is_empty()
+            && beta.iter().zip(&coef).all(|(a, b): (&f64, &f64)| {
+                (a - b).abs() <= 1e-9 * (a.abs() + b.abs()) + 1e-300
+            });
+        coef = beta;
         if pass + 1 == passes || settled {
             break;
         }
         lin = problem.relinearise(terms, &coef);
-        comp = problem.compress(&lin)?;
+        (x, yv) = problem.model_columns(&lin, &cols)?;
+        moved = true;
     }
+    if moved {
+        comp = problem.compress(&lin)?;
+        x = comp.columns(RowSet::Train, &cols);
+        yv = comp.column(RowSet::Train, y);
+    }
+    let sol = solve_columns(&x, &yv);
     Ok(Fit {
         terms: terms.to_vec(),
-        coef,
+        coef: sol.beta,
         lin,
-        rank,
-        in_data,
+        rank: sol.rank,
+        in_data: sol.in_data,
         compressed: comp,
     })
 }

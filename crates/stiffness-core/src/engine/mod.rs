@@ -47,6 +47,22 @@ pub trait Problem {
     fn bilinear(&self, term: Self::Term) -> bool;
     /// One pass over the rows: the design compressed at `lin` (implementations may cache).
     fn compress(&self, lin: &Self::Lin) -> Result<Arc<Compressed>, Cancelled>;
+    /// The training design's columns `cols` and its observation column at `lin`, as vectors
+    /// whose inner products are those of the whitened columns: all that a fit's iteration
+    /// towards its linearisation point solves with. The default takes them from
+    /// [`Problem::compress`]; a problem whose whole design is costly to compress can make only
+    /// these columns (one pass over the training rows, a few columns wide).
+    fn model_columns(
+        &self,
+        lin: &Self::Lin,
+        cols: &[usize],
+    ) -> Result<(Vec<Vec<f64>>, Vec<f64>), Cancelled> {
+        let comp = self.compress(lin)?;
+        Ok((
+            comp.columns(RowSet::Train, cols),
+            comp.column(RowSet::Train, self.observation_column()),
+        ))
+    }
     /// The linearisation point of a fit of `terms` with coefficients `coef`.
     fn relinearise(&self, terms: &[Self::Term], coef: &[f64]) -> Self::Lin;
     /// Per cluster (VJM: pose), the score sum `s_g = Σ_{i∈g} x_i r_i` over the training

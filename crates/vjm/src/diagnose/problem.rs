@@ -147,6 +147,10 @@ impl<'a> VjmProblem<'a> {
             layout.push((c, next..next + c.n_columns()));
             next += c.n_columns();
         }
+        // The lack-of-fit blocks come after y: they are read only by the within-pose pass of a
+        // verdict, not folded into the compressed design of every pass (86 → 59 columns).
+        let y = next;
+        let mut next = y + 1;
         let mut alternatives = Vec::new();
         for a in Alternative::ALL {
             alternatives.push((a, next..next + a.n_columns()));
@@ -163,7 +167,7 @@ impl<'a> VjmProblem<'a> {
             layout,
             alternatives,
             m,
-            y: next,
+            y,
             cache: Mutex::new(Vec::new()),
             within_cache: Mutex::new(Vec::new()),
             cancel,
@@ -205,9 +209,14 @@ impl<'a> VjmProblem<'a> {
         }
     }
 
-    /// Number of columns of the compressed design (y included).
+    /// Number of columns of the compressed design (y included, last).
     pub fn ncols(&self) -> usize {
         self.y + 1
+    }
+
+    /// Number of raw columns of a row: the compressed design's, then the lack-of-fit blocks'.
+    pub fn nraw(&self) -> usize {
+        self.alternatives.last().map_or(self.ncols(), |(_, r)| r.end)
     }
 
     /// A row builder for this problem.
@@ -215,10 +224,11 @@ impl<'a> VjmProblem<'a> {
         RowBuilder::new(self.chain, self.torque_noise)
     }
 
-    /// Raw (unwhitened) columns of every term of the layout for one row, in layout order,
-    /// followed by the measured displacement. With `want`, a candidate or block none of whose
-    /// columns is wanted gets zero columns without being computed (the geometric column is
-    /// an iterative solve; the springs are always computed).
+    /// Raw (unwhitened) columns of one row ([`Self::nraw`]), in layout order: springs,
+    /// candidates, the measured displacement y, then the lack-of-fit blocks. With `want`
+    /// ([`Self::nraw`] long), a candidate or block none of whose columns is wanted gets zero
+    /// columns without being computed (the geometric column is an iterative solve; the
+    /// springs are always computed).
     pub fn raw_columns(
         &self,
         builder: &RowBuilder<'_>,
@@ -239,6 +249,7 @@ impl<'a> VjmProblem<'a> {
                 out.extend(std::iter::repeat_n([0.0; 3], r.len()));
             }
         }
+        out.push(row.displacement);
         for (a, r) in &self.alternatives {
             if wanted(r) {
                 a.columns(row, out);
@@ -246,12 +257,11 @@ impl<'a> VjmProblem<'a> {
                 out.extend(std::iter::repeat_n([0.0; 3], r.len()));
             }
         }
-        out.push(row.displacement);
     }
 
     /// The mask of the columns of `terms` (for the `want` of [`Self::for_each_row_in`]).
     pub fn mask(&self, terms: &[Term]) -> Vec<bool> {
-        let mut m = vec![false; self.ncols()];
+        let mut m = vec![false; self.nraw()];
         for t in terms {
             for c in Problem::columns(self, *t) {
                 m[c] = true;
@@ -310,6 +320,29 @@ impl<'a> VjmProblem<'a> {
         lin: &Linearisation,
         range: Range<usize>,
         want: Option<&[bool]>,
+        visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
+    ) -> Result<(), Cancelled> {
+        self.visit_rows(lin, range, want, false, visit)
+    }
+
+    /// [`Self::for_each_row_in`] over the training rows of `range` only (a held-out row's
+    /// kinematics are not computed).
+    pub fn for_each_train_row_in(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+        want: Option<&[bool]>,
+        visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
+    ) -> Result<(), Cancelled> {
+        self.visit_rows(lin, range, want, true, visit)
+    }
+
+    fn visit_rows(
+        &self,
+        lin: &Linearisation,
+        range: Range<usize>,
+        want: Option<&[bool]>,
+        train_only: bool,
         mut visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
     ) -> Result<(), Cancelled> {
         let mut builder = self.builder();
@@ -326,6 +359,9 @@ impl<'a> VjmProblem<'a> {
                         total: n,
                     });
                 }
+            }
+            if train_only && self.labels[i] != SetLabel::Train {
+                continue;
             }
             let row = builder.row(self.data, i);
             let (w, sigma) = self.whitening.of(&row);
@@ -348,11 +384,20 @@ impl<'a> VjmProblem<'a> {
         let mut runs = extras.within.map(|sel| WithinRuns::new(sel.len()));
         let n_joints = self.chain.n_joints();
         let mut torque_sq = vec![0.0; if extras.torque_squares { n_joints } else { 0 }];
-        let mut z = vec![Vector3::zeros(); p];
+        // The design's columns, and the within-pose selection's (which may name lack-of-fit
+        // blocks, after y).
+        let mut want = vec![false; self.nraw()];
+        want[..p].fill(true);
+        for &c in extras.within.unwrap_or(&[]) {
+            want[c] = true;
+        }
+        let mut z = vec![Vector3::zeros(); self.nraw()];
         let mut zrow = vec![0.0; p];
-        self.for_each_row_in(lin, range, None, |i, row, w, _, cols| {
-            for (zk, c) in z.iter_mut().zip(cols) {
-                *zk = whiten(w, c);
+        self.for_each_row_in(lin, range, Some(&want), |i, row, w, _, cols| {
+            for ((zk, c), wanted) in z.iter_mut().zip(cols).zip(&want) {
+                if *wanted {
+                    *zk = whiten(w, c);
+                }
             }
             let set = self.set_of(i);
             for r in 0..3 {
@@ -593,6 +638,47 @@ impl Problem for VjmProblem<'_> {
         Ok(c)
     }
 
+    fn model_columns(
+        &self,
+        lin: &Linearisation,
+        cols: &[usize],
+    ) -> Result<(Vec<Vec<f64>>, Vec<f64>), Cancelled> {
+        // The training rows' whitened `cols` and y, folded into their own small factor: a
+        // fit's iteration needs no other column (nor the held-out rows).
+        let sel: Vec<usize> = cols.iter().copied().chain([self.y]).collect();
+        let mut want = vec![false; self.nraw()];
+        for &c in &sel {
+            want[c] = true;
+        }
+        let q = sel.len();
+        self.begin_pass();
+        let parts = over_parts(&self.pose_parts(), |range| {
+            let mut acc = stiffness_core::lsq::TriangularAccumulator::new(q);
+            let mut z = vec![Vector3::zeros(); q];
+            let mut zrow = vec![0.0; q];
+            self.for_each_train_row_in(lin, range, Some(&want), |_, _, w, _, raw| {
+                for (zk, &c) in z.iter_mut().zip(&sel) {
+                    *zk = whiten(w, &raw[c]);
+                }
+                for r in 0..3 {
+                    for (dst, zk) in zrow.iter_mut().zip(&z) {
+                        *dst = zk[r];
+                    }
+                    acc.push_row_unchecked(&zrow);
+                }
+            })?;
+            Ok::<_, Cancelled>(acc)
+        });
+        let mut it = parts.into_iter();
+        let mut acc = it.next().expect("at least one part")?;
+        for part in it {
+            acc.merge(part?).expect("parts have the same width");
+        }
+        let f = acc.finish();
+        let col = |k: usize| -> Vec<f64> { (0..q).map(|i| f.r()[i * q + k]).collect() };
+        Ok(((0..cols.len()).map(col).collect(), col(cols.len())))
+    }
+
     fn relinearise(&self, terms: &[Term], coef: &[f64]) -> Linearisation {
         let mut c = vec![0.0; self.m];
         let mut k = 0;
@@ -617,10 +703,7 @@ impl Problem for VjmProblem<'_> {
             let mut sums = vec![vec![0.0; p]; n_groups];
             let mut used = vec![false; n_groups];
             let mut x = vec![Vector3::zeros(); p];
-            self.for_each_row_in(&fit.lin, range, Some(&want), |i, _, w, _, cols| {
-                if self.labels[i] != SetLabel::Train {
-                    return;
-                }
+            self.for_each_train_row_in(&fit.lin, range, Some(&want), |i, _, w, _, cols| {
                 let mut pred = Vector3::zeros();
                 for (k, &c) in idx.iter().enumerate() {
                     x[k] = whiten(w, &cols[c]);
@@ -678,8 +761,11 @@ impl Problem for VjmProblem<'_> {
 /// too), and a run is cut every [`MAX_RUN`] rows so that memory stays bounded.
 #[derive(Debug, Clone)]
 pub struct WithinPose {
-    /// R of the projected training design (P×P), every column of the layout and y.
+    /// R of the projected training design over the selected columns.
     pub factor: stiffness_core::lsq::TriangularFactor,
+    /// R of the same training rows and columns without the projection: the F tests of the
+    /// lack-of-fit blocks alone, which are not in the compressed design.
+    pub plain: stiffness_core::lsq::TriangularFactor,
     /// Offsets projected out: 3 per run with a non-singular `M`.
     pub n_offsets: usize,
 }
@@ -718,15 +804,13 @@ impl VjmProblem<'_> {
         range: Range<usize>,
         sel: &[usize],
     ) -> Result<WithinRuns, Cancelled> {
-        let mut want = vec![false; self.ncols()];
+        let mut want = vec![false; self.nraw()];
         for &c in sel {
             want[c] = true;
         }
         let mut runs = WithinRuns::new(sel.len());
-        self.for_each_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
-            if self.labels[i] == SetLabel::Train {
-                runs.push(self.groups[i], w, sel.iter().map(|&c| whiten(w, &cols[c])));
-            }
+        self.for_each_train_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
+            runs.push(self.groups[i], w, sel.iter().map(|&c| whiten(w, &cols[c])));
         })?;
         Ok(runs)
     }
@@ -737,6 +821,8 @@ impl VjmProblem<'_> {
 /// until the pose changes (or [`MAX_RUN`] rows), then projected and folded.
 struct WithinRuns {
     acc: stiffness_core::lsq::TriangularAccumulator,
+    /// The rows before the projection.
+    plain: stiffness_core::lsq::TriangularAccumulator,
     n_offsets: usize,
     /// Columns per row block.
     p: usize,
@@ -751,6 +837,7 @@ impl WithinRuns {
     fn new(p: usize) -> Self {
         Self {
             acc: stiffness_core::lsq::TriangularAccumulator::new(p),
+            plain: stiffness_core::lsq::TriangularAccumulator::new(p),
             n_offsets: 0,
             p,
             group: usize::MAX,
@@ -776,6 +863,14 @@ impl WithinRuns {
             return;
         }
         let p = self.p;
+        for z in self.zs.chunks_exact(p) {
+            for r in 0..3 {
+                for (dst, zk) in self.zrow.iter_mut().zip(z) {
+                    *dst = zk[r];
+                }
+                self.plain.push_row_unchecked(&self.zrow);
+            }
+        }
         let m: Matrix3<f64> = self.ws.iter().map(|w| w.transpose() * w).sum();
         if let Some(mi) = m.try_inverse() {
             self.n_offsets += 3;
@@ -812,6 +907,7 @@ impl WithinRuns {
         self.flush();
         other.flush();
         self.acc.merge(other.acc).expect("parts have the same width");
+        self.plain.merge(other.plain).expect("parts have the same width");
         self.n_offsets += other.n_offsets;
     }
 
@@ -819,6 +915,7 @@ impl WithinRuns {
         self.flush();
         WithinPose {
             factor: self.acc.finish(),
+            plain: self.plain.finish(),
             n_offsets: self.n_offsets,
         }
     }

@@ -756,7 +756,9 @@ fn backlash_erf_agrees_with_the_incomplete_gamma_function() {
 /// The baseline's pass makes the compressed design and its verdict's within-pose factor
 /// together, and the pre-fit's pass the RMS torsion torques: each equals what a pass of its
 /// own makes (to the bit: the same rows, in the same parts, in the same order), on 10⁴ rows
-/// so that the passes run in two parts. A different selection is a different factor.
+/// so that the passes run in two parts. A different selection is a different factor. A
+/// bilinear fit's iterations read their own columns in a pass of their own: the inner
+/// products are those of the whole design.
 #[test]
 fn a_fused_pass_makes_what_separate_passes_make() {
     use std::sync::Arc;
@@ -834,4 +836,25 @@ fn a_fused_pass_makes_what_separate_passes_make() {
     let fewer = &sel[3..];
     let w_fewer = fused.within_pose(&lin, fewer).unwrap();
     assert_eq!(w_fewer.factor.ncols(), sel.len() - 3);
+    // A bilinear fit iterates on its own columns (training rows only): their inner products
+    // are the whole design's, here for the torsions and the wrench bias's six columns.
+    let bias = alone.columns(vjm::diagnose::problem::Term::Cand(
+        vjm::diagnose::candidates::Candidate::WrenchBias,
+    ));
+    let cols: Vec<usize> = (0..21).step_by(3).chain(bias).collect();
+    let (x, y) = alone.model_columns(&lin, &cols).unwrap();
+    let full = c_alone.columns(stiffness_core::engine::RowSet::Train, &cols);
+    let full_y = c_alone.column(stiffness_core::engine::RowSet::Train, alone.observation_column());
+    let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(u, v)| u * v).sum() };
+    for a in 0..cols.len() {
+        let scale = dot(&full[a], &full[a]).sqrt();
+        for b in 0..cols.len() {
+            let (ours, want) = (dot(&x[a], &x[b]), dot(&full[a], &full[b]));
+            let tol = 1e-11 * scale * dot(&full[b], &full[b]).sqrt();
+            assert!((ours - want).abs() <= tol, "columns {a}, {b}: {ours} against {want}");
+        }
+        let (ours, want) = (dot(&x[a], &y), dot(&full[a], &full_y));
+        assert!((ours - want).abs() <= 1e-11 * scale * dot(&full_y, &full_y).sqrt());
+    }
+    assert!((dot(&y, &y) - dot(&full_y, &full_y)).abs() <= 1e-11 * dot(&full_y, &full_y));
 }
