@@ -29,10 +29,10 @@ TWO_JOINTS = """<?xml version="1.0"?>
 
 @pytest.fixture(scope="module")
 def big_campaign():
-    # 48 000 rows: a diagnosis of about a second on the development machine (16 000 rows took
-    # 0.3 s once the factor's fold was blocked), long enough for an interrupt to land mid-run.
+    # 120 000 rows: a diagnosis of about 0.7 s on the development machine (48 000 rows took
+    # 0.28 s once the passes were fused), long enough for an interrupt to land mid-run.
     panda = Robot.bundled()
-    camp = vjm.simulate(panda, [], n_poses=6000, wrenches_per_pose=8, seed=11)
+    camp = vjm.simulate(panda, [], n_poses=15000, wrenches_per_pose=8, seed=11)
     return panda, camp
 
 
