@@ -821,8 +821,11 @@ impl VjmProblem<'_> {
 /// until the pose changes (or [`MAX_RUN`] rows), then projected and folded.
 struct WithinRuns {
     acc: stiffness_core::lsq::TriangularAccumulator,
-    /// The rows before the projection.
-    plain: stiffness_core::lsq::TriangularAccumulator,
+    /// The offsets' share of the unprojected rows' Gram matrix, three rows per run (see
+    /// [`Self::flush`]); with the projected rows' factor it makes the unprojected factor.
+    offsets: stiffness_core::lsq::TriangularAccumulator,
+    /// Training rows pushed.
+    rows: usize,
     n_offsets: usize,
     /// Columns per row block.
     p: usize,
@@ -837,7 +840,8 @@ impl WithinRuns {
     fn new(p: usize) -> Self {
         Self {
             acc: stiffness_core::lsq::TriangularAccumulator::new(p),
-            plain: stiffness_core::lsq::TriangularAccumulator::new(p),
+            offsets: stiffness_core::lsq::TriangularAccumulator::new(p),
+            rows: 0,
             n_offsets: 0,
             p,
             group: usize::MAX,
@@ -857,22 +861,22 @@ impl WithinRuns {
         self.zs.extend(z);
     }
 
-    /// Projects the run's offset out of its rows (`Zᵢ − Wᵢ M⁻¹ S`) and folds them.
+    /// Projects the run's offset out of its rows (`Zᵢ − Wᵢ M⁻¹ S`) and folds them. The
+    /// unprojected rows are not folded: their Gram matrix is the projected rows' plus
+    /// `Sᵀ M⁻¹ S` (the cross terms vanish, as `Σ Wᵢᵀ (Zᵢ − Wᵢ M⁻¹ S) = 0`), which is the
+    /// Gram matrix of the three rows `L⁻¹ S` (`M = L Lᵀ`): three rows per run instead of three
+    /// per row, and an update, not a downdate.
     fn flush(&mut self) {
         if self.ws.is_empty() {
             return;
         }
         let p = self.p;
-        for z in self.zs.chunks_exact(p) {
-            for r in 0..3 {
-                for (dst, zk) in self.zrow.iter_mut().zip(z) {
-                    *dst = zk[r];
-                }
-                self.plain.push_row_unchecked(&self.zrow);
-            }
-        }
+        self.rows += 3 * self.ws.len();
         let m: Matrix3<f64> = self.ws.iter().map(|w| w.transpose() * w).sum();
-        if let Some(mi) = m.try_inverse() {
+        let offset = m
+            .try_inverse()
+            .and_then(|mi| m.cholesky().map(|ch| (mi, ch.l())));
+        if let Some((mi, l)) = offset {
             self.n_offsets += 3;
             let mut b = vec![Vector3::zeros(); p];
             for (w, z) in self.ws.iter().zip(self.zs.chunks_exact(p)) {
@@ -880,6 +884,19 @@ impl WithinRuns {
                 for (bk, zk) in b.iter_mut().zip(z) {
                     *bk += wt * zk;
                 }
+            }
+            let shares: Vec<Vector3<f64>> = b
+                .iter()
+                .map(|bk| {
+                    l.solve_lower_triangular(bk)
+                        .expect("the Cholesky factor of M has a non-zero diagonal")
+                })
+                .collect();
+            for r in 0..3 {
+                for (dst, sk) in self.zrow.iter_mut().zip(&shares) {
+                    *dst = sk[r];
+                }
+                self.offsets.push_row_unchecked(&self.zrow);
             }
             for bk in b.iter_mut() {
                 *bk = mi * *bk;
@@ -907,15 +924,27 @@ impl WithinRuns {
         self.flush();
         other.flush();
         self.acc.merge(other.acc).expect("parts have the same width");
-        self.plain.merge(other.plain).expect("parts have the same width");
+        self.offsets
+            .merge(other.offsets)
+            .expect("parts have the same width");
+        self.rows += other.rows;
         self.n_offsets += other.n_offsets;
     }
 
     fn finish(mut self) -> WithinPose {
+        use stiffness_core::lsq::{TriangularAccumulator, TriangularFactor};
         self.flush();
+        let factor = self.acc.finish();
+        let mut plain = self.offsets;
+        plain
+            .merge(TriangularAccumulator::from_factor(factor.clone()))
+            .expect("the same width");
+        let plain = plain.finish();
+        let plain = TriangularFactor::from_upper(self.p, plain.r().to_vec(), self.rows)
+            .expect("a p×p factor");
         WithinPose {
-            factor: self.acc.finish(),
-            plain: self.plain.finish(),
+            factor,
+            plain,
             n_offsets: self.n_offsets,
         }
     }

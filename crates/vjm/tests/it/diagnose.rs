@@ -831,6 +831,22 @@ fn a_fused_pass_makes_what_separate_passes_make() {
     assert_eq!(w_fused.factor, w_alone.factor);
     assert_eq!(w_fused.n_offsets, w_alone.n_offsets);
     assert_eq!(w_fused.n_offsets, 3 * 750, "one offset per training pose");
+    // The unprojected factor, made from the projected rows and three rows per pose, has the
+    // inner products of the training design's columns, read here from the compressed design.
+    let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(u, v)| u * v).sum() };
+    let q = sel.len();
+    let plain_col = |k: usize| -> Vec<f64> {
+        (0..q).map(|i| w_fused.plain.r()[i * q + k]).collect()
+    };
+    let train = c_alone.columns(stiffness_core::engine::RowSet::Train, &sel);
+    for a in 0..q {
+        for b in 0..q {
+            let (ours, want) = (dot(&plain_col(a), &plain_col(b)), dot(&train[a], &train[b]));
+            let tol = 1e-11 * dot(&train[a], &train[a]).sqrt() * dot(&train[b], &train[b]).sqrt();
+            assert!((ours - want).abs() <= tol, "columns {a}, {b}: {ours} against {want}");
+        }
+    }
+    assert_eq!(w_fused.plain.nrows(), 3 * n_train);
     // Asked again, the same factor (cached); asked for other columns, another one.
     assert!(Arc::ptr_eq(&fused.within_pose(&lin, &sel).unwrap(), &w_fused));
     let fewer = &sel[3..];
@@ -845,7 +861,6 @@ fn a_fused_pass_makes_what_separate_passes_make() {
     let (x, y) = alone.model_columns(&lin, &cols).unwrap();
     let full = c_alone.columns(stiffness_core::engine::RowSet::Train, &cols);
     let full_y = c_alone.column(stiffness_core::engine::RowSet::Train, alone.observation_column());
-    let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(u, v)| u * v).sum() };
     for a in 0..cols.len() {
         let scale = dot(&full[a], &full[a]).sqrt();
         for b in 0..cols.len() {
