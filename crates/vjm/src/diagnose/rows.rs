@@ -5,7 +5,7 @@
 //! Everything here is the crate's own kinematics (`vjm::kinematics`, re-exported as [`crate::jacobian`] and friends); the diagnosis does
 //! not use the testbed, which is the independent code path the tests check it against.
 
-use nalgebra::{DMatrix, Isometry3, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, Vector3};
 
 use super::candidates::{torque_sigma, RowKinematics};
 use crate::chain::SerialChain;
@@ -21,8 +21,6 @@ pub struct RowBuilder<'a> {
     ws: Workspace,
     jac: Vec<f64>,
     wrench_sigma: [f64; 6],
-    /// Per joint: its spring axes `[z, x, y]` in its child frame.
-    local_axes: Vec<[Vector3<f64>; 3]>,
 }
 
 impl<'a> RowBuilder<'a> {
@@ -32,18 +30,12 @@ impl<'a> RowBuilder<'a> {
         let model = VirtualJointModel::extended(chain.n_joints());
         let ws = Workspace::new(chain, &model).expect("the extended model fits its own chain");
         let jac = vec![0.0; 6 * model.n_params()];
-        let local_axes = chain
-            .joints()
-            .iter()
-            .map(|j| crate::model::spring_axes(j.axis()))
-            .collect();
         Self {
             chain,
             model,
             ws,
             jac,
             wrench_sigma,
-            local_axes,
         }
     }
 
@@ -79,60 +71,65 @@ impl<'a> RowBuilder<'a> {
     /// the fixed point `θ = C J(θ)ᵀ W`, then the deflected tip minus the unloaded one.
     ///
     /// The same kinematics as `vjm::kinematics::jacobian_deflected` (springs at the joint
-    /// origins, composed `[z, x, y]` after the joint rotation), written for this loop: the
-    /// joint rotations are composed once per row, nothing is allocated per iteration, and
-    /// only the spring torques `J(θ)ᵀ W` are formed, not the Jacobian.
+    /// origins, composed `[z, x, y]` after the joint rotation), written in the base frame from
+    /// the row's Jacobian alone. With `N_k` the undeflected frame of spring k and `S_k` its
+    /// rotation, the deflected frame of spring k is `E_1 ⋯ E_{k−1} N_k` with
+    /// `E_k = N_k S_k N_k⁻¹`, the rotation by θ_k about spring k's *undeflected* base-frame
+    /// axis `a_k` through its centre `c_k`: the Jacobian's column `[a_k × (p − c_k); a_k]`
+    /// gives both (only the offset's part across the axis matters, `(a × (p − c)) × a`). So
+    /// - the deflected tip is `E_1(E_2(⋯E_K(p)))`, a sweep from the tip that carries the
+    ///   displacement itself, `d ← d + (R_k − I)(d + p − c_k)`, with no cancellation against
+    ///   the tip's distance from the base;
+    /// - spring k's torque is `a_k · ((v_k − c_k) × f_k + m_k)`, with `v_k = E_k(⋯E_K(p))`
+    ///   from that sweep and the wrench turned back through the springs before k,
+    ///   `f_{k+1} = R_kᵀ f_k` (a sweep from the base).
+    ///
+    /// Springs of zero compliance never deflect and are left out.
     pub fn exact_displacement(&self, row: &RowKinematics, c: &[f64]) -> [f64; 3] {
-        let joints = self.chain.joints();
-        let n = joints.len();
-        let tq: Vec<Isometry3<f64>> = joints
-            .iter()
-            .zip(&row.q)
-            .map(|(j, q)| {
-                j.origin()
-                    * Isometry3::from_parts(
-                        nalgebra::Translation3::identity(),
-                        UnitQuaternion::from_scaled_axis(j.axis() * *q),
-                    )
+        let j = &row.jacobian;
+        // Per deflecting spring, base to tip: compliance, axis a, tip offset across the axis.
+        let springs: Vec<(f64, Vector3<f64>, Vector3<f64>)> = (0..c.len())
+            .filter(|s| c[*s] != 0.0)
+            .map(|s| {
+                let u = Vector3::new(j[(0, s)], j[(1, s)], j[(2, s)]);
+                let a = Vector3::new(j[(3, s)], j[(4, s)], j[(5, s)]);
+                (c[s], a, u.cross(&a))
             })
             .collect();
+        let k = springs.len();
         let f = Vector3::new(row.wrench[0], row.wrench[1], row.wrench[2]);
         let m = Vector3::new(row.wrench[3], row.wrench[4], row.wrench[5]);
-        let mut axes = vec![Vector3::zeros(); 3 * n];
-        let mut centres = vec![Vector3::zeros(); 3 * n];
-        // A spring of zero compliance never deflects: its rotation is the identity, which
-        // composes exactly, so it is skipped (the traditional model's 2n tilts, at no change
-        // to a single bit of the result).
-        let active: Vec<bool> = c.iter().map(|ci| *ci != 0.0).collect();
-        // The deflected tip point for deflections θ; fills the active springs' axes and
-        // centres.
-        let tip_at = |theta: &[f64], axes: &mut [Vector3<f64>], centres: &mut [Vector3<f64>]| {
-            let mut t = Isometry3::identity();
-            for (j, (tqj, locals)) in tq.iter().zip(&self.local_axes).enumerate() {
-                t *= tqj;
-                for (k, local) in locals.iter().enumerate() {
-                    let s = 3 * j + k;
-                    if !active[s] {
-                        continue;
-                    }
-                    axes[s] = t.rotation * local;
-                    centres[s] = t.translation.vector;
-                    t.rotation *= spring_rotation(local, theta[s]);
-                }
-            }
-            (t * self.chain.tip_offset()).translation.vector
-        };
-        let mut theta: Vec<f64> = row.tau.iter().zip(c).map(|(t, ci)| t * ci).collect();
-        let mut next = vec![0.0; theta.len()];
+        let mut theta: Vec<f64> = (0..c.len())
+            .filter(|s| c[*s] != 0.0)
+            .map(|s| c[s] * row.tau[s])
+            .collect();
+        let mut next = vec![0.0; k];
+        // Per spring: sin θ and 1 − cos θ, and v_k − p (the displacement after E_k).
+        let mut trig = vec![(0.0, 0.0); k];
+        let mut after = vec![Vector3::zeros(); k];
+        let mut d = Vector3::zeros();
         // |C·K_C| is of order |W|·reach·c ≈ 1e-2, so the iteration contracts fast; 100 steps
-        // is a cap, not an expectation. The tip is the one at the last θ whose update moved it
-        // by ≤ 1e-14 relative: it differs from the fixed point's by as little (about 1e-12 of
-        // the column, which is the deflection's second-order part), so no further evaluation.
-        let mut p = tip_at(&theta, &mut axes, &mut centres);
+        // is a cap, not an expectation. The displacement returned is the one at the last θ
+        // whose update moved it by ≤ 1e-14 relative: it differs from the fixed point's by as
+        // little (about 1e-12 of the column, which is the deflection's second-order part).
         for _ in 0..100 {
-            for s in (0..theta.len()).filter(|s| active[*s]) {
-                let tau = axes[s].cross(&(p - centres[s])).dot(&f) + axes[s].dot(&m);
-                next[s] = c[s] * tau;
+            for (t, th) in trig.iter_mut().zip(&theta) {
+                *t = sin_and_versine(*th);
+            }
+            d = Vector3::zeros();
+            for ((spring, (sn, vs)), out) in springs.iter().zip(&trig).zip(&mut after).rev() {
+                let (_, a, x) = spring;
+                d += rotation_minus_identity(a, *sn, *vs, &(d + x));
+                *out = d;
+            }
+            let (mut fk, mut mk) = (f, m);
+            for (((spring, (sn, vs)), v), out) in
+                springs.iter().zip(&trig).zip(&after).zip(&mut next)
+            {
+                let (ck, a, x) = spring;
+                *out = ck * (a.dot(&(v + x).cross(&fk)) + a.dot(&mk));
+                fk += rotation_minus_identity(a, -sn, *vs, &fk);
+                mk += rotation_minus_identity(a, -sn, *vs, &mk);
             }
             let change = next
                 .iter()
@@ -144,51 +141,76 @@ impl<'a> RowBuilder<'a> {
                 break;
             }
             std::mem::swap(&mut theta, &mut next);
-            p = tip_at(&theta, &mut axes, &mut centres);
         }
-        [p.x - row.tip[0], p.y - row.tip[1], p.z - row.tip[2]]
+        [d.x, d.y, d.z]
     }
 }
 
-/// The rotation by `angle` (rad) about the unit axis `axis`. Spring deflections are of order
-/// 1e-4 rad, where the Taylor series of `sin(θ/2)` and `cos(θ/2)` to the terms kept is exact
-/// in double precision (the first term left out is below 1e-25 relative for |θ| < 1e-3); the
-/// diagnosis evaluates 3n of them per iteration of every row's deflected equilibrium, so
-/// they skip the library `sin_cos` and the normalisation of `from_scaled_axis`.
-fn spring_rotation(axis: &Vector3<f64>, angle: f64) -> UnitQuaternion<f64> {
-    if angle.abs() >= 1e-3 {
-        return UnitQuaternion::from_scaled_axis(axis * angle);
+/// `(sin θ, 1 − cos θ)` for a spring deflection θ (rad). Deflections are of order 1e-4 rad,
+/// where the Taylor series to the terms kept is exact in double precision (the first term
+/// left out is below 1e-25 relative for |θ| < 1e-3); the diagnosis evaluates them for every
+/// deflecting spring in every step of every row's equilibrium, so they skip the library's
+/// `sin_cos`. `1 − cos θ` is formed without the cancellation of `1.0 - cos`.
+fn sin_and_versine(theta: f64) -> (f64, f64) {
+    if theta.abs() >= 1e-3 {
+        let h = (0.5 * theta).sin();
+        return (theta.sin(), 2.0 * h * h);
     }
-    let h = 0.5 * angle;
-    let h2 = h * h;
-    let sin = h * (1.0 - h2 / 6.0 * (1.0 - h2 / 20.0 * (1.0 - h2 / 42.0)));
-    let cos = 1.0 - h2 / 2.0 * (1.0 - h2 / 12.0 * (1.0 - h2 / 30.0));
-    let v = axis * sin;
-    UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(cos, v.x, v.y, v.z))
+    let t2 = theta * theta;
+    let sin = theta * (1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0)));
+    let versine = 0.5 * t2 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0)));
+    (sin, versine)
+}
+
+/// `(R − I) y` for the rotation R about the unit axis `a` with `sin θ = sin` and
+/// `1 − cos θ = versine` (Rodrigues: `R = I + sin θ [a]× + (1 − cos θ) [a]×²`).
+fn rotation_minus_identity(
+    a: &Vector3<f64>,
+    sin: f64,
+    versine: f64,
+    y: &Vector3<f64>,
+) -> Vector3<f64> {
+    let ay = a.cross(y);
+    ay * sin + a.cross(&ay) * versine
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The series branch against the library's rotation, on both sides of the switch, at the
-    /// fixtures 0 and 1e-8, and about a skew axis.
+    /// The series of `sin θ` and `1 − cos θ` against the library's `sin` (`1 − cos θ` as
+    /// `2 sin²(θ/2)`, free of cancellation), relative, on both sides of the switch and at the
+    /// fixtures 0 and 1e-8; then `(R − I) y` against the library's rotation matrix where the
+    /// change is of the size of y (0.7 rad, π − 1e-6, π), about a skew axis and basis axes.
     #[test]
-    fn spring_rotation_equals_the_exponential_map() {
+    fn rotation_minus_identity_equals_the_exponential_map() {
+        for angle in [0.0, 1e-8, -3e-6, 1e-4, -2.5e-4, 9.999e-4, -9.999e-4, 1e-3, 0.7] {
+            let (sin, versine) = sin_and_versine(angle);
+            let h = (0.5 * angle).sin();
+            let (want_sin, want_versine) = (angle.sin(), 2.0 * h * h);
+            assert!((sin - want_sin).abs() <= 2.0 * f64::EPSILON * want_sin.abs(), "{angle}");
+            assert!(
+                (versine - want_versine).abs() <= 2.0 * f64::EPSILON * want_versine,
+                "{angle}"
+            );
+        }
         let axes = [
             Vector3::z(),
             Vector3::x(),
             Vector3::new(0.3, -0.5, 0.8).normalize(),
         ];
+        let y = Vector3::new(0.7, -1.3, 0.4);
+        let pi = std::f64::consts::PI;
         for axis in &axes {
-            for angle in [
-                0.0, 1e-8, -3e-6, 1e-4, -2.5e-4, 9.999e-4, -9.999e-4, 1e-3, 0.7,
-            ] {
-                let ours = spring_rotation(axis, angle);
-                let lib = UnitQuaternion::from_scaled_axis(axis * angle);
-                let d = (ours.coords - lib.coords).amax();
-                assert!(d <= 2.0 * f64::EPSILON, "angle {angle}: off by {d:e}");
-                assert!((ours.coords.norm() - 1.0).abs() <= 2.0 * f64::EPSILON);
+            for angle in [0.7, -0.7, pi - 1e-6, pi] {
+                let (sin, versine) = sin_and_versine(angle);
+                let ours = rotation_minus_identity(axis, sin, versine, &y);
+                let r = nalgebra::Rotation3::from_axis_angle(
+                    &nalgebra::Unit::new_normalize(*axis),
+                    angle,
+                );
+                let d = (ours - (r * y - y)).amax();
+                assert!(d <= 4.0 * f64::EPSILON * y.norm(), "angle {angle}: off by {d:e}");
             }
         }
     }
