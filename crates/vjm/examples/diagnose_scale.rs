@@ -5,8 +5,8 @@
 //! `cargo run --release -p vjm --example diagnose_scale -- [--tilt] 10000 100000`
 use std::time::Instant;
 use vjm::diagnose::{diagnose_with_progress, DiagnoseOptions};
-use vjm::SpringAxis;
 use vjm::testbed::{simulate, CampaignSpec, Effect, TrueModel};
+use vjm::SpringAxis;
 
 fn main() {
     let chain = vjm::SerialChain::bundled();

@@ -77,9 +77,10 @@ pub fn fit<P: Problem>(
     for pass in 0..passes {
         let beta = solve_columns(&x, &yv).beta;
         let settled = !coef.is_empty()
-            && beta.iter().zip(&coef).all(|(a, b): (&f64, &f64)| {
-                (a - b).abs() <= 1e-9 * (a.abs() + b.abs()) + 1e-300
-            });
+            && beta
+                .iter()
+                .zip(&coef)
+                .all(|(a, b): (&f64, &f64)| (a - b).abs() <= 1e-9 * (a.abs() + b.abs()) + 1e-300);
         coef = beta;
         if pass + 1 == passes || settled {
             break;

@@ -216,7 +216,9 @@ impl<'a> VjmProblem<'a> {
 
     /// Number of raw columns of a row: the compressed design's, then the lack-of-fit blocks'.
     pub fn nraw(&self) -> usize {
-        self.alternatives.last().map_or(self.ncols(), |(_, r)| r.end)
+        self.alternatives
+            .last()
+            .map_or(self.ncols(), |(_, r)| r.end)
     }
 
     /// A row builder for this problem.
@@ -474,7 +476,11 @@ impl<'a> VjmProblem<'a> {
             ..Extras::default()
         };
         let out = self.compress_pass(lin, extras)?;
-        let n_train = self.labels.iter().filter(|l| **l == SetLabel::Train).count();
+        let n_train = self
+            .labels
+            .iter()
+            .filter(|l| **l == SetLabel::Train)
+            .count();
         self.store_compressed(lin, Arc::new(out.acc.finish()));
         Ok(out
             .torque_sq
@@ -923,7 +929,9 @@ impl WithinRuns {
     fn merge(&mut self, mut other: WithinRuns) {
         self.flush();
         other.flush();
-        self.acc.merge(other.acc).expect("parts have the same width");
+        self.acc
+            .merge(other.acc)
+            .expect("parts have the same width");
         self.offsets
             .merge(other.offsets)
             .expect("parts have the same width");

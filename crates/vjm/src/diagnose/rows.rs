@@ -184,11 +184,16 @@ mod tests {
     /// change is of the size of y (0.7 rad, π − 1e-6, π), about a skew axis and basis axes.
     #[test]
     fn rotation_minus_identity_equals_the_exponential_map() {
-        for angle in [0.0, 1e-8, -3e-6, 1e-4, -2.5e-4, 9.999e-4, -9.999e-4, 1e-3, 0.7] {
+        for angle in [
+            0.0, 1e-8, -3e-6, 1e-4, -2.5e-4, 9.999e-4, -9.999e-4, 1e-3, 0.7,
+        ] {
             let (sin, versine) = sin_and_versine(angle);
             let h = (0.5 * angle).sin();
             let (want_sin, want_versine) = (angle.sin(), 2.0 * h * h);
-            assert!((sin - want_sin).abs() <= 2.0 * f64::EPSILON * want_sin.abs(), "{angle}");
+            assert!(
+                (sin - want_sin).abs() <= 2.0 * f64::EPSILON * want_sin.abs(),
+                "{angle}"
+            );
             assert!(
                 (versine - want_versine).abs() <= 2.0 * f64::EPSILON * want_versine,
                 "{angle}"
@@ -210,7 +215,10 @@ mod tests {
                     angle,
                 );
                 let d = (ours - (r * y - y)).amax();
-                assert!(d <= 4.0 * f64::EPSILON * y.norm(), "angle {angle}: off by {d:e}");
+                assert!(
+                    d <= 4.0 * f64::EPSILON * y.norm(),
+                    "angle {angle}: off by {d:e}"
+                );
             }
         }
     }

@@ -815,7 +815,10 @@ fn a_fused_pass_makes_what_separate_passes_make() {
     let rms = pre.compress_with_torque_rms(&lin).unwrap();
     for (k, r) in rms.iter().enumerate() {
         let want = (sq[k] / n_train as f64).sqrt();
-        assert!((r - want).abs() <= 1e-12 * want, "joint {k}: {r} against {want}");
+        assert!(
+            (r - want).abs() <= 1e-12 * want,
+            "joint {k}: {r} against {want}"
+        );
     }
     // The fused pass against a compress pass and a within-pose pass of their own.
     let alone = make(compliance.clone(), rms.clone());
@@ -835,20 +838,25 @@ fn a_fused_pass_makes_what_separate_passes_make() {
     // inner products of the training design's columns, read here from the compressed design.
     let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(u, v)| u * v).sum() };
     let q = sel.len();
-    let plain_col = |k: usize| -> Vec<f64> {
-        (0..q).map(|i| w_fused.plain.r()[i * q + k]).collect()
-    };
+    let plain_col =
+        |k: usize| -> Vec<f64> { (0..q).map(|i| w_fused.plain.r()[i * q + k]).collect() };
     let train = c_alone.columns(stiffness_core::engine::RowSet::Train, &sel);
     for a in 0..q {
         for b in 0..q {
             let (ours, want) = (dot(&plain_col(a), &plain_col(b)), dot(&train[a], &train[b]));
             let tol = 1e-11 * dot(&train[a], &train[a]).sqrt() * dot(&train[b], &train[b]).sqrt();
-            assert!((ours - want).abs() <= tol, "columns {a}, {b}: {ours} against {want}");
+            assert!(
+                (ours - want).abs() <= tol,
+                "columns {a}, {b}: {ours} against {want}"
+            );
         }
     }
     assert_eq!(w_fused.plain.nrows(), 3 * n_train);
     // Asked again, the same factor (cached); asked for other columns, another one.
-    assert!(Arc::ptr_eq(&fused.within_pose(&lin, &sel).unwrap(), &w_fused));
+    assert!(Arc::ptr_eq(
+        &fused.within_pose(&lin, &sel).unwrap(),
+        &w_fused
+    ));
     let fewer = &sel[3..];
     let w_fewer = fused.within_pose(&lin, fewer).unwrap();
     assert_eq!(w_fewer.factor.ncols(), sel.len() - 3);
@@ -860,13 +868,19 @@ fn a_fused_pass_makes_what_separate_passes_make() {
     let cols: Vec<usize> = (0..21).step_by(3).chain(bias).collect();
     let (x, y) = alone.model_columns(&lin, &cols).unwrap();
     let full = c_alone.columns(stiffness_core::engine::RowSet::Train, &cols);
-    let full_y = c_alone.column(stiffness_core::engine::RowSet::Train, alone.observation_column());
+    let full_y = c_alone.column(
+        stiffness_core::engine::RowSet::Train,
+        alone.observation_column(),
+    );
     for a in 0..cols.len() {
         let scale = dot(&full[a], &full[a]).sqrt();
         for b in 0..cols.len() {
             let (ours, want) = (dot(&x[a], &x[b]), dot(&full[a], &full[b]));
             let tol = 1e-11 * scale * dot(&full[b], &full[b]).sqrt();
-            assert!((ours - want).abs() <= tol, "columns {a}, {b}: {ours} against {want}");
+            assert!(
+                (ours - want).abs() <= tol,
+                "columns {a}, {b}: {ours} against {want}"
+            );
         }
         let (ours, want) = (dot(&x[a], &y), dot(&full[a], &full_y));
         assert!((ours - want).abs() <= 1e-11 * scale * dot(&full_y, &full_y).sqrt());
