@@ -782,7 +782,7 @@ pub const MAX_RUN: usize = 4096;
 impl VjmProblem<'_> {
     /// The [`WithinPose`] factor at `lin` over the columns `cols` of the layout (in that
     /// order; the factor's column k is `cols[k]`). One pass over the rows, unless the same
-    /// factor was made before (the last [`CACHE`] are kept; [`Self::compress_with_within`]
+    /// factor was made before (the last `CACHE` are kept; [`Self::compress_with_within`]
     /// makes one along with the compressed design).
     pub fn within_pose(
         &self,
