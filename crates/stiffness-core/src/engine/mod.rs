@@ -4,9 +4,10 @@
 //! pass over its rows that compresses the design at a linearisation point, and the
 //! re-linearisation of bilinear terms. The engine does the rest, identically for both models:
 //!
-//! 1. [`compressed`]: the design `Z = [model | candidates | alternatives | y]` is reduced to
-//!    its R factors over the training and held-out rows in one streaming pass (TSQR), so
-//!    memory and the cost of every decision are independent of the number of rows;
+//! 1. [`compressed`]: the design `Z = [model | candidates | y]` is reduced to its R factors
+//!    over the training and held-out rows in one streaming pass (TSQR), so memory and the
+//!    cost of every decision are independent of the number of rows (a model may keep
+//!    columns that only its verdict reads out of Z, as VJM does with its lack-of-fit blocks);
 //! 2. [`fit`]: rank-revealing fits of any subset of terms, nested F scores, hold-out SSEs and
 //!    cluster-robust Wald tests, all on the P×P factors;
 //! 3. [`select`](select::select): forward selection with Benjamini–Hochberg, hold-out
