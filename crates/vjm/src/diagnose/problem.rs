@@ -77,8 +77,8 @@ impl Whitening {
     }
 }
 
-/// A within-pose factor and what it was made for.
-type WithinKey = (Linearisation, Vec<usize>, Arc<WithinPose>);
+/// A cached within-pose factor with what it was made for (point and columns).
+type WithinEntry = (Linearisation, Vec<usize>, Arc<WithinPose>);
 
 /// A VJM diagnosis problem: the data, the split, the whitening and the column layout.
 pub struct VjmProblem<'a> {
@@ -100,7 +100,7 @@ pub struct VjmProblem<'a> {
     cache: Mutex<Vec<(Linearisation, Arc<Compressed>)>>,
     /// Within-pose factors made, by linearisation and selected columns: the verdict of an
     /// extended model whose findings are springs (tilts) needs the baseline's factor again.
-    within_cache: Mutex<Vec<WithinKey>>,
+    within_cache: Mutex<Vec<WithinEntry>>,
     pub(super) cancel: Cancel,
     /// Where the passes report their progress (rows done of the pass), from any thread.
     pub(super) sink: Option<&'a (dyn Fn(Progress) + Sync)>,
