@@ -5,6 +5,8 @@
 //! Everything here is the crate's own kinematics (`vjm::kinematics`, re-exported as [`crate::jacobian`] and friends); the diagnosis does
 //! not use the testbed, which is the independent code path the tests check it against.
 
+use std::cell::RefCell;
+
 use nalgebra::{DMatrix, Vector3};
 
 use super::candidates::{torque_sigma, RowKinematics};
@@ -21,6 +23,28 @@ pub struct RowBuilder<'a> {
     ws: Workspace,
     jac: Vec<f64>,
     wrench_sigma: [f64; 6],
+    /// The deflected equilibrium's per-spring state, reused from row to row (a builder
+    /// belongs to one thread's pass, so the cell is never shared).
+    springs: RefCell<Vec<DeflectingSpring>>,
+}
+
+/// One deflecting spring of [`RowBuilder::exact_displacement`].
+#[derive(Debug, Clone, Copy)]
+struct DeflectingSpring {
+    /// Compliance, rad/(N·m).
+    c: f64,
+    /// Undeflected base-frame axis.
+    a: Vector3<f64>,
+    /// The tip's offset from the spring's centre, across the axis.
+    x: Vector3<f64>,
+    /// Deflection of the current step and of the next, rad.
+    theta: f64,
+    next: f64,
+    /// sin θ and 1 − cos θ.
+    sin: f64,
+    versine: f64,
+    /// `v_k − p`: the tip's displacement once springs k.. are deflected.
+    after: Vector3<f64>,
 }
 
 impl<'a> RowBuilder<'a> {
@@ -36,6 +60,7 @@ impl<'a> RowBuilder<'a> {
             ws,
             jac,
             wrench_sigma,
+            springs: RefCell::new(Vec::new()),
         }
     }
 
@@ -88,59 +113,58 @@ impl<'a> RowBuilder<'a> {
     pub fn exact_displacement(&self, row: &RowKinematics, c: &[f64]) -> [f64; 3] {
         let j = &row.jacobian;
         // Per deflecting spring, base to tip: compliance, axis a, tip offset across the axis.
-        let springs: Vec<(f64, Vector3<f64>, Vector3<f64>)> = (0..c.len())
-            .filter(|s| c[*s] != 0.0)
-            .map(|s| {
-                let u = Vector3::new(j[(0, s)], j[(1, s)], j[(2, s)]);
-                let a = Vector3::new(j[(3, s)], j[(4, s)], j[(5, s)]);
-                (c[s], a, u.cross(&a))
-            })
-            .collect();
-        let k = springs.len();
+        let mut springs = self.springs.borrow_mut();
+        springs.clear();
+        springs.extend((0..c.len()).filter(|s| c[*s] != 0.0).map(|s| {
+            let u = Vector3::new(j[(0, s)], j[(1, s)], j[(2, s)]);
+            let a = Vector3::new(j[(3, s)], j[(4, s)], j[(5, s)]);
+            DeflectingSpring {
+                c: c[s],
+                a,
+                x: u.cross(&a),
+                theta: c[s] * row.tau[s],
+                next: 0.0,
+                sin: 0.0,
+                versine: 0.0,
+                after: Vector3::zeros(),
+            }
+        }));
         let f = Vector3::new(row.wrench[0], row.wrench[1], row.wrench[2]);
         let m = Vector3::new(row.wrench[3], row.wrench[4], row.wrench[5]);
-        let mut theta: Vec<f64> = (0..c.len())
-            .filter(|s| c[*s] != 0.0)
-            .map(|s| c[s] * row.tau[s])
-            .collect();
-        let mut next = vec![0.0; k];
-        // Per spring: sin θ and 1 − cos θ, and v_k − p (the displacement after E_k).
-        let mut trig = vec![(0.0, 0.0); k];
-        let mut after = vec![Vector3::zeros(); k];
         let mut d = Vector3::zeros();
         // |C·K_C| is of order |W|·reach·c ≈ 1e-2, so the iteration contracts fast; 100 steps
         // is a cap, not an expectation. The displacement returned is the one at the last θ
         // whose update moved it by ≤ 1e-14 relative: it differs from the fixed point's by as
         // little (about 1e-12 of the column, which is the deflection's second-order part).
         for _ in 0..100 {
-            for (t, th) in trig.iter_mut().zip(&theta) {
-                *t = sin_and_versine(*th);
+            for sp in springs.iter_mut() {
+                (sp.sin, sp.versine) = sin_and_versine(sp.theta);
             }
             d = Vector3::zeros();
-            for ((spring, (sn, vs)), out) in springs.iter().zip(&trig).zip(&mut after).rev() {
-                let (_, a, x) = spring;
-                d += rotation_minus_identity(a, *sn, *vs, &(d + x));
-                *out = d;
+            for sp in springs.iter_mut().rev() {
+                d += rotation_minus_identity(&sp.a, sp.sin, sp.versine, &(d + sp.x));
+                sp.after = d;
             }
             let (mut fk, mut mk) = (f, m);
-            for (((spring, (sn, vs)), v), out) in
-                springs.iter().zip(&trig).zip(&after).zip(&mut next)
-            {
-                let (ck, a, x) = spring;
-                *out = ck * (a.dot(&(v + x).cross(&fk)) + a.dot(&mk));
-                fk += rotation_minus_identity(a, -sn, *vs, &fk);
-                mk += rotation_minus_identity(a, -sn, *vs, &mk);
+            for sp in springs.iter_mut() {
+                sp.next = sp.c * (sp.a.dot(&(sp.after + sp.x).cross(&fk)) + sp.a.dot(&mk));
+                fk += rotation_minus_identity(&sp.a, -sp.sin, sp.versine, &fk);
+                mk += rotation_minus_identity(&sp.a, -sp.sin, sp.versine, &mk);
             }
-            let change = next
+            let change = springs
                 .iter()
-                .zip(&theta)
-                .map(|(a, b)| (a - b).abs())
+                .map(|sp| (sp.next - sp.theta).abs())
                 .fold(0.0, f64::max);
-            let scale = next.iter().map(|a| a.abs()).fold(1e-300, f64::max);
+            let scale = springs
+                .iter()
+                .map(|sp| sp.next.abs())
+                .fold(1e-300, f64::max);
             if change <= 1e-14 * scale {
                 break;
             }
-            std::mem::swap(&mut theta, &mut next);
+            for sp in springs.iter_mut() {
+                sp.theta = sp.next;
+            }
         }
         [d.x, d.y, d.z]
     }
