@@ -1,5 +1,5 @@
 //! The streaming triangular factor (`TriangularAccumulator`, TSQR with compact-WY panels) on
-//! 65 536 seeded rows of 22, 49 and 86 columns: the widths of the identification, of the
+//! 65 536 seeded rows of 22, 49, 59 and 86 columns: the widths of the identification, of the
 //! diagnosis' within-pose factor and of its full compressed design. Throughput is in rows;
 //! `2·p²` flops a row is the figure to compare with a matrix product's speed.
 use std::hint::black_box;
@@ -20,7 +20,7 @@ fn bench_fold(c: &mut Criterion) {
     group.sample_size(20);
     group.measurement_time(Duration::from_secs(3));
     group.throughput(Throughput::Elements(ROWS as u64));
-    for p in [22usize, 49, 86] {
+    for p in [22usize, 49, 59, 86] {
         let mut rng = ChaCha8Rng::seed_from_u64(SEED);
         let pool: Vec<f64> = (0..POOL * p).map(|_| rng.random_range(-1.0..1.0)).collect();
         group.bench_with_input(BenchmarkId::new("push_rows", p), &p, |b, &p| {

@@ -132,6 +132,12 @@ impl Workspace {
         }
     }
 
+    /// The chain and model flattened for the lane-wise batch path.
+    #[inline]
+    pub(crate) fn lanes(&self) -> &ChainLanes {
+        &self.lanes
+    }
+
     /// Rotation (base ← tip) of the tip frame at the last evaluation.
     #[inline]
     pub(crate) fn tip_rotation(&self, chain: &SerialChain) -> Matrix3<f64> {

@@ -8,9 +8,10 @@
 //! least-squares solution is the same, and the cost no longer depends on N.
 //!
 //! The rank policy of the diagnosis lives here, once: a column whose norm is below
-//! [`ZERO_COLUMN_RTOL`] of the largest is not in the data; a column whose part outside a basis
-//! is below [`RANK_TOL`] of its own norm is in the basis's span; singular values of the
-//! column-scaled design below `RANK_TOL·σ_max` are zero.
+//! [`ZERO_COLUMN_RTOL`] of the largest column of the design it is part of is not in the data
+//! ([`zero_norm`]: the fit leaves it out, and a test does not count it); a column whose part
+//! outside a basis is below [`RANK_TOL`] of its own norm is in the basis's span; singular
+//! values of the column-scaled design below `RANK_TOL·σ_max` are zero.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -22,6 +23,15 @@ pub const RANK_TOL: f64 = 1e-7;
 /// parameter does not enter the data; e.g. a torsion about an axis through the tip point, whose
 /// column is ~1e-17 of rounding). The identification solver uses the same value.
 pub const ZERO_COLUMN_RTOL: f64 = 1e-12;
+
+/// The norm at or below which a column of a design is not in the data: [`ZERO_COLUMN_RTOL`]
+/// of the largest of `cols` (the design's columns). A column that is zero in exact arithmetic
+/// (a torsion about an axis through the tip point) comes out of the kinematics as rounding,
+/// exactly 0 or 1e-17 of the others depending on the order of operations; without this rule a
+/// test would count it as a parameter when it is not exactly 0.
+pub fn zero_norm<'a>(cols: impl IntoIterator<Item = &'a Vec<f64>>) -> f64 {
+    ZERO_COLUMN_RTOL * cols.into_iter().map(|c| norm(c)).fold(0.0, f64::max)
+}
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -36,12 +46,35 @@ fn norm(a: &[f64]) -> f64 {
 #[derive(Debug, Clone, Default)]
 pub struct Basis {
     q: Vec<Vec<f64>>,
+    /// Columns of this norm or less are not in the data and never added ([`zero_norm`]).
+    zero: f64,
 }
 
 impl Basis {
-    /// An empty basis.
+    /// An empty basis that takes every non-zero column.
     pub fn new() -> Self {
-        Basis { q: Vec::new() }
+        Basis {
+            q: Vec::new(),
+            zero: 0.0,
+        }
+    }
+
+    /// An empty basis for columns of a design whose columns of norm `zero` or less are not in
+    /// the data ([`zero_norm`] of the design's columns).
+    pub fn in_data(zero: f64) -> Self {
+        Basis {
+            q: Vec::new(),
+            zero,
+        }
+    }
+
+    /// A basis of `cols`, leaving out those not in the data ([`zero_norm`] of `cols`).
+    pub fn of_design(cols: &[Vec<f64>]) -> Self {
+        let mut basis = Basis::in_data(zero_norm(cols));
+        for c in cols {
+            basis.push(c);
+        }
+        basis
     }
 
     /// Dimension of the spanned space.
@@ -65,7 +98,7 @@ impl Basis {
     /// (0 when it was already in the span and nothing was added).
     pub fn push(&mut self, col: &[f64]) -> f64 {
         let n0 = norm(col);
-        if n0 == 0.0 {
+        if n0 == 0.0 || n0 <= self.zero {
             return 0.0;
         }
         let mut v = col.to_vec();
@@ -98,13 +131,22 @@ pub struct Orthogonalised {
     pub first_residual: Vec<f64>,
 }
 
-/// Orthogonalises candidate columns `cols` against `model`.
+/// Orthogonalises candidate columns `cols` against `model`. A column not in the data of the
+/// design `model ∪ cols` ([`zero_norm`]) is outside nothing and adds no rank.
 pub fn orthogonalise(model: &Basis, cols: &[Vec<f64>]) -> Orthogonalised {
-    let mut basis = Basis::new();
+    let zero = model.zero.max(zero_norm(cols));
+    let mut basis = Basis::in_data(zero);
     let mut outside = Vec::with_capacity(cols.len());
     let mut first_residual = Vec::new();
     for (k, c) in cols.iter().enumerate() {
         let n0 = norm(c);
+        if n0 <= zero {
+            if k == 0 {
+                first_residual = vec![0.0; c.len()];
+            }
+            outside.push(0.0);
+            continue;
+        }
         let mut v = c.clone();
         model.project_out(&mut v);
         if k == 0 {
@@ -169,11 +211,8 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
     }
     let n = y.len();
     let norms: Vec<f64> = cols.iter().map(|c| norm(c)).collect();
-    let largest = norms.iter().cloned().fold(0.0, f64::max);
-    let in_data: Vec<bool> = norms
-        .iter()
-        .map(|&s| s > ZERO_COLUMN_RTOL * largest && s.is_finite())
-        .collect();
+    let zero = zero_norm(cols);
+    let in_data: Vec<bool> = norms.iter().map(|&s| s > zero && s.is_finite()).collect();
     // Scale columns to unit norm so the rank tolerance is independent of units; columns not
     // in the data are zeroed.
     let scales: Vec<f64> = norms

@@ -123,10 +123,7 @@ pub fn score_given<P: Problem>(
     let mut terms = fit.terms.clone();
     terms.extend_from_slice(given);
     let comp = &fit.compressed;
-    let mut basis = Basis::new();
-    for c in comp.columns(RowSet::Train, &term_columns(problem, &terms)) {
-        basis.push(&c);
-    }
+    let basis = Basis::of_design(&comp.columns(RowSet::Train, &term_columns(problem, &terms)));
     let mut r = comp.column(RowSet::Train, problem.observation_column());
     basis.project_out(&mut r);
     let sse0: f64 = r.iter().map(|v| v * v).sum();
@@ -175,10 +172,7 @@ pub fn orthogonal_energy<P: Problem>(
     signal: usize,
 ) -> f64 {
     let comp = &fit.compressed;
-    let mut basis = Basis::new();
-    for c in comp.columns(RowSet::Train, &term_columns(problem, &fit.terms)) {
-        basis.push(&c);
-    }
+    let basis = Basis::of_design(&comp.columns(RowSet::Train, &term_columns(problem, &fit.terms)));
     let mut s = comp.column(RowSet::Train, signal);
     basis.project_out(&mut s);
     s.iter().map(|v| v * v).sum()

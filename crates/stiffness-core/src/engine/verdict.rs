@@ -8,7 +8,7 @@
 
 use serde::Serialize;
 
-use super::basis::{orthogonalise, Basis};
+use super::basis::{orthogonalise, zero_norm, Basis};
 use super::compressed::RowSet;
 use super::fit::{term_columns, Fit};
 use super::Problem;
@@ -23,14 +23,16 @@ pub fn nested_test<P: Problem>(
     extra: &[P::Term],
 ) -> FTest {
     let comp = &fit.compressed;
-    let mut basis = Basis::new();
-    for c in comp.columns(RowSet::Train, &term_columns(problem, &fit.terms)) {
-        basis.push(&c);
+    let model = comp.columns(RowSet::Train, &term_columns(problem, &fit.terms));
+    let cols = comp.columns(RowSet::Train, &term_columns(problem, extra));
+    // The design is the model and the extra columns: what is not in its data counts nowhere.
+    let mut basis = Basis::in_data(zero_norm(model.iter().chain(&cols)));
+    for c in &model {
+        basis.push(c);
     }
     let mut r = comp.column(RowSet::Train, problem.observation_column());
     basis.project_out(&mut r);
     let sse0: f64 = r.iter().map(|v| v * v).sum();
-    let cols = comp.columns(RowSet::Train, &term_columns(problem, extra));
     let orth = orthogonalise(&basis, &cols);
     let k = orth.basis.rank();
     let sse1 = (sse0 - orth.basis.explained(&r)).max(0.0);
@@ -69,10 +71,7 @@ pub fn goodness_of_fit<P: Problem>(problem: &P, fit: &Fit<P::Term, P::Lin>) -> C
 pub fn factor_sse(f: &crate::lsq::TriangularFactor, cols: &[usize], y: usize) -> (f64, usize) {
     let p = f.ncols();
     let col = |k: usize| -> Vec<f64> { (0..p).map(|i| f.r()[i * p + k]).collect() };
-    let mut basis = Basis::new();
-    for &k in cols {
-        basis.push(&col(k));
-    }
+    let basis = Basis::of_design(&cols.iter().map(|&k| col(k)).collect::<Vec<_>>());
     let mut r = col(y);
     basis.project_out(&mut r);
     (r.iter().map(|v| v * v).sum(), basis.rank())

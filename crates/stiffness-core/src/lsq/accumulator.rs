@@ -16,12 +16,15 @@
 use super::ShapeMismatch;
 
 /// Rows buffered before a fold: the inner dimension of the panel products, large enough for
-/// faer's matrix product to run at speed (256 rows × 86 columns is 172 KiB, in L2). Measured
-/// against 128 and 512 with `benches/lsq_fold.rs`.
-pub const BLOCK_ROWS: usize = 256;
+/// faer's matrix product to run at speed (512 rows × 59 columns is 236 KiB, in L2). Measured
+/// with `benches/lsq_fold.rs` against 128, 256 and 1024 with the dispatched fold: at the
+/// diagnosis' 59 columns 256 rows run 2.84 M rows/s, 512 rows 3.21 M, 1024 rows 3.27 M for
+/// twice the memory.
+pub const BLOCK_ROWS: usize = 512;
 /// Columns whose reflectors are applied to the rest together (the compact-WY panel width):
 /// the reflectors inside a panel are applied one by one, so a wide panel moves work back to
-/// the slow path; 8 was fastest of 4, 8, 16 and 32 at 22, 49 and 86 columns.
+/// the slow path; 8 was fastest of 4, 8, 16 and 32 at 22, 49 and 86 columns, and again of 8
+/// and 16 once the fold was dispatched.
 const PANEL: usize = 8;
 
 /// Accumulates the triangular factor R (p×p, p = columns including any right-hand side)
@@ -188,6 +191,25 @@ impl TriangularAccumulator {
     /// columns as `I − U T Uᵀ` (compact WY): two matrix products that faer runs with the
     /// machine's widest SIMD.
     fn fold(&mut self) {
+        /// The fold compiled for the machine's widest instruction set (pulp dispatches once
+        /// per fold): the reflectors inside a panel are dot products and updates of block
+        /// columns, which the baseline x86-64 target would run two lanes wide.
+        struct Dispatched<'a>(&'a mut TriangularAccumulator);
+        impl pulp::WithSimd for Dispatched<'_> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.fold_panels();
+            }
+        }
+        if self.filled > 0 {
+            pulp::Arch::new().dispatch(Dispatched(self));
+        }
+    }
+
+    /// The body of [`Self::fold`], inlined into its dispatched instances.
+    #[inline(always)]
+    fn fold_panels(&mut self) {
         let b = self.filled;
         if b == 0 {
             return;
@@ -218,6 +240,7 @@ impl TriangularAccumulator {
     /// stores `v` in the panel column and `β` in `R_jj`, applies it to the panel's columns
     /// `c+1..nb`, and returns τ (0 when the block column is already zero: the reflector is
     /// the identity).
+    #[inline(always)]
     fn reflect(&mut self, j0: usize, c: usize, nb: usize, b: usize) -> f64 {
         let p = self.p;
         let j = j0 + c;
@@ -254,6 +277,7 @@ impl TriangularAccumulator {
     /// `T[..i, i] = −τ_i T[..i, ..i] Uᵀu_i`, and `Uᵀu_i` is `V[:, ..i]ᵀ v_i` because the
     /// unit parts of u lie on different rows of R). Then `W = R[j0..j1, j1..] + Vᵀ X`,
     /// `W ← Tᵀ W`, `R[j0..j1, j1..] −= W` and `X −= V W`.
+    #[inline(always)]
     fn apply_panel(&mut self, j0: usize, j1: usize, b: usize, taus: &[f64]) {
         use faer::linalg::matmul::matmul;
         use faer::{Accum, MatMut, MatRef, Par};
@@ -339,12 +363,14 @@ impl TriangularAccumulator {
     }
 }
 
-/// Dot product with four independent accumulators, so the compiler can keep SIMD lanes
-/// busy (a single running sum is a serial dependency chain it may not reorder).
+/// Dot product with sixteen independent accumulators, so that the dispatched fold keeps
+/// several SIMD registers busy (a single running sum is a serial dependency chain the
+/// compiler may not reorder; sixteen lanes are two AVX-512 or four AVX2 chains).
 #[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0; 4];
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    const L: usize = 16;
+    let mut acc = [0.0; L];
+    let (ca, cb) = (a.chunks_exact(L), b.chunks_exact(L));
     let tail: f64 = ca
         .remainder()
         .iter()
@@ -352,9 +378,16 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
         .map(|(x, y)| x * y)
         .sum();
     for (x, y) in ca.zip(cb) {
-        for l in 0..4 {
+        for l in 0..L {
             acc[l] += x[l] * y[l];
         }
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+    let mut w = L;
+    while w > 1 {
+        w /= 2;
+        for l in 0..w {
+            acc[l] += acc[l + w];
+        }
+    }
+    acc[0] + tail
 }

@@ -174,6 +174,11 @@ pub struct RowKinematics {
     pub tau_sigma: Vec<f64>,
     /// Rotation of the unloaded tip frame (base ← tip).
     pub tip_rotation: nalgebra::Matrix3<f64>,
+    /// The exact tip displacement (m, base frame) of the deflected equilibrium at the pass's
+    /// linearisation, when the pass computed it for a batch of rows
+    /// ([`RowBuilder::rows_into`]); otherwise `None`, and the geometric non-linearity column
+    /// computes it for the row alone.
+    pub deflected: Option<[f64; 3]>,
 }
 
 /// The point the bilinear columns are linearised at: the full 3n compliance vector of the
@@ -309,7 +314,9 @@ pub fn candidate_columns(
             if lin.compliance.iter().all(|c| *c == 0.0) {
                 out.push([0.0; 3]);
             } else {
-                let d = builder.exact_displacement(row, &lin.compliance);
+                let d = row
+                    .deflected
+                    .unwrap_or_else(|| builder.exact_displacement(row, &lin.compliance));
                 let l = spring_prediction(row, &lin.compliance);
                 out.push([d[0] - l[0], d[1] - l[1], d[2] - l[2]]);
             }
@@ -424,12 +431,17 @@ pub fn erf(x: f64) -> f64 {
 /// Per-joint torsion torque noise `√(J_zᵀ Σ_W J_z)` for a 6×3n Jacobian and per-axis wrench
 /// standard deviations.
 pub fn torque_sigma(jacobian: &DMatrix<f64>, wrench_sigma: &[f64; 6]) -> Vec<f64> {
-    (0..jacobian.ncols() / 3)
-        .map(|j| {
-            (0..6)
-                .map(|k| (jacobian[(k, 3 * j)] * wrench_sigma[k]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .collect()
+    let mut out = vec![0.0; jacobian.ncols() / 3];
+    torque_sigma_into(jacobian, wrench_sigma, &mut out);
+    out
+}
+
+/// [`torque_sigma`] written into `out` (one value per joint).
+pub fn torque_sigma_into(jacobian: &DMatrix<f64>, wrench_sigma: &[f64; 6], out: &mut [f64]) {
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = (0..6)
+            .map(|k| (jacobian[(k, 3 * j)] * wrench_sigma[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+    }
 }

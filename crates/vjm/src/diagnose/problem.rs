@@ -6,7 +6,7 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use nalgebra::{Matrix3, Matrix6, Vector3};
+use nalgebra::{Matrix3, Vector3};
 use stiffness_core::engine::{Compressed, CompressedAccumulator, Fit, Problem, RowSet};
 use stiffness_core::{Cancel, Cancelled, Progress};
 
@@ -14,7 +14,7 @@ use super::candidates::{
     candidate_columns, compliance_map3x6, spring_column, Alternative, Candidate, Linearisation,
     RowKinematics,
 };
-use super::rows::RowBuilder;
+use super::rows::{RowBuilder, ROW_BATCH};
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, SetLabel};
 
@@ -48,31 +48,54 @@ pub struct Whitening {
 }
 
 impl Whitening {
-    /// `(L⁻¹, √diag Σ)` for a row, with `Σ = L Lᵀ`.
+    /// `(L⁻¹, √diag Σ)` for a row, with `Σ = L Lᵀ`. Written out for 3×3 (the sum of the six
+    /// rank-one terms `σ_k² g_k g_kᵀ`, then Cholesky and the triangular inverse in closed form):
+    /// it runs for every row of every pass. A Σ that is not positive definite (it cannot be
+    /// with `σ_d > 0`, short of overflow) whitens by `1/σ_d`.
     pub fn of(&self, row: &RowKinematics) -> (Matrix3<f64>, [f64; 3]) {
         let sd = self.displacement_sigma;
-        let mut sigma = Matrix3::identity() * (sd * sd);
+        let v = sd * sd;
+        // The upper triangle of Σ: s00 s01 s02 s11 s12 s22.
+        let mut a = [v, 0.0, 0.0, v, 0.0, v];
         if self.wrench_sigma.iter().any(|s| *s != 0.0) {
             let g = compliance_map3x6(row, &self.propagate_abs);
-            let sw = Matrix6::from_diagonal(&nalgebra::Vector6::from_iterator(
-                self.wrench_sigma.iter().map(|s| s * s),
-            ));
-            sigma += g * sw * g.transpose();
+            for (k, s) in self.wrench_sigma.iter().enumerate() {
+                let w = s * s;
+                let (g0, g1, g2) = (g[(0, k)], g[(1, k)], g[(2, k)]);
+                a[0] += w * g0 * g0;
+                a[1] += w * g0 * g1;
+                a[2] += w * g0 * g2;
+                a[3] += w * g1 * g1;
+                a[4] += w * g1 * g2;
+                a[5] += w * g2 * g2;
+            }
         }
-        let w = match sigma.cholesky() {
-            Some(ch) => ch
-                .l()
-                .try_inverse()
-                .unwrap_or_else(|| Matrix3::identity() / sd),
-            None => Matrix3::identity() / sd,
-        };
+        let sigma = [a[0].sqrt(), a[3].sqrt(), a[5].sqrt()];
+        let fallback = (Matrix3::identity() / sd, sigma);
+        let l00 = a[0].sqrt();
+        if !(l00 > 0.0 && l00.is_finite()) {
+            return fallback;
+        }
+        let l10 = a[1] / l00;
+        let l20 = a[2] / l00;
+        let d11 = a[3] - l10 * l10;
+        if !(d11 > 0.0 && d11.is_finite()) {
+            return fallback;
+        }
+        let l11 = d11.sqrt();
+        let l21 = (a[4] - l20 * l10) / l11;
+        let d22 = a[5] - l20 * l20 - l21 * l21;
+        if !(d22 > 0.0 && d22.is_finite()) {
+            return fallback;
+        }
+        let l22 = d22.sqrt();
+        let (m00, m11, m22) = (1.0 / l00, 1.0 / l11, 1.0 / l22);
+        let m10 = -l10 * m00 * m11;
+        let m21 = -l21 * m11 * m22;
+        let m20 = -(l20 * m00 + l21 * m10) * m22;
         (
-            w,
-            [
-                sigma[(0, 0)].sqrt(),
-                sigma[(1, 1)].sqrt(),
-                sigma[(2, 2)].sqrt(),
-            ],
+            Matrix3::new(m00, 0.0, 0.0, m10, m11, 0.0, m20, m21, m22),
+            sigma,
         )
     }
 }
@@ -348,27 +371,44 @@ impl<'a> VjmProblem<'a> {
         mut visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
     ) -> Result<(), Cancelled> {
         let mut builder = self.builder();
-        let mut cols = Vec::with_capacity(self.ncols());
-        for i in range {
-            if i % CANCEL_EVERY == 0 {
-                self.cancel.check()?;
-                if let Some(sink) = self.sink {
-                    let n = self.data.len();
-                    let done = self.rows_done.fetch_add(CANCEL_EVERY, Ordering::Relaxed);
-                    sink(Progress {
-                        stage: "pass over the rows",
-                        done: done.min(n),
-                        total: n,
-                    });
+        let mut rows: Vec<RowKinematics> = (0..ROW_BATCH).map(|_| builder.empty_row()).collect();
+        let mut batch = Vec::with_capacity(ROW_BATCH);
+        let mut cols = Vec::with_capacity(self.nraw());
+        // The deflected equilibrium is solved for the batch when the pass wants the geometric
+        // non-linearity's column.
+        let deflect = self
+            .layout
+            .iter()
+            .find(|(c, _)| *c == Candidate::GeometricNonlinearity)
+            .filter(|(_, r)| want.is_none_or(|w| w[r.clone()].iter().any(|b| *b)))
+            .map(|_| &lin.compliance[..]);
+        let mut start = range.start;
+        while start < range.end {
+            let end = (start + ROW_BATCH).min(range.end);
+            for i in start..end {
+                if i % CANCEL_EVERY == 0 {
+                    self.cancel.check()?;
+                    if let Some(sink) = self.sink {
+                        let n = self.data.len();
+                        let done = self.rows_done.fetch_add(CANCEL_EVERY, Ordering::Relaxed);
+                        sink(Progress {
+                            stage: "pass over the rows",
+                            done: done.min(n),
+                            total: n,
+                        });
+                    }
                 }
             }
-            if train_only && self.labels[i] != SetLabel::Train {
-                continue;
+            batch.clear();
+            batch
+                .extend((start..end).filter(|&i| !train_only || self.labels[i] == SetLabel::Train));
+            builder.rows_into(self.data, &batch, deflect, &mut rows);
+            for (&i, row) in batch.iter().zip(&rows) {
+                let (w, sigma) = self.whitening.of(row);
+                self.raw_columns(&builder, row, lin, want, &mut cols);
+                visit(i, row, &w, &sigma, &cols);
             }
-            let row = builder.row(self.data, i);
-            let (w, sigma) = self.whitening.of(&row);
-            self.raw_columns(&builder, &row, lin, want, &mut cols);
-            visit(i, &row, &w, &sigma, &cols);
+            start = end;
         }
         Ok(())
     }

@@ -9,10 +9,10 @@ use std::cell::RefCell;
 
 use nalgebra::{DMatrix, Vector3};
 
-use super::candidates::{torque_sigma, RowKinematics};
+use super::candidates::{torque_sigma_into, RowKinematics};
 use crate::chain::SerialChain;
 use crate::dataset::Dataset;
-use crate::kinematics::{jacobian_in_place, Workspace};
+use crate::kinematics::Workspace;
 use crate::model::VirtualJointModel;
 
 /// Reusable scratch that turns a dataset row into [`RowKinematics`].
@@ -21,11 +21,29 @@ pub struct RowBuilder<'a> {
     chain: &'a SerialChain,
     model: VirtualJointModel,
     ws: Workspace,
-    jac: Vec<f64>,
     wrench_sigma: [f64; 6],
     /// The deflected equilibrium's per-spring state, reused from row to row (a builder
     /// belongs to one thread's pass, so the cell is never shared).
     springs: RefCell<Vec<DeflectingSpring>>,
+    /// Scratch of [`Self::rows_into`].
+    batch: BatchScratch,
+}
+
+/// Rows evaluated together by [`RowBuilder::rows_into`]: the most lanes a dispatched
+/// instruction set has (16 under AVX-512; AVX2 takes them 8 at a time).
+pub const ROW_BATCH: usize = crate::lanes::MAX_LANES;
+
+/// The buffers of a batch of rows, sized once for [`ROW_BATCH`] rows.
+#[derive(Debug, Clone)]
+struct BatchScratch {
+    q: Vec<f64>,
+    jac: Vec<f64>,
+    tip: Vec<f64>,
+    rot: Vec<f64>,
+    columns: Vec<f64>,
+    torque: Vec<f64>,
+    wrench: Vec<f64>,
+    deflected: Vec<[f64; 3]>,
 }
 
 /// One deflecting spring of [`RowBuilder::exact_displacement`].
@@ -52,43 +70,149 @@ impl<'a> RowBuilder<'a> {
     /// that sets each row's torsion-torque noise (backlash candidate).
     pub fn new(chain: &'a SerialChain, wrench_sigma: [f64; 6]) -> Self {
         let model = VirtualJointModel::extended(chain.n_joints());
+        let m = model.n_params();
         let ws = Workspace::new(chain, &model).expect("the extended model fits its own chain");
-        let jac = vec![0.0; 6 * model.n_params()];
         Self {
             chain,
             model,
             ws,
-            jac,
             wrench_sigma,
             springs: RefCell::new(Vec::new()),
+            batch: BatchScratch {
+                q: Vec::with_capacity(ROW_BATCH * chain.n_joints()),
+                jac: vec![0.0; ROW_BATCH * 6 * m],
+                tip: vec![0.0; ROW_BATCH * 3],
+                rot: vec![0.0; ROW_BATCH * 9],
+                columns: Vec::new(),
+                torque: Vec::new(),
+                wrench: Vec::new(),
+                deflected: vec![[0.0; 3]; ROW_BATCH],
+            },
         }
     }
 
-    /// The kinematics of row `i` of `data` (finite-checked on entry, so the evaluation
-    /// cannot fail).
-    pub fn row(&mut self, data: &Dataset<'_>, i: usize) -> RowKinematics {
-        let q = data.q(i).to_vec();
-        jacobian_in_place(self.chain, &self.model, &q, &mut self.ws, &mut self.jac)
-            .expect("dataset rows are checked against the chain");
+    /// An empty record for [`Self::row_into`] to fill, sized for this chain.
+    pub fn empty_row(&self) -> RowKinematics {
         let m = self.model.n_params();
-        let jacobian = DMatrix::from_column_slice(6, m, &self.jac);
+        RowKinematics {
+            q: vec![0.0; self.chain.n_joints()],
+            jacobian: DMatrix::zeros(6, m),
+            tau: vec![0.0; m],
+            wrench: [0.0; 6],
+            displacement: [0.0; 3],
+            tip: [0.0; 3],
+            tau_sigma: vec![0.0; self.chain.n_joints()],
+            tip_rotation: nalgebra::Matrix3::identity(),
+            deflected: None,
+        }
+    }
+
+    /// The kinematics of the rows `rows` of `data` (at most [`ROW_BATCH`]) into `out`, one
+    /// record per row (made by [`Self::empty_row`]), evaluated lane-wise over the rows
+    /// (`crate::lanes`); with `deflect` (compliances, 3n, rad/(N·m)), also each row's
+    /// deflected equilibrium under those compliances ([`RowKinematics::deflected`]), lane-wise
+    /// too. The same values as [`Self::row_into`] and [`Self::exact_displacement`] row by row,
+    /// to rounding (`tests/it/diagnose_rows.rs`).
+    pub fn rows_into(
+        &mut self,
+        data: &Dataset<'_>,
+        rows: &[usize],
+        deflect: Option<&[f64]>,
+        out: &mut [RowKinematics],
+    ) {
+        let n = rows.len();
+        assert!(
+            n <= ROW_BATCH && out.len() >= n,
+            "a batch of at most {ROW_BATCH} rows into as many records"
+        );
+        let nj = self.chain.n_joints();
+        let m = self.model.n_params();
+        let b = &mut self.batch;
+        b.q.clear();
+        for &i in rows {
+            b.q.extend_from_slice(data.q(i));
+        }
+        crate::lanes::gram::jacobian_tip_batch(
+            self.ws.lanes(),
+            &b.q,
+            &mut b.jac[..n * 6 * m],
+            &mut b.tip[..3 * n],
+            &mut b.rot[..9 * n],
+        );
+        let tip_offset = *self
+            .chain
+            .tip_offset()
+            .rotation
+            .to_rotation_matrix()
+            .matrix();
+        for (r, (&i, row)) in rows.iter().zip(out.iter_mut()).enumerate() {
+            row.q.copy_from_slice(&b.q[r * nj..(r + 1) * nj]);
+            row.jacobian
+                .as_mut_slice()
+                .copy_from_slice(&b.jac[r * 6 * m..(r + 1) * 6 * m]);
+            let wrench = data.wrench(i);
+            for (s, t) in row.tau.iter_mut().enumerate() {
+                let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
+                *t = col.iter().zip(&wrench).map(|(j, w)| j * w).sum();
+            }
+            torque_sigma_into(&row.jacobian, &self.wrench_sigma, &mut row.tau_sigma);
+            row.wrench = wrench;
+            row.displacement = data.displacement(i);
+            row.tip = [b.tip[3 * r], b.tip[3 * r + 1], b.tip[3 * r + 2]];
+            let last = nalgebra::Matrix3::from_row_slice(&b.rot[9 * r..9 * r + 9]);
+            row.tip_rotation = last * tip_offset;
+            row.deflected = None;
+        }
+        let Some(c) = deflect.filter(|c| c.iter().any(|v| *v != 0.0)) else {
+            return;
+        };
+        // The deflecting springs' columns and torques, row by row, for the lane-wise solve.
+        let springs: Vec<usize> = (0..c.len()).filter(|s| c[*s] != 0.0).collect();
+        let compliance: Vec<f64> = springs.iter().map(|s| c[*s]).collect();
+        b.columns.clear();
+        b.torque.clear();
+        b.wrench.clear();
+        for row in &out[..n] {
+            for &s in &springs {
+                b.columns
+                    .extend_from_slice(&row.jacobian.as_slice()[6 * s..6 * s + 6]);
+                b.torque.push(row.tau[s]);
+            }
+            b.wrench.extend_from_slice(&row.wrench);
+        }
+        let input = crate::lanes::equilibrium::EquilibriumRows {
+            compliance: &compliance,
+            columns: &b.columns,
+            torque: &b.torque,
+            wrench: &b.wrench,
+        };
+        if crate::lanes::equilibrium::deflected_displacements(&input, n, &mut b.deflected[..n]) {
+            for (row, d) in out[..n].iter_mut().zip(&b.deflected) {
+                row.deflected = Some(*d);
+            }
+        }
+    }
+
+    /// The kinematics of row `i` of `data`, written into `out` (made by [`Self::empty_row`]:
+    /// a pass reuses one record, so a row costs no allocation). The rows are finite-checked
+    /// and checked against the chain on entry, so the evaluation cannot fail; the workspace
+    /// was made for this builder's model, so it is not checked again.
+    pub fn row_into(&mut self, data: &Dataset<'_>, i: usize, out: &mut RowKinematics) {
+        out.q.copy_from_slice(data.q(i));
+        self.ws.evaluate(self.chain, &out.q);
+        self.ws.write_jacobian(out.jacobian.as_mut_slice());
         let wrench = data.wrench(i);
-        let tau: Vec<f64> = (0..m)
-            .map(|s| (0..6).map(|r| jacobian[(r, s)] * wrench[r]).sum())
-            .collect();
-        let tau_sigma = torque_sigma(&jacobian, &self.wrench_sigma);
+        for (s, t) in out.tau.iter_mut().enumerate() {
+            let col = &out.jacobian.as_slice()[6 * s..6 * s + 6];
+            *t = col.iter().zip(&wrench).map(|(j, w)| j * w).sum();
+        }
+        torque_sigma_into(&out.jacobian, &self.wrench_sigma, &mut out.tau_sigma);
+        out.wrench = wrench;
+        out.displacement = data.displacement(i);
         // The tip frame of the evaluation the Jacobian came from (no second forward pass).
         let t = self.ws.p;
-        RowKinematics {
-            q,
-            jacobian,
-            tau,
-            wrench,
-            displacement: data.displacement(i),
-            tip: [t.x, t.y, t.z],
-            tau_sigma,
-            tip_rotation: self.ws.tip_rotation(self.chain),
-        }
+        out.tip = [t.x, t.y, t.z];
+        out.tip_rotation = self.ws.tip_rotation(self.chain);
     }
 
     /// The exact tip displacement (m, base frame) of linear springs of compliances `c` (3n,

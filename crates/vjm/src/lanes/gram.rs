@@ -10,7 +10,7 @@
 use pulp::{Simd, WithSimd};
 
 use super::kinematics::{ChainLanes, FramesLanes};
-use super::vector::{cross3, dot3, MAX_LANES};
+use super::vector::{cross3, dot3, gather, MAX_LANES};
 use super::V;
 use crate::kinematics::JacobianLayout;
 
@@ -49,17 +49,6 @@ pub(crate) fn gram_range(problem: &GramProblem<'_>, start: usize, end: usize) ->
         }
     }
     pulp::Arch::new().dispatch(Task(problem, start, end))
-}
-
-/// Gathers column `col` of the row-major `rows×width` table for the `count` measurements
-/// from `i` into lanes; unused lanes are 0 (they then add nothing to any sum).
-#[inline(always)]
-fn gather<S: Simd>(s: S, data: &[f64], width: usize, col: usize, i: usize, count: usize) -> V<S> {
-    let mut buf = [0.0; MAX_LANES];
-    for (l, b) in buf.iter_mut().enumerate().take(count) {
-        *b = data[(i + l) * width + col];
-    }
-    V::load(s, &buf)
 }
 
 #[inline(always)]
@@ -172,7 +161,7 @@ pub(crate) fn jacobian_batch(
         #[inline(always)]
         fn with_simd<S: Simd>(self, s: S) {
             let Task(chain, q, out, layout) = self;
-            jacobian_lanes(s, chain, q, out, layout)
+            jacobian_lanes(s, chain, q, out, layout, None)
         }
     }
     // AVX2 even where AVX-512 is available: the output is written lane by lane (126 values per
@@ -185,6 +174,47 @@ pub(crate) fn jacobian_batch(
     pulp::Arch::new().dispatch(Task(chain, q, out, layout))
 }
 
+/// [`jacobian_batch`] (column-major blocks) that also writes each configuration's tip point
+/// (`tip`, N×3, m, base frame) and the rotation of the last joint's child frame (`rot`, N×9,
+/// row-major, base ← child): what a diagnosis row needs besides the Jacobian, from the same
+/// evaluation.
+pub(crate) fn jacobian_tip_batch(
+    chain: &ChainLanes,
+    q: &[f64],
+    out: &mut [f64],
+    tip: &mut [f64],
+    rot: &mut [f64],
+) {
+    struct Task<'a>(
+        &'a ChainLanes,
+        &'a [f64],
+        &'a mut [f64],
+        &'a mut [f64],
+        &'a mut [f64],
+    );
+    impl WithSimd for Task<'_> {
+        type Output = ();
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) {
+            let Task(chain, q, out, tip, rot) = self;
+            jacobian_lanes(
+                s,
+                chain,
+                q,
+                out,
+                JacobianLayout::ColumnMajor,
+                Some((tip, rot)),
+            )
+        }
+    }
+    // AVX2 even where AVX-512 is available, as in `jacobian_batch`.
+    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+    if let Some(v3) = pulp::x86::V3::try_new() {
+        return Simd::vectorize(v3, Task(chain, q, out, tip, rot));
+    }
+    pulp::Arch::new().dispatch(Task(chain, q, out, tip, rot))
+}
+
 #[inline(always)]
 fn jacobian_lanes<S: Simd>(
     s: S,
@@ -192,6 +222,7 @@ fn jacobian_lanes<S: Simd>(
     q: &[f64],
     out: &mut [f64],
     layout: JacobianLayout,
+    mut frames_out: Option<(&mut [f64], &mut [f64])>,
 ) {
     // Where row r of column k goes within a configuration's block of 6·m values.
     let (row_stride, col_stride) = match layout {
@@ -213,6 +244,21 @@ fn jacobian_lanes<S: Simd>(
             *qj = gather(s, q, nj, j, i, count);
         }
         chain.evaluate(s, &qv, &mut frames);
+        if let Some((tip, rot)) = &mut frames_out {
+            let mut lanes_buf = [0.0; MAX_LANES];
+            for d in 0..3 {
+                frames.tip[d].store(&mut lanes_buf);
+                for l in 0..count {
+                    tip[(i + l) * 3 + d] = lanes_buf[l];
+                }
+            }
+            for e in 0..9 {
+                frames.rot[nj - 1][e].store(&mut lanes_buf);
+                for l in 0..count {
+                    rot[(i + l) * 9 + e] = lanes_buf[l];
+                }
+            }
+        }
         for (lj, c) in lever.iter_mut().zip(&frames.centre) {
             for d in 0..3 {
                 lj[d] = frames.tip[d] - c[d];
@@ -354,7 +400,7 @@ mod tests {
         #[inline(always)]
         fn with_simd<S: Simd>(self, s: S) -> Vec<f64> {
             let mut out = vec![0.0; self.2];
-            jacobian_lanes(s, self.0, self.1, &mut out, self.3);
+            jacobian_lanes(s, self.0, self.1, &mut out, self.3, None);
             out
         }
     }

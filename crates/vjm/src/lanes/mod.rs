@@ -18,8 +18,9 @@
 //!
 //! [`jacobian_batch_in_place`]: crate::jacobian_batch_in_place
 
+pub(crate) mod equilibrium;
 pub(crate) mod gram;
 pub(crate) mod kinematics;
 mod vector;
 
-pub(crate) use vector::{sin_cos, sin_cos_slice, V};
+pub(crate) use vector::{sin_cos, sin_cos_slice, MAX_LANES, V};

@@ -132,6 +132,24 @@ impl<S: Simd> Neg for V<S> {
     }
 }
 
+/// Gathers column `col` of the row-major `rows×width` table for the `count` measurements
+/// from `i` into lanes; unused lanes are 0 (they then add nothing to any sum).
+#[inline(always)]
+pub(crate) fn gather<S: Simd>(
+    s: S,
+    data: &[f64],
+    width: usize,
+    col: usize,
+    i: usize,
+    count: usize,
+) -> V<S> {
+    let mut buf = [0.0; MAX_LANES];
+    for (l, b) in buf.iter_mut().enumerate().take(count) {
+        *b = data[(i + l) * width + col];
+    }
+    V::load(s, &buf)
+}
+
 /// Dot product of two 3-vectors of lanes.
 #[inline(always)]
 pub(crate) fn dot3<S: Simd>(a: &[V<S>; 3], b: &[V<S>; 3]) -> V<S> {

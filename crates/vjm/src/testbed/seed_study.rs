@@ -172,6 +172,7 @@ pub fn seed_study(
                 tip: [pose.tip.x, pose.tip.y, pose.tip.z],
                 tau_sigma: Vec::new(),
                 tip_rotation: nalgebra::Matrix3::identity(),
+                deflected: None,
             }
         })
         .collect();

@@ -1,0 +1,212 @@
+//! The deflected equilibrium of linear virtual springs under a row's wrench, over L rows at
+//! once: the geometric non-linearity column of the diagnosis, which every row of a diagnosis'
+//! main pass needs and which costs a fixed-point iteration per row.
+//!
+//! The algorithm is `crate::diagnose::rows::RowBuilder::exact_displacement`'s, step for step
+//! (see its documentation for the kinematics): per step, `sin θ` and `1 − cos θ` of every
+//! deflecting spring by their Taylor series, a sweep from the tip that carries the
+//! displacement, and a sweep from the base that turns the wrench back and gives the next
+//! deflections. Each lane stops where the scalar code stops (the first step whose update moves
+//! no deflection by more than 1e-14 of the largest) and keeps that step's displacement; the
+//! other lanes go on. The series (longer than the scalar code's) is exact in double precision
+//! below 0.25 rad; a batch with a deflection beyond is left to the scalar code, which switches
+//! to the library's sine.
+
+use pulp::{Simd, WithSimd};
+
+use super::vector::{cross3, dot3, gather, MAX_LANES};
+use super::V;
+
+/// Steps at most (the scalar code's cap).
+const MAX_STEPS: usize = 100;
+/// Largest deflection the series is used for, rad. With the terms kept (to θ¹⁵ and θ¹⁶), the
+/// first left out is below 1e-24 of `sin θ` and of `1 − cos θ` at 0.25 rad: the series is the
+/// function to rounding there, as the library's sine is (the scalar code switches to the
+/// library at 1e-3 rad, with a shorter series).
+const SERIES_LIMIT: f64 = 0.25;
+
+/// The inputs of a batch of rows for [`deflected_displacements`], K deflecting springs each.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct EquilibriumRows<'a> {
+    /// Compliance of each deflecting spring, rad/(N·m) (K values, none zero).
+    pub(crate) compliance: &'a [f64],
+    /// Per row r and spring k, at `(r·K + k)·6`: the spring's Jacobian column
+    /// `[a × (p − c); a]` (base frame).
+    pub(crate) columns: &'a [f64],
+    /// Per row r and spring k, at `r·K + k`: the spring torque `Jᵀ W` under the row's wrench,
+    /// N·m.
+    pub(crate) torque: &'a [f64],
+    /// Per row, at `6r`: the wrench `[f; m]`, base frame, N and N·m.
+    pub(crate) wrench: &'a [f64],
+}
+
+/// The tip displacement (m, base frame) of the deflected equilibrium of each of the `n` rows
+/// into `out`, or `false` when some row's deflection reached 0.25 rad (then `out` is
+/// incomplete and the caller uses the scalar code for the batch).
+pub(crate) fn deflected_displacements(
+    rows: &EquilibriumRows<'_>,
+    n: usize,
+    out: &mut [[f64; 3]],
+) -> bool {
+    struct Task<'a, 'b>(&'b EquilibriumRows<'a>, usize, &'b mut [[f64; 3]]);
+    impl WithSimd for Task<'_, '_> {
+        type Output = bool;
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) -> bool {
+            let Task(rows, n, out) = self;
+            let lanes = V::<S>::LANES;
+            let mut i = 0;
+            while i < n {
+                let count = (n - i).min(lanes);
+                if !equilibrium_lanes(s, rows, i, count, &mut out[i..i + count]) {
+                    return false;
+                }
+                i += count;
+            }
+            true
+        }
+    }
+    pulp::Arch::new().dispatch(Task(rows, n, out))
+}
+
+/// `(R − I) y` for rotations about the unit axes `a` with `sin θ` and `1 − cos θ` given
+/// (Rodrigues), lane-wise.
+#[inline(always)]
+fn rotation_minus_identity<S: Simd>(
+    a: &[V<S>; 3],
+    sin: V<S>,
+    versine: V<S>,
+    y: &[V<S>; 3],
+) -> [V<S>; 3] {
+    let ay = cross3(a, y);
+    let aay = cross3(a, &ay);
+    std::array::from_fn(|d| aay[d].mul_add(versine, ay[d] * sin))
+}
+
+#[inline(always)]
+fn add3<S: Simd>(a: &[V<S>; 3], b: &[V<S>; 3]) -> [V<S>; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// Per spring of a batch: compliance, axis, offset across the axis, and the deflections.
+struct SpringLanes<S: Simd> {
+    c: V<S>,
+    a: [V<S>; 3],
+    x: [V<S>; 3],
+    theta: V<S>,
+    next: V<S>,
+    sin: V<S>,
+    versine: V<S>,
+    after: [V<S>; 3],
+}
+
+#[inline(always)]
+fn equilibrium_lanes<S: Simd>(
+    s: S,
+    rows: &EquilibriumRows<'_>,
+    i: usize,
+    count: usize,
+    out: &mut [[f64; 3]],
+) -> bool {
+    let k_springs = rows.compliance.len();
+    let zero = V::zero(s);
+    let mut springs: Vec<SpringLanes<S>> = (0..k_springs)
+        .map(|k| {
+            let w = 6 * k_springs;
+            let u = [0, 1, 2].map(|d| gather(s, rows.columns, w, 6 * k + d, i, count));
+            let a = [3, 4, 5].map(|d| gather(s, rows.columns, w, 6 * k + d, i, count));
+            let c = V::splat(s, rows.compliance[k]);
+            SpringLanes {
+                c,
+                a,
+                x: cross3(&u, &a),
+                theta: c * gather(s, rows.torque, k_springs, k, i, count),
+                next: zero,
+                sin: zero,
+                versine: zero,
+                after: [zero; 3],
+            }
+        })
+        .collect();
+    let f = [0, 1, 2].map(|d| gather(s, rows.wrench, 6, d, i, count));
+    let m = [3, 4, 5].map(|d| gather(s, rows.wrench, 6, d, i, count));
+    let mut done = [false; MAX_LANES];
+    done[count..].fill(true);
+    let mut buf = [0.0; MAX_LANES];
+    let mut d = [zero; 3];
+    for _ in 0..MAX_STEPS {
+        for sp in springs.iter_mut() {
+            sp.theta.store(&mut buf);
+            if buf[..count].iter().any(|t| t.abs() >= SERIES_LIMIT) {
+                return false;
+            }
+            let t2 = sp.theta * sp.theta;
+            let one = V::splat(s, 1.0);
+            // Nested from the innermost factor: sin θ = θ(1 − θ²/(2·3)(1 − θ²/(4·5)(⋯))) and
+            // 1 − cos θ = ½θ²(1 − θ²/(3·4)(1 − θ²/(5·6)(⋯))).
+            let mut sin = one;
+            let mut versine = one;
+            for k in (1..=7).rev() {
+                let (a, b) = (2.0 * k as f64, 2.0 * k as f64 + 1.0);
+                sin = one - t2 * V::splat(s, 1.0 / (a * b)) * sin;
+                versine = one - t2 * V::splat(s, 1.0 / (b * (b + 1.0))) * versine;
+            }
+            sp.sin = sp.theta * sin;
+            sp.versine = V::splat(s, 0.5) * t2 * versine;
+        }
+        d = [zero; 3];
+        for sp in springs.iter_mut().rev() {
+            let y = add3(&d, &sp.x);
+            d = add3(&d, &rotation_minus_identity(&sp.a, sp.sin, sp.versine, &y));
+            sp.after = d;
+        }
+        let (mut fk, mut mk) = (f, m);
+        for sp in springs.iter_mut() {
+            let lever = add3(&sp.after, &sp.x);
+            sp.next = sp.c * (dot3(&sp.a, &cross3(&lever, &fk)) + dot3(&sp.a, &mk));
+            let back_f = rotation_minus_identity(&sp.a, -sp.sin, sp.versine, &fk);
+            let back_m = rotation_minus_identity(&sp.a, -sp.sin, sp.versine, &mk);
+            fk = add3(&fk, &back_f);
+            mk = add3(&mk, &back_m);
+        }
+        // Per lane: the largest update and the largest next deflection.
+        let mut change = [0.0f64; MAX_LANES];
+        let mut scale = [1e-300f64; MAX_LANES];
+        let mut theta = [0.0; MAX_LANES];
+        for sp in &springs {
+            sp.next.store(&mut buf);
+            sp.theta.store(&mut theta);
+            for l in 0..count {
+                change[l] = change[l].max((buf[l] - theta[l]).abs());
+                scale[l] = scale[l].max(buf[l].abs());
+            }
+        }
+        let mut dl = [[0.0; MAX_LANES]; 3];
+        for (v, b) in d.iter().zip(dl.iter_mut()) {
+            v.store(b);
+        }
+        for l in 0..count {
+            if !done[l] && change[l] <= 1e-14 * scale[l] {
+                done[l] = true;
+                out[l] = [dl[0][l], dl[1][l], dl[2][l]];
+            }
+        }
+        if done.iter().all(|x| *x) {
+            return true;
+        }
+        for sp in springs.iter_mut() {
+            sp.theta = sp.next;
+        }
+    }
+    // The cap: the lanes still going keep the last step's displacement, as the scalar code.
+    let mut dl = [[0.0; MAX_LANES]; 3];
+    for (v, b) in d.iter().zip(dl.iter_mut()) {
+        v.store(b);
+    }
+    for l in 0..count {
+        if !done[l] {
+            out[l] = [dl[0][l], dl[1][l], dl[2][l]];
+        }
+    }
+    true
+}
