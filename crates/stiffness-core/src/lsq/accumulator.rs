@@ -16,15 +16,19 @@
 use super::ShapeMismatch;
 
 /// Rows buffered before a fold: the inner dimension of the panel products, large enough for
-/// faer's matrix product to run at speed (512 rows × 59 columns is 236 KiB, in L2). Measured
-/// with `benches/lsq_fold.rs` against 128, 256 and 1024 with the dispatched fold: at the
-/// diagnosis' 59 columns 256 rows run 2.84 M rows/s, 512 rows 3.21 M, 1024 rows 3.27 M for
-/// twice the memory.
+/// faer's matrix product to run at speed (512 rows × 59 columns is 240 KiB, in L2). Measured
+/// with `benches/lsq_fold.rs` against 256 and 1024 with the column-major block: at 22, 49
+/// and 59 columns, 512 rows ran 19.3, 5.63 and 4.19 M rows/s; 256 rows 17.5, 6.13 and 3.92;
+/// 1024 rows 16.6, 5.91 and 4.52 for twice the memory.
 pub const BLOCK_ROWS: usize = 512;
+/// Leading dimension of the column-major block: a column's stride. Not a power of two, so that
+/// the p values a push scatters do not all fall in one set of the L1 cache (at 512 × 8 bytes
+/// they would: the push then ran 40 % slower).
+const LD: usize = BLOCK_ROWS + 8;
 /// Columns whose reflectors are applied to the rest together (the compact-WY panel width):
 /// the reflectors inside a panel are applied one by one, so a wide panel moves work back to
-/// the slow path; 8 was fastest of 4, 8, 16 and 32 at 22, 49 and 86 columns, and again of 8
-/// and 16 once the fold was dispatched.
+/// the slow path; 8 was fastest of 4, 8, 16 and 32 at 22, 49 and 86 columns, and again of 4,
+/// 8, 12 and 16 once the fold was dispatched (16 puts a panel of 512 rows beyond L1).
 const PANEL: usize = 8;
 
 /// Accumulates the triangular factor R (p×p, p = columns including any right-hand side)
@@ -46,13 +50,14 @@ pub struct TriangularAccumulator {
     p: usize,
     /// p×p upper triangle, row-major (entries below the diagonal stay 0).
     r: Vec<f64>,
-    /// BLOCK_ROWS×p, row-major: the rows waiting to be folded (a push is one contiguous copy).
+    /// BLOCK_ROWS×p, column-major: the rows waiting to be folded. A push scatters a row
+    /// across the columns; a fold then reads every column contiguously and keeps each panel's
+    /// reflectors in place of its columns (no copy of the panel; storing rows contiguously and
+    /// copying each panel out cost more).
     block: Vec<f64>,
     filled: usize,
     rows: usize,
-    /// Workspace of a fold, column-major: the panel's block columns (BLOCK_ROWS×PANEL, then
-    /// its reflectors' v), its T (PANEL×PANEL) and W (PANEL×p).
-    v: Vec<f64>,
+    /// Workspace of a fold, column-major: a panel's T (PANEL×PANEL) and W (PANEL×p).
     t: Vec<f64>,
     w: Vec<f64>,
 }
@@ -104,10 +109,9 @@ impl TriangularAccumulator {
         Self {
             p: ncols,
             r: vec![0.0; ncols * ncols],
-            block: vec![0.0; BLOCK_ROWS * ncols],
+            block: vec![0.0; LD * ncols],
             filled: 0,
             rows: 0,
-            v: vec![0.0; BLOCK_ROWS * PANEL],
             t: vec![0.0; PANEL * PANEL],
             w: vec![0.0; PANEL * ncols],
         }
@@ -149,11 +153,13 @@ impl TriangularAccumulator {
     }
 
     /// Appends one row of exactly p values without a length check (the caller guarantees
-    /// it; a short row panics on indexing).
+    /// it; debug builds assert it).
     #[inline]
     pub fn push_row_unchecked(&mut self, row: &[f64]) {
-        let p = self.p;
-        self.block[self.filled * p..(self.filled + 1) * p].copy_from_slice(row);
+        debug_assert_eq!(row.len(), self.p, "accumulator row");
+        for (dst, x) in self.block[self.filled..].iter_mut().step_by(LD).zip(row) {
+            *dst = *x;
+        }
         self.filled += 1;
         self.rows += 1;
         if self.filled == BLOCK_ROWS {
@@ -173,11 +179,11 @@ impl TriangularAccumulator {
     ) {
         let p = self.p;
         let m = p - 1;
-        let row = &mut self.block[self.filled * p..(self.filled + 1) * p];
-        for (dst, (ak, bk)) in row.iter_mut().zip(a.zip(b)).take(m) {
+        let mut row = self.block[self.filled..].iter_mut().step_by(LD);
+        for (dst, (ak, bk)) in row.by_ref().zip(a.zip(b)).take(m) {
             *dst = scale * ak * bk;
         }
-        row[m] = scale * rhs;
+        self.block[m * LD + self.filled] = scale * rhs;
         self.filled += 1;
         self.rows += 1;
         if self.filled == BLOCK_ROWS {
@@ -186,20 +192,20 @@ impl TriangularAccumulator {
     }
 
     /// Folds the buffered rows into R (Householder QR of `[R; block]`), a panel of
-    /// [`PANEL`] columns at a time: the panel's block columns are copied out, its reflectors
-    /// made and applied within the panel one by one, then applied together to the trailing
+    /// [`PANEL`] columns at a time: the panel's reflectors are made in place of its block
+    /// columns and applied within the panel one by one, then applied together to the trailing
     /// columns as `I − U T Uᵀ` (compact WY): two matrix products that faer runs with the
     /// machine's widest SIMD.
     fn fold(&mut self) {
         /// The fold compiled for the machine's widest instruction set (pulp dispatches once
         /// per fold): the reflectors inside a panel are dot products and updates of block
-        /// columns, which the baseline x86-64 target would run two lanes wide.
+        /// columns, written in the instruction set's vectors (`dot`, `axpy`).
         struct Dispatched<'a>(&'a mut TriangularAccumulator);
         impl pulp::WithSimd for Dispatched<'_> {
             type Output = ();
             #[inline(always)]
-            fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                self.0.fold_panels();
+            fn with_simd<S: pulp::Simd>(self, simd: S) {
+                self.0.fold_panels(simd);
             }
         }
         if self.filled > 0 {
@@ -209,7 +215,7 @@ impl TriangularAccumulator {
 
     /// The body of [`Self::fold`], inlined into its dispatched instances.
     #[inline(always)]
-    fn fold_panels(&mut self) {
+    fn fold_panels<S: pulp::Simd>(&mut self, simd: S) {
         let b = self.filled;
         if b == 0 {
             return;
@@ -220,33 +226,28 @@ impl TriangularAccumulator {
         while j0 < p {
             let j1 = (j0 + PANEL).min(p);
             let nb = j1 - j0;
-            for i in 0..b {
-                for c in 0..nb {
-                    self.v[c * BLOCK_ROWS + i] = self.block[i * p + j0 + c];
-                }
-            }
             for (c, tau) in taus.iter_mut().enumerate().take(nb) {
-                *tau = self.reflect(j0, c, nb, b);
+                *tau = self.reflect(simd, j0, c, nb, b);
             }
             if j1 < p {
-                self.apply_panel(j0, j1, b, &taus[..nb]);
+                self.apply_panel(simd, j0, j1, b, &taus[..nb]);
             }
             j0 = j1;
         }
         self.filled = 0;
     }
 
-    /// Makes the reflector of the panel's column c (LAPACK dlarfg on `[R_jj; v_c]`, j = j0 + c),
-    /// stores `v` in the panel column and `β` in `R_jj`, applies it to the panel's columns
-    /// `c+1..nb`, and returns τ (0 when the block column is already zero: the reflector is
-    /// the identity).
+    /// Makes the reflector of the panel's column c (LAPACK dlarfg on `[R_jj; x]`, j = j0 + c,
+    /// x the block's column j), stores `v` in place of x and `β` in `R_jj`, applies it to the
+    /// panel's columns `c+1..nb`, and returns τ (0 when the block column is already zero: the
+    /// reflector is the identity).
     #[inline(always)]
-    fn reflect(&mut self, j0: usize, c: usize, nb: usize, b: usize) -> f64 {
+    fn reflect<S: pulp::Simd>(&mut self, simd: S, j0: usize, c: usize, nb: usize, b: usize) -> f64 {
         let p = self.p;
         let j = j0 + c;
-        let (left, right) = self.v.split_at_mut((c + 1) * BLOCK_ROWS);
-        let v = &mut left[c * BLOCK_ROWS..c * BLOCK_ROWS + b];
-        let sigma = dot(v, v);
+        let (left, right) = self.block.split_at_mut((j + 1) * LD);
+        let v = &mut left[j * LD..j * LD + b];
+        let sigma = dot(simd, v, v);
         if sigma == 0.0 {
             return 0.0;
         }
@@ -261,12 +262,10 @@ impl TriangularAccumulator {
         }
         self.r[j * p + j] = beta;
         for k in (c + 1)..nb {
-            let xk = &mut right[(k - c - 1) * BLOCK_ROWS..(k - c - 1) * BLOCK_ROWS + b];
-            let w = tau * (self.r[j * p + j0 + k] + dot(v, xk));
+            let xk = &mut right[(k - c - 1) * LD..(k - c - 1) * LD + b];
+            let w = tau * (self.r[j * p + j0 + k] + dot(simd, v, xk));
             self.r[j * p + j0 + k] -= w;
-            for (vi, xi) in v.iter().zip(xk.iter_mut()) {
-                *xi -= w * vi;
-            }
+            axpy(simd, -w, v, xk);
         }
         tau
     }
@@ -278,20 +277,30 @@ impl TriangularAccumulator {
     /// unit parts of u lie on different rows of R). Then `W = R[j0..j1, j1..] + Vᵀ X`,
     /// `W ← Tᵀ W`, `R[j0..j1, j1..] −= W` and `X −= V W`.
     #[inline(always)]
-    fn apply_panel(&mut self, j0: usize, j1: usize, b: usize, taus: &[f64]) {
+    fn apply_panel<S: pulp::Simd>(
+        &mut self,
+        simd: S,
+        j0: usize,
+        j1: usize,
+        b: usize,
+        taus: &[f64],
+    ) {
         use faer::linalg::matmul::matmul;
         use faer::{Accum, MatMut, MatRef, Par};
         let p = self.p;
         let nb = j1 - j0;
         let m = p - j1;
-        let vs = &self.v;
-        let vcol = |i: usize| &vs[i * BLOCK_ROWS..i * BLOCK_ROWS + b];
+        // The panel's reflectors are the block's columns j0..j1; the trailing columns X are
+        // j1..p.
+        let (vs, xs) = self.block.split_at_mut(j1 * LD);
+        let vs = &vs[j0 * LD..];
+        let vcol = |i: usize| &vs[i * LD..i * LD + b];
         // T, nb×nb upper triangular, column-major in `t`.
         let t = &mut self.t;
         let mut z = [0.0; PANEL];
         for i in 0..nb {
             for (a, za) in z.iter_mut().enumerate().take(i) {
-                *za = dot(vcol(a), vcol(i));
+                *za = dot(simd, vcol(a), vcol(i));
             }
             for a in 0..i {
                 let s: f64 = (a..i).map(|c| t[a + c * PANEL] * z[c]).sum();
@@ -306,9 +315,9 @@ impl TriangularAccumulator {
                 w[i + c * PANEL] = self.r[(j0 + i) * p + j1 + c];
             }
         }
-        let v = MatRef::from_column_major_slice_with_stride(vs, b, nb, BLOCK_ROWS);
+        let v = MatRef::from_column_major_slice_with_stride(vs, b, nb, LD);
         {
-            let x = MatRef::from_row_major_slice_with_stride(&self.block[j1..], b, m, p);
+            let x = MatRef::from_column_major_slice_with_stride(xs, b, m, LD);
             let wm = MatMut::from_column_major_slice_with_stride_mut(w, nb, m, PANEL);
             matmul(wm, Accum::Add, v.transpose(), x, 1.0, Par::Seq);
         }
@@ -324,11 +333,7 @@ impl TriangularAccumulator {
                 self.r[(j0 + i) * p + j1 + c] -= w[i + c * PANEL];
             }
         }
-        // X as the transpose of a column-major m×b view: faer 0.24.4's
-        // `MatMut::from_row_major_slice_with_stride_mut` builds a column-major view (its strides
-        // are swapped), which the dense-QR test of this fold caught.
-        let x = MatMut::from_column_major_slice_with_stride_mut(&mut self.block[j1..], m, b, p)
-            .transpose_mut();
+        let x = MatMut::from_column_major_slice_with_stride_mut(xs, b, m, LD);
         let wm = MatRef::from_column_major_slice_with_stride(w, nb, m, PANEL);
         matmul(x, Accum::Add, v, wm, -1.0, Par::Seq);
     }
@@ -363,31 +368,39 @@ impl TriangularAccumulator {
     }
 }
 
-/// Dot product with sixteen independent accumulators, so that the dispatched fold keeps
-/// several SIMD registers busy (a single running sum is a serial dependency chain the
-/// compiler may not reorder; sixteen lanes are two AVX-512 or four AVX2 chains).
+/// `Σ a_i b_i` in the dispatched instruction set's vectors, four accumulators (fused
+/// multiply-adds on independent chains; left to itself, the compiler kept the sum two lanes
+/// wide). `a` and `b` have the same length.
 #[inline(always)]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    const L: usize = 16;
-    let mut acc = [0.0; L];
-    let (ca, cb) = (a.chunks_exact(L), b.chunks_exact(L));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    for (x, y) in ca.zip(cb) {
-        for l in 0..L {
-            acc[l] += x[l] * y[l];
+fn dot<S: pulp::Simd>(s: S, a: &[f64], b: &[f64]) -> f64 {
+    let (ah, at) = S::as_simd_f64s(a);
+    let (bh, bt) = S::as_simd_f64s(b);
+    let mut acc = [s.splat_f64s(0.0); 4];
+    let (a4, a1) = ah.split_at(ah.len() / 4 * 4);
+    let (b4, b1) = bh.split_at(a4.len());
+    for (x, y) in a4.chunks_exact(4).zip(b4.chunks_exact(4)) {
+        for u in 0..4 {
+            acc[u] = s.mul_add_e_f64s(x[u], y[u], acc[u]);
         }
     }
-    let mut w = L;
-    while w > 1 {
-        w /= 2;
-        for l in 0..w {
-            acc[l] += acc[l + w];
-        }
+    for (x, y) in a1.iter().zip(b1) {
+        acc[0] = s.mul_add_e_f64s(*x, *y, acc[0]);
     }
-    acc[0] + tail
+    let sum = s.add_f64s(s.add_f64s(acc[0], acc[1]), s.add_f64s(acc[2], acc[3]));
+    s.reduce_sum_f64s(sum) + at.iter().zip(bt).map(|(x, y)| x * y).sum::<f64>()
+}
+
+/// `y ← y + α x` in the dispatched instruction set's vectors. `x` and `y` have the same
+/// length.
+#[inline(always)]
+fn axpy<S: pulp::Simd>(s: S, alpha: f64, x: &[f64], y: &mut [f64]) {
+    let (xh, xt) = S::as_simd_f64s(x);
+    let (yh, yt) = S::as_mut_simd_f64s(y);
+    let a = s.splat_f64s(alpha);
+    for (yi, xi) in yh.iter_mut().zip(xh) {
+        *yi = s.mul_add_e_f64s(a, *xi, *yi);
+    }
+    for (yi, xi) in yt.iter_mut().zip(xt) {
+        *yi += alpha * xi;
+    }
 }
