@@ -1066,17 +1066,29 @@ impl<'a> Dataset<'a> {
     /// identical joint angles share a group. Groups are numbered 0.. in order of first appearance.
     pub fn pose_groups(&self) -> Vec<usize> {
         let mut ids: Vec<usize> = Vec::with_capacity(self.len());
+        // A row of the same pose as the row before (a pose's loads are usually recorded one
+        // after another) takes its group without a look-up.
         match &self.pose {
             Some(p) => {
                 let mut map: BTreeMap<i64, usize> = BTreeMap::new();
-                for &id in p.iter() {
+                for (i, &id) in p.iter().enumerate() {
+                    if i > 0 && p[i - 1] == id {
+                        ids.push(ids[i - 1]);
+                        continue;
+                    }
                     let next = map.len();
                     ids.push(*map.entry(id).or_insert(next));
                 }
             }
             None => {
                 let mut map: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
+                let same =
+                    |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
                 for i in 0..self.len() {
+                    if i > 0 && same(self.q(i), self.q(i - 1)) {
+                        ids.push(ids[i - 1]);
+                        continue;
+                    }
                     let key: Vec<u64> = self.q(i).iter().map(|v| v.to_bits()).collect();
                     let next = map.len();
                     ids.push(*map.entry(key).or_insert(next));

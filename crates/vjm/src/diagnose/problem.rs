@@ -880,6 +880,9 @@ struct WithinRuns {
     ws: Vec<Matrix3<f64>>,
     zs: Vec<Vector3<f64>>,
     zrow: Vec<f64>,
+    /// Scratch of a flush, p each: `S = Σ Wᵢᵀ Zᵢ` (then `M⁻¹ S`) and `L⁻¹ S`.
+    s: Vec<Vector3<f64>>,
+    shares: Vec<Vector3<f64>>,
 }
 
 impl WithinRuns {
@@ -894,6 +897,8 @@ impl WithinRuns {
             ws: Vec::new(),
             zs: Vec::new(),
             zrow: vec![0.0; p],
+            s: vec![Vector3::zeros(); p],
+            shares: vec![Vector3::zeros(); p],
         }
     }
 
@@ -924,22 +929,21 @@ impl WithinRuns {
             .and_then(|mi| m.cholesky().map(|ch| (mi, ch.l())));
         if let Some((mi, l)) = offset {
             self.n_offsets += 3;
-            let mut b = vec![Vector3::zeros(); p];
+            let (b, shares) = (&mut self.s, &mut self.shares);
+            b.fill(Vector3::zeros());
             for (w, z) in self.ws.iter().zip(self.zs.chunks_exact(p)) {
                 let wt = w.transpose();
                 for (bk, zk) in b.iter_mut().zip(z) {
                     *bk += wt * zk;
                 }
             }
-            let shares: Vec<Vector3<f64>> = b
-                .iter()
-                .map(|bk| {
-                    l.solve_lower_triangular(bk)
-                        .expect("the Cholesky factor of M has a non-zero diagonal")
-                })
-                .collect();
+            for (sk, bk) in shares.iter_mut().zip(b.iter()) {
+                *sk = l
+                    .solve_lower_triangular(bk)
+                    .expect("the Cholesky factor of M has a non-zero diagonal");
+            }
             for r in 0..3 {
-                for (dst, sk) in self.zrow.iter_mut().zip(&shares) {
+                for (dst, sk) in self.zrow.iter_mut().zip(shares.iter()) {
                     *dst = sk[r];
                 }
                 self.offsets.push_row_unchecked(&self.zrow);
@@ -948,7 +952,7 @@ impl WithinRuns {
                 *bk = mi * *bk;
             }
             for (w, z) in self.ws.iter().zip(self.zs.chunks_exact_mut(p)) {
-                for (zk, bk) in z.iter_mut().zip(&b) {
+                for (zk, bk) in z.iter_mut().zip(b.iter()) {
                     *zk -= w * bk;
                 }
             }
