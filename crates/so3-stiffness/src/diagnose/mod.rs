@@ -519,6 +519,7 @@ fn run_diagnosis(
         max_findings: Effect::ALL.len(),
         alias_cosine: options.alias_cosine,
         alias_alpha: options.alias_alpha,
+        defer_cluster_robust: false,
     };
     let selection = select(
         &problem,

@@ -191,13 +191,28 @@ pub fn cluster_robust<P: Problem>(
         return Ok(None);
     }
     let sums = problem.cluster_sums(fit)?;
+    Ok(cluster_robust_from_sums(problem, fit, k, &sums))
+}
+
+/// [`cluster_robust`] from per-cluster score sums the caller has already accumulated (in a
+/// pass of its own over the rows, e.g. one it makes anyway; see
+/// [`super::SelectOptions::defer_cluster_robust`]): one `Vec` of `fit.coef.len()` sums per
+/// cluster that has training rows, as [`Problem::cluster_sums`] returns them.
+pub fn cluster_robust_from_sums<P: Problem>(
+    problem: &P,
+    fit: &Fit<P::Term, P::Lin>,
+    k: usize,
+    sums: &[Vec<f64>],
+) -> Option<FTest> {
+    let p = fit.coef.len();
+    if k == 0 || k > p {
+        return None;
+    }
     let x = fit
         .compressed
         .columns(RowSet::Train, &term_columns(problem, &fit.terms));
     let pp = fit.compressed.ncols();
     let xm = nalgebra::DMatrix::from_fn(pp, p, |i, j| x[j][i]);
     let xtx = xm.transpose() * xm;
-    Ok(crate::stats::cluster_robust_wald_from_sums(
-        &xtx, &sums, &fit.coef, k,
-    ))
+    crate::stats::cluster_robust_wald_from_sums(&xtx, sums, &fit.coef, k)
 }

@@ -28,7 +28,9 @@ use std::sync::Arc;
 pub use basis::{RANK_TOL, ZERO_COLUMN_RTOL};
 pub use compressed::{Compressed, CompressedAccumulator, RowSet};
 pub use fit::{Fit, Score};
-pub use select::{select, AliasOf, SelectOptions, Selected, Selection, SelectionEvidence};
+pub use select::{
+    select, AliasOf, DeferredClusterTest, SelectOptions, Selected, Selection, SelectionEvidence,
+};
 pub use verdict::{goodness_of_fit, nested_test, ChiSquareTest};
 
 use crate::{Cancel, Cancelled};

@@ -20,6 +20,25 @@ pub struct SelectOptions {
     /// A significant candidate b is an alias of a finding a when, with b in the model, the F
     /// test of a has p above this level.
     pub alias_alpha: f64,
+    /// Leave each finding's cluster-robust test (a pass over the rows for its cluster sums)
+    /// to the caller: the evidence's `cluster_robust` stays `None` and
+    /// [`Selection::deferred_cluster_robust`] says which fit and how many columns to test,
+    /// for a caller that makes a pass over the rows afterwards anyway. The test is reported,
+    /// never decided on, so the selection is the same either way.
+    pub defer_cluster_robust: bool,
+}
+
+/// A finding's cluster-robust test left to the caller ([`SelectOptions::defer_cluster_robust`]):
+/// the Wald test that the last `k` coefficients of `fit` are zero
+/// ([`super::fit::cluster_robust_from_sums`]).
+#[derive(Debug, Clone)]
+pub struct DeferredClusterTest<T, L> {
+    /// Index of the finding in [`Selection::findings`].
+    pub finding: usize,
+    /// The fit of the step that accepted it.
+    pub fit: Fit<T, L>,
+    /// Its columns, the last of the fit's.
+    pub k: usize,
 }
 
 /// A candidate the data cannot tell apart from a finding.
@@ -82,6 +101,9 @@ pub struct Selection<T, L> {
     pub last: Fit<T, L>,
     /// Per extra hypothesis of the first step's family: rejected by its Benjamini–Hochberg.
     pub extra_rejected: Vec<bool>,
+    /// The findings' cluster-robust tests left to the caller (empty unless
+    /// [`SelectOptions::defer_cluster_robust`]).
+    pub deferred_cluster_robust: Vec<DeferredClusterTest<T, L>>,
 }
 
 /// Forward selection from `base` over `pool`. `extra_p` are further hypotheses of the first
@@ -103,6 +125,7 @@ pub fn select<P: Problem>(
     let mut extra_rejected = vec![false; extra_p.len()];
     let mut current = base;
     let mut findings: Vec<Selected<P::Term>> = Vec::new();
+    let mut deferred = Vec::new();
     let mut rejected_on_holdout = Vec::new();
     let mut explained_by_guard = Vec::new();
     let mut scores = first_scores.clone();
@@ -209,11 +232,22 @@ pub fn select<P: Problem>(
             n_candidates: m,
             bh_threshold: opts.fdr * rank_a as f64 / m as f64,
             sse_reduction: 1.0 - a.sse_full / a.sse_reduced,
-            cluster_robust: cluster_robust(problem, &trial, problem.columns(a.cand).len())?,
+            cluster_robust: if opts.defer_cluster_robust {
+                None
+            } else {
+                cluster_robust(problem, &trial, problem.columns(a.cand).len())?
+            },
             heldout_sse_before: before,
             heldout_sse_after: after,
         };
         pool.retain(|c| *c != a.cand && !aliases.iter().any(|b| b.cand == *c));
+        if opts.defer_cluster_robust {
+            deferred.push(DeferredClusterTest {
+                finding: findings.len(),
+                fit: trial.clone(),
+                k: problem.columns(a.cand).len(),
+            });
+        }
         findings.push(Selected {
             cand: a.cand,
             aliases,
@@ -239,6 +273,7 @@ pub fn select<P: Problem>(
         explained_by_guard,
         last: current,
         extra_rejected,
+        deferred_cluster_robust: deferred,
     })
 }
 

@@ -210,6 +210,7 @@ fn selection_names_the_hidden_term_and_nothing_on_clean_data() {
         max_findings: 3,
         alias_cosine: 0.99,
         alias_alpha: 0.05,
+        defer_cluster_robust: false,
     };
     let toy = Toy::new(400, 0.5, 0.05, 7);
     let base = fit(&toy, &[T::Base], &()).unwrap();
@@ -227,6 +228,36 @@ fn selection_names_the_hidden_term_and_nothing_on_clean_data() {
         vec![T::Square]
     );
     assert!(s.findings[0].evidence.heldout_sse_after < s.findings[0].evidence.heldout_sse_before);
+    assert!(s.deferred_cluster_robust.is_empty());
+    // The cluster-robust test left to the caller: the same selection, no test in the
+    // evidence, and the test the caller makes from the fit it is handed equals the one the
+    // selection made itself.
+    let immediate = s.findings[0].evidence.cluster_robust.expect("80 clusters");
+    let base = fit(&toy, &[T::Base], &()).unwrap();
+    let deferring = SelectOptions {
+        defer_cluster_robust: true,
+        ..opts
+    };
+    let d = select(
+        &toy,
+        base,
+        vec![T::Square, T::Sine],
+        &[],
+        &deferring,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(d.findings.len(), 1);
+    assert_eq!(d.findings[0].cand, T::Square);
+    assert!(d.findings[0].evidence.cluster_robust.is_none());
+    let [pending] = &d.deferred_cluster_robust[..] else {
+        panic!("one deferred test, got {}", d.deferred_cluster_robust.len());
+    };
+    assert_eq!((pending.finding, pending.k), (0, 1));
+    let sums = toy.cluster_sums(&pending.fit).unwrap();
+    let later = stiffness_core::engine::fit::cluster_robust_from_sums(&toy, &pending.fit, 1, &sums)
+        .expect("80 clusters");
+    assert_eq!(later, immediate);
     let clean = Toy::new(400, 0.0, 0.05, 8);
     let base = fit(&clean, &[T::Base], &()).unwrap();
     let s = select(
@@ -412,6 +443,7 @@ fn a_held_out_fall_within_rounding_confirms_nothing() {
         max_findings: 3,
         alias_cosine: 0.99,
         alias_alpha: 0.05,
+        defer_cluster_robust: false,
     };
     let mut fell_by_rounding = 0;
     for seed in 0..20 {

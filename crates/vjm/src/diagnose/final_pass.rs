@@ -8,7 +8,7 @@ use stiffness_core::engine::Fit;
 use stiffness_core::Cancelled;
 
 use super::candidates::{Linearisation, RowKinematics};
-use super::problem::{Term, VjmProblem};
+use super::problem::{ClusterSums, Term, VjmProblem};
 use crate::dataset::SetLabel;
 
 /// Sums of relative errors `‖d_pred − d‖/‖d‖` and their counts (rows with ‖d‖ = 0 have no
@@ -66,6 +66,9 @@ pub struct PassOut {
     pub sample: Vec<(RowKinematics, [f64; 3])>,
     /// First row of every pose group (for its id and set).
     pub first_row: Vec<Option<usize>>,
+    /// Per fit of `cluster` (in that order): its per-cluster score sums over the training
+    /// rows, as [`stiffness_core::engine::Problem::cluster_sums`] gives them.
+    pub cluster_sums: Vec<Vec<Vec<f64>>>,
 }
 
 fn rel_error(d: [f64; 3], p: [f64; 3]) -> Option<f64> {
@@ -76,19 +79,26 @@ fn rel_error(d: [f64; 3], p: [f64; 3]) -> Option<f64> {
 
 /// Streams every row once at `lin`, predicting with each of `fits` (whose columns must be
 /// those at `lin`). Rows `i` with `i % stride == 0` that are training rows form the sample.
+/// For each fit of `cluster` (also at `lin`), the per-cluster score sums of its
+/// cluster-robust test, in the same parts and order as a pass of their own.
 pub fn predictions_pass(
     problem: &VjmProblem<'_>,
     lin: &Linearisation,
     fits: &[&Fit<Term, Linearisation>],
+    cluster: &[&Fit<Term, Linearisation>],
     stride: usize,
     per_row: bool,
 ) -> Result<PassOut, Cancelled> {
     let n = problem.data.len();
     let n_groups = problem.groups.iter().copied().max().map_or(0, |g| g + 1);
-    let all_terms: Vec<Term> = fits.iter().flat_map(|f| f.terms.iter().copied()).collect();
+    let all_terms: Vec<Term> = fits
+        .iter()
+        .chain(cluster)
+        .flat_map(|f| f.terms.iter().copied())
+        .collect();
     let want = problem.mask(&all_terms);
     problem.begin_pass();
-    let run = |range: Range<usize>| -> Result<PassOut, Cancelled> {
+    let run = |range: Range<usize>| -> Result<(PassOut, Vec<ClusterSums<'_>>), Cancelled> {
         let mut out = PassOut {
             fits: fits
                 .iter()
@@ -102,8 +112,13 @@ pub fn predictions_pass(
                 .collect(),
             sample: Vec::new(),
             first_row: vec![None; n_groups],
+            cluster_sums: Vec::new(),
         };
-        problem.for_each_row_in(lin, range, Some(&want), |i, row, _, sigma, cols| {
+        let mut sums: Vec<ClusterSums<'_>> = cluster
+            .iter()
+            .map(|f| ClusterSums::new(problem, f))
+            .collect();
+        problem.for_each_row_in(lin, range, Some(&want), |i, row, w, sigma, cols| {
             let g = problem.groups[i];
             if out.first_row[g].is_none() {
                 out.first_row[g] = Some(i);
@@ -112,6 +127,11 @@ pub fn predictions_pass(
             let sampled = train && i % stride == 0;
             if sampled {
                 out.sample.push((row.clone(), *sigma));
+            }
+            if train {
+                for s in sums.iter_mut() {
+                    s.add(g, w, cols);
+                }
             }
             let d = row.displacement;
             for (fit, t) in fits.iter().zip(out.fits.iter_mut()) {
@@ -132,13 +152,16 @@ pub fn predictions_pass(
                 }
             }
         })?;
-        Ok(out)
+        Ok((out, sums))
     };
     let results = super::problem::in_parts(n, run);
     let mut it = results.into_iter();
-    let mut acc = it.next().expect("at least one part")?;
+    let (mut acc, mut sums) = it.next().expect("at least one part")?;
     for r in it {
-        let o = r?;
+        let (o, part_sums) = r?;
+        for (a, b) in sums.iter_mut().zip(part_sums) {
+            a.merge(b);
+        }
         for (a, b) in acc.fits.iter_mut().zip(o.fits) {
             a.train.merge(b.train);
             a.test.merge(b.test);
@@ -155,5 +178,6 @@ pub fn predictions_pass(
             }
         }
     }
+    acc.cluster_sums = sums.into_iter().map(ClusterSums::finish).collect();
     Ok(acc)
 }

@@ -50,6 +50,9 @@ pub mod rows;
 pub use stiffness_core::stats;
 pub mod structure;
 
+/// A finding's cluster-robust test the selection left to the final pass.
+type DeferredTest = stiffness_core::engine::DeferredClusterTest<Term, Linearisation>;
+
 use serde::Serialize;
 use stiffness_core::engine::{fit, goodness_of_fit, nested_test, select, Fit, SelectOptions};
 use stiffness_core::{Cancel, Monitor};
@@ -623,6 +626,9 @@ fn run_diagnosis<'a>(
         max_findings: opts.max_findings,
         alias_cosine: opts.alias_cosine,
         alias_alpha: opts.alias_alpha,
+        // The cluster sums of each finding come from the final pass over the rows (one pass
+        // fewer), unless its point differs from that pass's.
+        defer_cluster_robust: true,
     };
     let selection = select(
         &problem,
@@ -696,7 +702,7 @@ fn run_diagnosis<'a>(
         }
         k += nc;
     }
-    let findings: Vec<Finding> = selection
+    let mut findings: Vec<Finding> = selection
         .findings
         .iter()
         .map(|f| {
@@ -757,16 +763,64 @@ fn run_diagnosis<'a>(
     } else {
         vec![&base_fit]
     };
-    let mut pass =
-        final_pass::predictions_pass(&problem, &base_fit.lin, &fits, stride, opts.per_row)?;
+    // The findings' cluster-robust tests the selection left to this pass: the sums of those
+    // whose fit is at the pass's point come with it, the others take a pass of their own.
+    let deferred = &selection.deferred_cluster_robust;
+    let at = |lin: &Linearisation| -> Vec<&DeferredTest> {
+        deferred.iter().filter(|d| d.fit.lin == *lin).collect()
+    };
+    let in_base = at(&base_fit.lin);
+    let in_ext = if same_lin {
+        Vec::new()
+    } else {
+        at(&ext_fit.lin)
+    };
+    let base_cluster: Vec<&Fit<Term, Linearisation>> = in_base.iter().map(|d| &d.fit).collect();
+    let ext_cluster: Vec<&Fit<Term, Linearisation>> = in_ext.iter().map(|d| &d.fit).collect();
+    let mut pass = final_pass::predictions_pass(
+        &problem,
+        &base_fit.lin,
+        &fits,
+        &base_cluster,
+        stride,
+        opts.per_row,
+    )?;
+    let from_sums = |d: &DeferredTest, sums: &[Vec<f64>]| {
+        let test =
+            stiffness_core::engine::fit::cluster_robust_from_sums(&problem, &d.fit, d.k, sums);
+        (d.finding, test)
+    };
+    let mut cluster_tests: Vec<(usize, Option<stiffness_core::stats::FTest>)> = in_base
+        .iter()
+        .zip(&pass.cluster_sums)
+        .map(|(d, sums)| from_sums(d, sums))
+        .collect();
     let ext_totals = if same_lin {
         pass.fits.pop().expect("two fits")
     } else {
-        final_pass::predictions_pass(&problem, &ext_fit.lin, &[&ext_fit], stride, opts.per_row)?
-            .fits
-            .pop()
-            .expect("one fit")
+        let mut ext_pass = final_pass::predictions_pass(
+            &problem,
+            &ext_fit.lin,
+            &[&ext_fit],
+            &ext_cluster,
+            stride,
+            opts.per_row,
+        )?;
+        for (d, sums) in in_ext.iter().zip(&ext_pass.cluster_sums) {
+            cluster_tests.push(from_sums(d, sums));
+        }
+        ext_pass.fits.pop().expect("one fit")
     };
+    for d in deferred {
+        if !cluster_tests.iter().any(|(k, _)| *k == d.finding) {
+            cancel.check()?;
+            let test = stiffness_core::engine::fit::cluster_robust(&problem, &d.fit, d.k)?;
+            cluster_tests.push((d.finding, test));
+        }
+    }
+    for (k, test) in cluster_tests {
+        findings[k].evidence.cluster_robust = test;
+    }
     let base_totals = pass.fits.pop().expect("the baseline");
     // Moved out, not cloned: up to 20 000 rows of kinematics.
     let (sample, sample_sigma): (Vec<RowKinematics>, Vec<[f64; 3]>) =

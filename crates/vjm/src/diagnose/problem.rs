@@ -637,6 +637,69 @@ pub(super) fn over_parts<T: Send>(
     })
 }
 
+/// The per-cluster score sums `s_g = X_gᵀ r_g` of a fit over training rows (whitened model
+/// columns and residual): [`Problem::cluster_sums`] in a pass of its own, or the final pass
+/// for the findings whose test the selection left to it.
+pub(super) struct ClusterSums<'f> {
+    /// The fit's columns in the layout, and its coefficients.
+    idx: Vec<usize>,
+    coef: &'f [f64],
+    y: usize,
+    sums: Vec<Vec<f64>>,
+    used: Vec<bool>,
+    x: Vec<Vector3<f64>>,
+}
+
+impl<'f> ClusterSums<'f> {
+    pub(super) fn new(problem: &VjmProblem<'_>, fit: &'f Fit<Term, Linearisation>) -> Self {
+        let p = fit.coef.len();
+        let n_groups = problem.groups.iter().copied().max().map_or(0, |g| g + 1);
+        Self {
+            idx: fit.terms.iter().flat_map(|t| problem.columns(*t)).collect(),
+            coef: &fit.coef,
+            y: problem.y,
+            sums: vec![vec![0.0; p]; n_groups],
+            used: vec![false; n_groups],
+            x: vec![Vector3::zeros(); p],
+        }
+    }
+
+    /// A training row of cluster `g` with whitening `w` and raw columns `cols`.
+    pub(super) fn add(&mut self, g: usize, w: &Matrix3<f64>, cols: &[[f64; 3]]) {
+        let mut pred = Vector3::zeros();
+        for (k, &c) in self.idx.iter().enumerate() {
+            self.x[k] = whiten(w, &cols[c]);
+            pred += self.x[k] * self.coef[k];
+        }
+        let r = whiten(w, &cols[self.y]) - pred;
+        self.used[g] = true;
+        for (s, xk) in self.sums[g].iter_mut().zip(&self.x) {
+            *s += xk.dot(&r);
+        }
+    }
+
+    /// Adds another part's sums (later rows).
+    pub(super) fn merge(&mut self, other: ClusterSums<'_>) {
+        for (g, (s, u)) in other.sums.into_iter().zip(other.used).enumerate() {
+            if u {
+                self.used[g] = true;
+                for (a, b) in self.sums[g].iter_mut().zip(s) {
+                    *a += b;
+                }
+            }
+        }
+    }
+
+    /// The sums of the clusters that had training rows, in cluster order.
+    pub(super) fn finish(self) -> Vec<Vec<f64>> {
+        self.sums
+            .into_iter()
+            .zip(self.used)
+            .filter_map(|(s, u)| u.then_some(s))
+            .collect()
+    }
+}
+
 fn whiten(w: &Matrix3<f64>, v: &[f64; 3]) -> Vector3<f64> {
     w * Vector3::new(v[0], v[1], v[2])
 }
@@ -738,50 +801,23 @@ impl Problem for VjmProblem<'_> {
     }
 
     fn cluster_sums(&self, fit: &Fit<Term, Linearisation>) -> Result<Vec<Vec<f64>>, Cancelled> {
-        let p = fit.coef.len();
-        let n_groups = self.groups.iter().copied().max().map_or(0, |g| g + 1);
-        let idx: Vec<usize> = fit.terms.iter().flat_map(|t| self.columns(*t)).collect();
         let want = self.mask(&fit.terms);
         self.begin_pass();
         // Each part's sums per cluster (a pose split between parts gets a share from each);
         // the parts are added in row order.
         let parts = in_parts(self.data.len(), |range| {
-            let mut sums = vec![vec![0.0; p]; n_groups];
-            let mut used = vec![false; n_groups];
-            let mut x = vec![Vector3::zeros(); p];
+            let mut sums = ClusterSums::new(self, fit);
             self.for_each_train_row_in(&fit.lin, range, Some(&want), |i, _, w, _, cols| {
-                let mut pred = Vector3::zeros();
-                for (k, &c) in idx.iter().enumerate() {
-                    x[k] = whiten(w, &cols[c]);
-                    pred += x[k] * fit.coef[k];
-                }
-                let r = whiten(w, &cols[self.y]) - pred;
-                let g = self.groups[i];
-                used[g] = true;
-                for (s, xk) in sums[g].iter_mut().zip(&x) {
-                    *s += xk.dot(&r);
-                }
+                sums.add(self.groups[i], w, cols);
             })?;
-            Ok::<_, Cancelled>((sums, used))
+            Ok::<_, Cancelled>(sums)
         });
         let mut it = parts.into_iter();
-        let (mut sums, mut used) = it.next().expect("at least one part")?;
+        let mut sums = it.next().expect("at least one part")?;
         for part in it {
-            let (s2, u2) = part?;
-            for (g, (s, u)) in s2.into_iter().zip(u2).enumerate() {
-                if u {
-                    used[g] = true;
-                    for (a, b) in sums[g].iter_mut().zip(s) {
-                        *a += b;
-                    }
-                }
-            }
+            sums.merge(part?);
         }
-        Ok(sums
-            .into_iter()
-            .zip(used)
-            .filter_map(|(s, u)| u.then_some(s))
-            .collect())
+        Ok(sums.finish())
     }
 
     fn guard(&self, cand: Term) -> Vec<Term> {
