@@ -4,7 +4,7 @@
 //! without it (the tracker's noise in both; the weights assume what was simulated). It prints
 //! each seed's findings and how many seeds name an effect that is not in the truth.
 //! `cargo run --release -p vjm --example false_findings_at_scale -- [rows, default 2000000]`
-//! (about 4 minutes at 2·10⁶ rows on 2 cores).
+//! (about 2 minutes at 2·10⁶ rows on 2 cores).
 use vjm::diagnose::{diagnose, DiagnoseOptions};
 use vjm::testbed::{simulate, CampaignSpec, Effect, ForceSensorNoise, TrueModel};
 use vjm::SpringAxis;
