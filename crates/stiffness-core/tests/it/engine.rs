@@ -212,17 +212,12 @@ fn selection_names_the_hidden_term_and_nothing_on_clean_data() {
         alias_alpha: 0.05,
         defer_cluster_robust: false,
     };
+    let run = |toy: &Toy, opts: &SelectOptions| {
+        let base = fit(toy, &[T::Base], &()).unwrap();
+        select(toy, base, vec![T::Square, T::Sine], &[], opts, &mut |_| {}).unwrap()
+    };
     let toy = Toy::new(400, 0.5, 0.05, 7);
-    let base = fit(&toy, &[T::Base], &()).unwrap();
-    let s = select(
-        &toy,
-        base,
-        vec![T::Square, T::Sine],
-        &[],
-        &opts,
-        &mut |_| {},
-    )
-    .unwrap();
+    let s = run(&toy, &opts);
     assert_eq!(
         s.findings.iter().map(|f| f.cand).collect::<Vec<_>>(),
         vec![T::Square]
@@ -233,20 +228,11 @@ fn selection_names_the_hidden_term_and_nothing_on_clean_data() {
     // evidence, and the test the caller makes from the fit it is handed equals the one the
     // selection made itself.
     let immediate = s.findings[0].evidence.cluster_robust.expect("80 clusters");
-    let base = fit(&toy, &[T::Base], &()).unwrap();
     let deferring = SelectOptions {
         defer_cluster_robust: true,
         ..opts
     };
-    let d = select(
-        &toy,
-        base,
-        vec![T::Square, T::Sine],
-        &[],
-        &deferring,
-        &mut |_| {},
-    )
-    .unwrap();
+    let d = run(&toy, &deferring);
     assert_eq!(d.findings.len(), 1);
     assert_eq!(d.findings[0].cand, T::Square);
     assert!(d.findings[0].evidence.cluster_robust.is_none());
@@ -259,16 +245,7 @@ fn selection_names_the_hidden_term_and_nothing_on_clean_data() {
         .expect("80 clusters");
     assert_eq!(later, immediate);
     let clean = Toy::new(400, 0.0, 0.05, 8);
-    let base = fit(&clean, &[T::Base], &()).unwrap();
-    let s = select(
-        &clean,
-        base,
-        vec![T::Square, T::Sine],
-        &[],
-        &opts,
-        &mut |_| {},
-    )
-    .unwrap();
+    let s = run(&clean, &opts);
     assert!(s.findings.is_empty());
 }
 
