@@ -29,10 +29,11 @@ TWO_JOINTS = """<?xml version="1.0"?>
 
 @pytest.fixture(scope="module")
 def big_campaign():
-    # 120 000 rows: a diagnosis of about 0.7 s on the development machine (48 000 rows took
-    # 0.28 s once the passes were fused), long enough for an interrupt to land mid-run.
+    # 400 000 rows: a diagnosis of about 0.9 s on the development machine, long enough for an
+    # interrupt to land mid-run (120 000 rows took 0.28 s once the rows went through the passes
+    # in lane-wise batches; 48 000 rows had taken 0.28 s once the passes were fused).
     panda = Robot.bundled()
-    camp = vjm.simulate(panda, [], n_poses=15000, wrenches_per_pose=8, seed=11)
+    camp = vjm.simulate(panda, [], n_poses=50000, wrenches_per_pose=8, seed=11)
     return panda, camp
 
 
