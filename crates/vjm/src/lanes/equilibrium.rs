@@ -54,19 +54,30 @@ pub(crate) fn deflected_displacements(
         #[inline(always)]
         fn with_simd<S: Simd>(self, s: S) -> bool {
             let Task(rows, n, out) = self;
-            let lanes = V::<S>::LANES;
-            let mut i = 0;
-            while i < n {
-                let count = (n - i).min(lanes);
-                if !equilibrium_lanes(s, rows, i, count, &mut out[i..i + count]) {
-                    return false;
-                }
-                i += count;
-            }
-            true
+            deflected_lanes(s, rows, n, out)
         }
     }
     pulp::Arch::new().dispatch(Task(rows, n, out))
+}
+
+/// [`deflected_displacements`] in the instruction set `S`, `V::<S>::LANES` rows at a time.
+#[inline(always)]
+fn deflected_lanes<S: Simd>(
+    s: S,
+    rows: &EquilibriumRows<'_>,
+    n: usize,
+    out: &mut [[f64; 3]],
+) -> bool {
+    let lanes = V::<S>::LANES;
+    let mut i = 0;
+    while i < n {
+        let count = (n - i).min(lanes);
+        if !equilibrium_lanes(s, rows, i, count, &mut out[i..i + count]) {
+            return false;
+        }
+        i += count;
+    }
+    true
 }
 
 /// `(R − I) y` for rotations about the unit axes `a` with `sin θ` and `1 − cos θ` given
@@ -209,4 +220,101 @@ fn equilibrium_lanes<S: Simd>(
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A batch of 13 rows (a partial vector on every instruction set) with the Panda's
+    /// nominal torsions, solved on pulp's scalar type and on every instruction set this
+    /// machine has, against the scalar code of the diagnosis row by row.
+    #[test]
+    fn the_equilibrium_is_the_same_on_every_instruction_set() {
+        use crate::dataset::Dataset;
+        use crate::diagnose::rows::RowBuilder;
+        let chain = crate::SerialChain::bundled();
+        let n = 13;
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut q = Vec::new();
+        for _ in 0..n {
+            for &(lo, hi) in chain.limits() {
+                q.push(lo + (hi - lo) * uniform());
+            }
+        }
+        let w: Vec<f64> = (0..6 * n)
+            .map(|k| (2.0 * uniform() - 1.0) * if k % 6 < 3 { 80.0 } else { 3.0 })
+            .collect();
+        let data = Dataset::new(7, q, w, vec![1e-4; 3 * n], None, None, None).unwrap();
+        let torsion = crate::testbed::NOMINAL_TORSION;
+        let c: Vec<f64> = (0..21)
+            .map(|s| {
+                if s % 3 == 0 {
+                    torsion[s / 3]
+                } else if s % 3 == 1 {
+                    0.2 * torsion[s / 3]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut b = RowBuilder::new(&chain, [0.0; 6]);
+        let springs: Vec<usize> = (0..21).filter(|s| c[*s] != 0.0).collect();
+        let compliance: Vec<f64> = springs.iter().map(|s| c[*s]).collect();
+        let (mut columns, mut torque, mut wrench, mut want) = (vec![], vec![], vec![], vec![]);
+        let mut row = b.empty_row();
+        for i in 0..n {
+            b.row_into(&data, i, &mut row);
+            for &s in &springs {
+                columns.extend_from_slice(&row.jacobian.as_slice()[6 * s..6 * s + 6]);
+                torque.push(row.tau[s]);
+            }
+            wrench.extend_from_slice(&row.wrench);
+            let d = b.exact_displacement(&row, &c);
+            let lin = crate::diagnose::candidates::spring_prediction(&row, &c);
+            let nonlinear = (0..3).map(|k| (d[k] - lin[k]).powi(2)).sum::<f64>().sqrt();
+            want.push((d, nonlinear));
+        }
+        let rows = EquilibriumRows {
+            compliance: &compliance,
+            columns: &columns,
+            torque: &torque,
+            wrench: &wrench,
+        };
+        struct Solve<'a, 'b>(&'b EquilibriumRows<'a>, usize);
+        impl WithSimd for Solve<'_, '_> {
+            type Output = Option<Vec<[f64; 3]>>;
+            #[inline(always)]
+            fn with_simd<S: Simd>(self, s: S) -> Self::Output {
+                let mut out = vec![[0.0; 3]; self.1];
+                deflected_lanes(s, self.0, self.1, &mut out).then_some(out)
+            }
+        }
+        let mut got = vec![("scalar", Solve(&rows, n).with_simd(pulp::Scalar::new()))];
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        {
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                got.push(("avx2", Simd::vectorize(v3, Solve(&rows, n))));
+            }
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                got.push(("avx512", Simd::vectorize(v4, Solve(&rows, n))));
+            }
+        }
+        for (name, out) in got {
+            let out = out.expect("deflections below 0.25 rad");
+            for (i, (d, (e, nonlinear))) in out.iter().zip(&want).enumerate() {
+                let diff = (0..3).map(|k| (d[k] - e[k]).powi(2)).sum::<f64>().sqrt();
+                assert!(
+                    *nonlinear > 0.0 && diff <= 1e-10 * nonlinear,
+                    "{name}, row {i}: {diff:e} off (non-linear part {nonlinear:e})"
+                );
+            }
+        }
+    }
 }
