@@ -25,6 +25,8 @@ pub struct RowBuilder<'a> {
     /// The deflected equilibrium's per-spring state, reused from row to row (a builder
     /// belongs to one thread's pass, so the cell is never shared).
     springs: RefCell<Vec<DeflectingSpring>>,
+    /// Rotation of the tip frame in the last joint's child frame (the chain's tip offset).
+    tip_offset: nalgebra::Matrix3<f64>,
     /// Scratch of [`Self::rows_into`].
     batch: BatchScratch,
 }
@@ -36,6 +38,9 @@ pub const ROW_BATCH: usize = crate::lanes::MAX_LANES;
 /// The buffers of a batch of rows, sized once for [`ROW_BATCH`] rows.
 #[derive(Debug, Clone)]
 struct BatchScratch {
+    /// The deflecting springs (non-zero compliance) and their compliances.
+    springs: Vec<usize>,
+    compliance: Vec<f64>,
     q: Vec<f64>,
     jac: Vec<f64>,
     tip: Vec<f64>,
@@ -78,7 +83,10 @@ impl<'a> RowBuilder<'a> {
             ws,
             wrench_sigma,
             springs: RefCell::new(Vec::new()),
+            tip_offset: *chain.tip_offset().rotation.to_rotation_matrix().matrix(),
             batch: BatchScratch {
+                springs: Vec::with_capacity(m),
+                compliance: Vec::with_capacity(m),
                 q: Vec::with_capacity(ROW_BATCH * chain.n_joints()),
                 jac: vec![0.0; ROW_BATCH * 6 * m],
                 tip: vec![0.0; ROW_BATCH * 3],
@@ -112,7 +120,7 @@ impl<'a> RowBuilder<'a> {
     /// (`crate::lanes`); with `deflect` (compliances, 3n, rad/(N·m)), also each row's
     /// deflected equilibrium under those compliances ([`RowKinematics::deflected`]), lane-wise
     /// too. The same values as [`Self::row_into`] and [`Self::exact_displacement`] row by row,
-    /// to rounding (`tests/it/diagnose_rows.rs`).
+    /// to rounding (`tests/it/diagnose.rs`, `a_batch_of_rows_equals_the_rows_one_by_one`).
     pub fn rows_into(
         &mut self,
         data: &Dataset<'_>,
@@ -139,41 +147,29 @@ impl<'a> RowBuilder<'a> {
             &mut b.tip[..3 * n],
             &mut b.rot[..9 * n],
         );
-        let tip_offset = *self
-            .chain
-            .tip_offset()
-            .rotation
-            .to_rotation_matrix()
-            .matrix();
         for (r, (&i, row)) in rows.iter().zip(out.iter_mut()).enumerate() {
             row.q.copy_from_slice(&b.q[r * nj..(r + 1) * nj]);
             row.jacobian
                 .as_mut_slice()
                 .copy_from_slice(&b.jac[r * 6 * m..(r + 1) * 6 * m]);
-            let wrench = data.wrench(i);
-            for (s, t) in row.tau.iter_mut().enumerate() {
-                let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
-                *t = col.iter().zip(&wrench).map(|(j, w)| j * w).sum();
-            }
-            torque_sigma_into(&row.jacobian, &self.wrench_sigma, &mut row.tau_sigma);
-            row.wrench = wrench;
-            row.displacement = data.displacement(i);
             row.tip = [b.tip[3 * r], b.tip[3 * r + 1], b.tip[3 * r + 2]];
             let last = nalgebra::Matrix3::from_row_slice(&b.rot[9 * r..9 * r + 9]);
-            row.tip_rotation = last * tip_offset;
-            row.deflected = None;
+            row.tip_rotation = last * self.tip_offset;
+            fill_from_jacobian(data, i, &self.wrench_sigma, row);
         }
         let Some(c) = deflect.filter(|c| c.iter().any(|v| *v != 0.0)) else {
             return;
         };
         // The deflecting springs' columns and torques, row by row, for the lane-wise solve.
-        let springs: Vec<usize> = (0..c.len()).filter(|s| c[*s] != 0.0).collect();
-        let compliance: Vec<f64> = springs.iter().map(|s| c[*s]).collect();
+        b.springs.clear();
+        b.springs.extend((0..c.len()).filter(|s| c[*s] != 0.0));
+        b.compliance.clear();
+        b.compliance.extend(b.springs.iter().map(|s| c[*s]));
         b.columns.clear();
         b.torque.clear();
         b.wrench.clear();
         for row in &out[..n] {
-            for &s in &springs {
+            for &s in &b.springs {
                 b.columns
                     .extend_from_slice(&row.jacobian.as_slice()[6 * s..6 * s + 6]);
                 b.torque.push(row.tau[s]);
@@ -181,7 +177,7 @@ impl<'a> RowBuilder<'a> {
             b.wrench.extend_from_slice(&row.wrench);
         }
         let input = crate::lanes::equilibrium::EquilibriumRows {
-            compliance: &compliance,
+            compliance: &b.compliance,
             columns: &b.columns,
             torque: &b.torque,
             wrench: &b.wrench,
@@ -201,18 +197,11 @@ impl<'a> RowBuilder<'a> {
         out.q.copy_from_slice(data.q(i));
         self.ws.evaluate(self.chain, &out.q);
         self.ws.write_jacobian(out.jacobian.as_mut_slice());
-        let wrench = data.wrench(i);
-        for (s, t) in out.tau.iter_mut().enumerate() {
-            let col = &out.jacobian.as_slice()[6 * s..6 * s + 6];
-            *t = col.iter().zip(&wrench).map(|(j, w)| j * w).sum();
-        }
-        torque_sigma_into(&out.jacobian, &self.wrench_sigma, &mut out.tau_sigma);
-        out.wrench = wrench;
-        out.displacement = data.displacement(i);
         // The tip frame of the evaluation the Jacobian came from (no second forward pass).
         let t = self.ws.p;
         out.tip = [t.x, t.y, t.z];
         out.tip_rotation = self.ws.tip_rotation(self.chain);
+        fill_from_jacobian(data, i, &self.wrench_sigma, out);
     }
 
     /// The exact tip displacement (m, base frame) of linear springs of compliances `c` (3n,
@@ -292,6 +281,26 @@ impl<'a> RowBuilder<'a> {
         }
         [d.x, d.y, d.z]
     }
+}
+
+/// The rest of a row's record once its Jacobian is in place: the spring torques `Jᵀ W`, their
+/// noise, the recorded wrench and displacement of row `i`, and no deflected equilibrium yet
+/// (one record serves many rows).
+fn fill_from_jacobian(
+    data: &Dataset<'_>,
+    i: usize,
+    wrench_sigma: &[f64; 6],
+    row: &mut RowKinematics,
+) {
+    let wrench = data.wrench(i);
+    for (s, t) in row.tau.iter_mut().enumerate() {
+        let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
+        *t = col.iter().zip(&wrench).map(|(j, w)| j * w).sum();
+    }
+    torque_sigma_into(&row.jacobian, wrench_sigma, &mut row.tau_sigma);
+    row.wrench = wrench;
+    row.displacement = data.displacement(i);
+    row.deflected = None;
 }
 
 /// `(sin θ, 1 − cos θ)` for a spring deflection θ (rad). Deflections are of order 1e-4 rad,

@@ -69,10 +69,11 @@ fn deflected_lanes<S: Simd>(
     out: &mut [[f64; 3]],
 ) -> bool {
     let lanes = V::<S>::LANES;
+    let mut springs = Vec::with_capacity(rows.compliance.len());
     let mut i = 0;
     while i < n {
         let count = (n - i).min(lanes);
-        if !equilibrium_lanes(s, rows, i, count, &mut out[i..i + count]) {
+        if !equilibrium_lanes(s, rows, i, count, &mut springs, &mut out[i..i + count]) {
             return false;
         }
         i += count;
@@ -117,28 +118,28 @@ fn equilibrium_lanes<S: Simd>(
     rows: &EquilibriumRows<'_>,
     i: usize,
     count: usize,
+    springs: &mut Vec<SpringLanes<S>>,
     out: &mut [[f64; 3]],
 ) -> bool {
     let k_springs = rows.compliance.len();
     let zero = V::zero(s);
-    let mut springs: Vec<SpringLanes<S>> = (0..k_springs)
-        .map(|k| {
-            let w = 6 * k_springs;
-            let u = [0, 1, 2].map(|d| gather(s, rows.columns, w, 6 * k + d, i, count));
-            let a = [3, 4, 5].map(|d| gather(s, rows.columns, w, 6 * k + d, i, count));
-            let c = V::splat(s, rows.compliance[k]);
-            SpringLanes {
-                c,
-                a,
-                x: cross3(&u, &a),
-                theta: c * gather(s, rows.torque, k_springs, k, i, count),
-                next: zero,
-                sin: zero,
-                versine: zero,
-                after: [zero; 3],
-            }
-        })
-        .collect();
+    springs.clear();
+    springs.extend((0..k_springs).map(|k| {
+        let w = 6 * k_springs;
+        let u = [0, 1, 2].map(|d| gather(s, rows.columns, w, 6 * k + d, i, count));
+        let a = [3, 4, 5].map(|d| gather(s, rows.columns, w, 6 * k + d, i, count));
+        let c = V::splat(s, rows.compliance[k]);
+        SpringLanes {
+            c,
+            a,
+            x: cross3(&u, &a),
+            theta: c * gather(s, rows.torque, k_springs, k, i, count),
+            next: zero,
+            sin: zero,
+            versine: zero,
+            after: [zero; 3],
+        }
+    }));
     let f = [0, 1, 2].map(|d| gather(s, rows.wrench, 6, d, i, count));
     let m = [3, 4, 5].map(|d| gather(s, rows.wrench, 6, d, i, count));
     let mut done = [false; MAX_LANES];
@@ -184,7 +185,7 @@ fn equilibrium_lanes<S: Simd>(
         let mut change = [0.0f64; MAX_LANES];
         let mut scale = [1e-300f64; MAX_LANES];
         let mut theta = [0.0; MAX_LANES];
-        for sp in &springs {
+        for sp in springs.iter() {
             sp.next.store(&mut buf);
             sp.theta.store(&mut theta);
             for l in 0..count {

@@ -148,30 +148,15 @@ fn gram_lanes<S: Simd, const R: usize>(
 }
 
 /// Jacobians of the configurations in `q` (N×n row-major, rad) into `out`: N blocks of 6·m
-/// values, each a column-major 6×m Jacobian (`[w × (p − c); w]` per spring, base frame).
+/// values, each a 6×m Jacobian laid out as `layout` says (`[w × (p − c); w]` per spring,
+/// base frame).
 pub(crate) fn jacobian_batch(
     chain: &ChainLanes,
     q: &[f64],
     out: &mut [f64],
     layout: JacobianLayout,
 ) {
-    struct Task<'a>(&'a ChainLanes, &'a [f64], &'a mut [f64], JacobianLayout);
-    impl WithSimd for Task<'_> {
-        type Output = ();
-        #[inline(always)]
-        fn with_simd<S: Simd>(self, s: S) {
-            let Task(chain, q, out, layout) = self;
-            jacobian_lanes(s, chain, q, out, layout, None)
-        }
-    }
-    // AVX2 even where AVX-512 is available: the output is written lane by lane (126 values per
-    // configuration), and 16-lane blocks only add gather and scatter work (measured: see
-    // docs/benchmarks.md).
-    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
-    if let Some(v3) = pulp::x86::V3::try_new() {
-        return Simd::vectorize(v3, Task(chain, q, out, layout));
-    }
-    pulp::Arch::new().dispatch(Task(chain, q, out, layout))
+    dispatch_jacobian(chain, q, out, layout, None)
 }
 
 /// [`jacobian_batch`] (column-major blocks) that also writes each configuration's tip point
@@ -185,34 +170,40 @@ pub(crate) fn jacobian_tip_batch(
     tip: &mut [f64],
     rot: &mut [f64],
 ) {
+    dispatch_jacobian(chain, q, out, JacobianLayout::ColumnMajor, Some((tip, rot)))
+}
+
+/// [`jacobian_lanes`] in the instruction set the batched Jacobians run best on.
+fn dispatch_jacobian(
+    chain: &ChainLanes,
+    q: &[f64],
+    out: &mut [f64],
+    layout: JacobianLayout,
+    frames_out: Option<(&mut [f64], &mut [f64])>,
+) {
     struct Task<'a>(
         &'a ChainLanes,
         &'a [f64],
         &'a mut [f64],
-        &'a mut [f64],
-        &'a mut [f64],
+        JacobianLayout,
+        Option<(&'a mut [f64], &'a mut [f64])>,
     );
     impl WithSimd for Task<'_> {
         type Output = ();
         #[inline(always)]
         fn with_simd<S: Simd>(self, s: S) {
-            let Task(chain, q, out, tip, rot) = self;
-            jacobian_lanes(
-                s,
-                chain,
-                q,
-                out,
-                JacobianLayout::ColumnMajor,
-                Some((tip, rot)),
-            )
+            let Task(chain, q, out, layout, frames_out) = self;
+            jacobian_lanes(s, chain, q, out, layout, frames_out)
         }
     }
-    // AVX2 even where AVX-512 is available, as in `jacobian_batch`.
+    // AVX2 even where AVX-512 is available: the output is written lane by lane (126 values per
+    // configuration), and 16-lane blocks only add gather and scatter work (measured: see
+    // docs/benchmarks.md).
     #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
     if let Some(v3) = pulp::x86::V3::try_new() {
-        return Simd::vectorize(v3, Task(chain, q, out, tip, rot));
+        return Simd::vectorize(v3, Task(chain, q, out, layout, frames_out));
     }
-    pulp::Arch::new().dispatch(Task(chain, q, out, tip, rot))
+    pulp::Arch::new().dispatch(Task(chain, q, out, layout, frames_out))
 }
 
 #[inline(always)]
