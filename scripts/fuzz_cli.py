@@ -2,7 +2,9 @@
 """Fuzz harness for the ``robot-stiffness`` command, run in-process (fast).
 
 Each case is a command line (``identify vjm``, ``identify csjm``, ``diagnose vjm``, ``simulate
-vjm``, …) on a mutated measurement file or with mutated arguments, run by
+vjm``, ``predict vjm`` and ``compensate vjm`` with a saved model, ``design vjm`` on the bundled
+arm and on short chains, …) on a mutated measurement
+file or with mutated arguments, run by
 ``robot_stiffness.cli.main`` in a worker process in a fresh folder. A case passes when it
 ends within the time limit (2 s) with exit status 0, 1 or 2, prints no traceback, leaves the
 user's files (the input and an unrelated file) untouched and, when it fails, writes nothing.
@@ -11,7 +13,8 @@ status 1. The cases are a function of ``--seed`` alone; ``--seconds`` decides ho
 
     python3 scripts/fuzz_cli.py --seconds 30 --seed 1 --record fuzz-cli.json
 
-Seeds are the CSV files of the Rust harness's corpus (tests/fuzz/corpus/{vjm,csjm}).
+Seeds are the CSV files of the Rust harness's corpus (tests/fuzz/corpus/{vjm,csjm}) and, for
+``predict``/``compensate``, its model files (tests/fuzz/corpus/model, mostly left intact).
 """
 from __future__ import annotations
 
@@ -58,7 +61,7 @@ FLAG_VALUES = {
     "int": ["-5", "-1", "0", "1", "2", "3.5", "1e9", "nan", "", "abc", "99999999999999999999"],
     "float": ["-1", "0", "nan", "inf", "-inf", "1e9", "1e308", "1e-300", "", "abc", "0.5"],
     "out": ["", ".", "..", "/proc/x.json", "/nonexistent/dir/x.json", "user", "user/keep.txt",
-            "INPUT", "out dir/x.json", "x.json/", "-"],
+            "INPUT", "MODEL", "out dir/x.json", "x.json/", "-"],
     "effect": [
         "joint_tilt:joint=3,axis=x,compliance=5e-5", "joint_tilt:joint=3,axis=x,compliance=-1",
         "joint_tilt:joint=3,axis=x,compliance=nan", "joint_tilt:joint=99,axis=x,compliance=5e-5",
@@ -67,6 +70,11 @@ FLAG_VALUES = {
         "joint_tilt:joint=-1,axis=x,compliance=1e308", ":", "joint_tilt:joint=3.5,axis=x",
     ],
     "model": ["traditional", "extended", "", "bogus", "traditional+joint_tilt(J2x)", "+", "nan"],
+    # predict/compensate --payload MASS[,cx,cy,cz] (kg, m): implausible, malformed, fine.
+    "payload": ["5", "0", "-1", "nan", "inf", "1e6", "1e308", "1,2", "1,0,0,1e6", "2,0,0,0.1", "",
+                "abc", "1,,0,0", "5e-324"],
+    # design --base/--tip on SHORT_ARM: each link (base == tip included), unknown, empty.
+    "link": ["base", "l1", "l2", "tool", "nope", "", "panda_link0"],
 }
 
 # Command lines; DATA is replaced by the (mutated) seed file, flags' value kinds follow.
@@ -81,15 +89,52 @@ TEMPLATES: List[Tuple[str, List[str]]] = [
     ("", ["simulate", "vjm", "sim.csv", "--poses", "3", "--wrenches-per-pose", "1", "--seed", "1",
           "--effect", "joint_tilt:joint=3,axis=x,compliance=5e-5", "--truth", "truth.json"]),
     ("", ["simulate", "csjm", "sim.csv", "--increments", "4", "--seed", "2"]),
+    # A saved model (MODEL: a seed of tests/fuzz/corpus/model) used on a mutated pose file; the
+    # --payload forms get the file without its fx..mz columns (see make_case).
+    ("vjm", ["predict", "vjm", "MODEL", "DATA", "--out", "pred.csv"]),
+    ("vjm", ["predict", "vjm", "MODEL", "DATA", "--payload", "2,0,0,0.1", "--out", "pred.csv"]),
+    ("vjm", ["compensate", "vjm", "MODEL", "DATA", "--out", "comp.csv"]),
+    ("vjm", ["compensate", "vjm", "MODEL", "DATA", "--payload", "5", "--position-only", "--out",
+             "comp.csv", "--plot", "comp.png"]),
+    # Planning: small pools (the 2 s budget), the bundled arm and chains of one and two joints
+    # of SHORT_ARM (arm.urdf), one of them with the tip on its only axis (rank 0).
+    ("", ["design", "vjm", "--poses", "3", "--wrenches-per-pose", "3", "--pool", "20", "--seed", "1",
+          "--out", "plan.csv"]),
+    ("", ["design", "vjm", "--model", "traditional", "--poses", "4", "--pool", "30", "--margin", "0.2",
+          "--out", "plan.csv"]),
+    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "base", "--tip", "tool", "--poses", "3",
+          "--pool", "20", "--out", "plan.csv"]),
+    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "l1", "--tip", "tool", "--model", "traditional",
+          "--poses", "2", "--pool", "20", "--out", "plan.csv"]),
+    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "base", "--tip", "l1", "--poses", "2",
+          "--pool", "20", "--out", "plan.csv"]),
 ]
+# Two revolute joints (z at 0.3 m, y 0.4 m out) and a tool 0.3 m beyond: the `design` cases'
+# short chains.
+SHORT_ARM = b"""<?xml version="1.0"?>
+<robot name="arm2">
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-2.5" upper="2.5" effort="10" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.4 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1.0" upper="1.0" effort="10" velocity="1"/></joint>
+  <joint name="tip" type="fixed"><parent link="l2"/><child link="tool"/>
+    <origin xyz="0.3 0 0.1" rpy="0 0 0"/></joint>
+</robot>
+"""
 FLAG_KIND = {
     "--poses": "int", "--wrenches-per-pose": "int", "--seed": "int", "--split-seed": "int",
     "--increments": "int", "--order": "int", "--force-max": "float", "--moment-max": "float",
     "--max-increment": "float", "--fdr": "float", "--json": "out", "--report": "out",
     "--truth": "out", "--effect": "effect", "--model": "model", "--baseline": "model",
+    "--out": "out", "--plot": "out", "--payload": "payload", "--pool": "int", "--margin": "float",
+    "--base": "link", "--tip": "link",
 }
 EXTRA_FLAGS = ["--force-max", "--moment-max", "--fdr", "--max-increment", "--no-noise", "--help",
-               "--version", "--bogus", "--", "-", "--json", "--report", "--urdf", "--base", "--tip"]
+               "--version", "--bogus", "--", "-", "--json", "--report", "--urdf", "--base", "--tip",
+               "--allow-outside-limits", "--payload", "--no-kc"]
 USER_FILE = ("user/keep.txt", b"the user's own file\n")
 
 
@@ -219,10 +264,21 @@ class Case:
 
 def load_seeds() -> Dict[str, List[Tuple[str, bytes]]]:
     seeds: Dict[str, List[Tuple[str, bytes]]] = {}
-    for kind in ("vjm", "csjm"):
+    for kind in ("vjm", "csjm", "model"):
         folder = CORPUS / kind
         seeds[kind] = [(p.name, p.read_bytes()) for p in sorted(folder.iterdir()) if p.is_file()]
     return seeds
+
+
+WRENCH_COLUMNS = {b"fx", b"fy", b"fz", b"mx", b"my", b"mz"}
+
+
+def without_wrench(data: bytes) -> bytes:
+    """A measurement file's q1..qn and other columns, without fx..mz: a pose table for
+    ``--payload`` (with the columns too, the command refuses the two loads at once)."""
+    lines = data.split(b"\n")
+    keep = [i for i, c in enumerate(lines[0].split(b",")) if c.strip().lower() not in WRENCH_COLUMNS]
+    return b"\n".join(b",".join(c for i, c in enumerate(line.split(b",")) if i in keep) for line in lines)
 
 
 def make_case(seed: int, index: int, seeds: Dict[str, List[Tuple[str, bytes]]]) -> Case:
@@ -241,11 +297,21 @@ def make_case(seed: int, index: int, seeds: Dict[str, List[Tuple[str, bytes]]]) 
             argv = mutate_argv(argv, rng)
         if argv[0] == "diagnose":
             data = data[:MAX_DIAGNOSE_INPUT]
+        if "MODEL" in template:
+            if "--payload" in template:
+                data = without_wrench(data)
+            # The model file mostly a valid one, so that the case reaches predict/compensate
+            # (the model reader has its own fuzz target); sometimes any seed, or mutated.
+            valid = [m for m in seeds["model"] if m[0].startswith("valid")] or seeds["model"]
+            _, model = rng.choice(valid if rng.random() < 0.9 else seeds["model"])
+            files["model.json"] = mutate_csv(model, rng) if rng.random() < 0.1 else model
         files["data.csv"] = data
         argv = ["data.csv" if a == "DATA" else a for a in argv]
     else:
         argv = mutate_argv(argv, rng)
-    argv = ["data.csv" if a == "INPUT" else a for a in argv]
+    argv = ["data.csv" if a == "INPUT" else "model.json" if a == "MODEL" else a for a in argv]
+    if "arm.urdf" in argv:
+        files["arm.urdf"] = SHORT_ARM
     return Case(index, argv, files)
 
 
@@ -382,7 +448,10 @@ WALL_FACTOR = 5.0
 
 def _named_outputs(argv: List[str]) -> set:
     """Files the command line names as outputs (``--json F``, ``--truth F``, simulate's OUT):
-    replacing one of those when the command succeeds is what the user asked for."""
+    replacing one of those when the command succeeds with ``--force`` is what the user asked
+    for (without ``--force`` an existing file is never replaced)."""
+    if "--force" not in argv:
+        return set()
     named = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a in ("--json", "--truth")}
     if argv[:1] == ["simulate"] and len(argv) > 2:
         named.add(argv[2])
@@ -522,6 +591,9 @@ def main() -> int:
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = p.parse_args()
     ARGS_TIMEOUT = args.timeout
+    # The manifests' signing key of the cases' `--force` runs: in a folder of the run's own,
+    # never the user's ~/.local/state (the cases inherit the environment).
+    os.environ.setdefault("ROBOT_STIFFNESS_STATE_DIR", tempfile.mkdtemp(prefix="fuzz-cli-state-"))
     if args.worker:
         serve(args.timeout)
         return 0

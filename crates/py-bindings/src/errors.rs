@@ -155,6 +155,7 @@ impl IntoPyErr for vjm::VjmError {
             }
             E::Io { .. } => Kind::MissingFile,
             E::Urdf { .. }
+            | E::UrdfLimit { .. }
             | E::MissingLink { .. }
             | E::NotAncestor { .. }
             | E::ClosedChain { .. }
@@ -162,7 +163,8 @@ impl IntoPyErr for vjm::VjmError {
             | E::UnsupportedJoint { .. }
             | E::InvalidAxis { .. }
             | E::InvalidJointValue { .. }
-            | E::NoActuatedJoints { .. } => Kind::RobotModel,
+            | E::NoActuatedJoints { .. }
+            | E::InvalidInertial { .. } => Kind::RobotModel,
             E::ShapeMismatch { .. } => Kind::Shape,
             E::TooFewMeasurements { .. } | E::Numerical { .. } => Kind::Identification,
             E::NotConverged(_) => Kind::Convergence,
@@ -260,9 +262,11 @@ impl IntoPyErr for vjm::ModelError {
         }
         let kind = match &self {
             E::Read { .. } | E::Write { .. } => Kind::MissingFile,
-            E::Format { .. } | E::Schema { .. } | E::Edited { .. } | E::OtherRobot { .. } => {
-                Kind::ModelFile
-            }
+            E::Format { .. }
+            | E::Limit { .. }
+            | E::Schema { .. }
+            | E::Edited { .. }
+            | E::OtherRobot { .. } => Kind::ModelFile,
             E::Table { .. } => Kind::DataFile,
             _ => Kind::Value,
         };

@@ -12,6 +12,7 @@ pub mod csjm;
 pub mod csjm_diagnose;
 pub mod diagnose;
 pub mod errors;
+pub mod gravity;
 pub mod identify_partial;
 pub mod interrupt;
 pub mod results;
@@ -21,9 +22,34 @@ pub mod use_model;
 pub mod vjm;
 pub mod vjm_data;
 
+/// Makes rust-numpy look up numpy's C-API capsule now, while the package is imported, rather
+/// than at the first array a command passes: that lookup runs Python code (numpy's version
+/// parsing, imports), and a `KeyboardInterrupt` raised inside it makes rust-numpy panic
+/// ("Failed to access NumPy array API capsule"). The same steps are taken first through
+/// fallible calls, so that an interrupt (or a broken numpy) during them is an ordinary
+/// exception of the import; rust-numpy's own lookup then finds everything imported.
+fn acquire_numpy_api(py: Python<'_>) -> PyResult<()> {
+    let version = py.import("numpy")?.getattr("__version__")?;
+    let major: u8 = py
+        .import("numpy.lib")?
+        .getattr("NumpyVersion")?
+        .call1((version,))?
+        .getattr("major")?
+        .extract()?;
+    let core = if major >= 2 {
+        "numpy._core.multiarray"
+    } else {
+        "numpy.core.multiarray"
+    };
+    py.import(core)?.getattr("_ARRAY_API")?;
+    numpy::npyffi::is_numpy_2(py);
+    Ok(())
+}
+
 /// The compiled core of the `robot_stiffness` Python package.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    acquire_numpy_api(m.py())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(errors::_panic_for_tests, m)?)?;
     so3::register(m)?;
@@ -31,6 +57,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     csjm_diagnose::register(m)?;
     diagnose::register(m)?;
     vjm::register(m)?;
+    gravity::register(m)?;
     identify_partial::register(m)?;
     vjm_data::register(m)?;
     stiffness_model::register(m)?;

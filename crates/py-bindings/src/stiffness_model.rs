@@ -104,7 +104,7 @@ impl PyStiffnessModel {
     /// Corrected joint targets for q (N, n) under wrench (N, 6) or a payload
     /// `(mass, [cx, cy, cz])`, with this model's springs and compliances: `(q, rows, status)`
     /// as `vjm_compensate`. `match_orientation` defaults to whether the model has rotations.
-    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true))]
+    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false))]
     #[allow(clippy::too_many_arguments)]
     fn compensate<'py>(
         &self,
@@ -118,6 +118,7 @@ impl PyStiffnessModel {
         position_tol: f64,
         rotation_tol: f64,
         check_limits: bool,
+        allow_outside_limits: bool,
     ) -> PyResult<crate::use_model::CompensationArrays<'py>> {
         let n = self.chain.n_joints();
         let q = batch(&q, "q", &[n])?;
@@ -126,6 +127,7 @@ impl PyStiffnessModel {
             .map(|w| batch(w, "wrench", &[6]))
             .transpose()?;
         let load = crate::use_model::load_of(&q, w.as_ref(), payload)?;
+        crate::use_model::check_inputs(py, &self.chain, &q, load, allow_outside_limits)?;
         let opts = crate::use_model::ModelCompensation {
             match_orientation,
             with_kc,
@@ -139,14 +141,16 @@ impl PyStiffnessModel {
 
     /// Predictions for q (N, n) under wrench (N, 6) or a payload `(mass, cx, cy, cz)`.
     /// Returns a dict of arrays: deflection (N, 6), stddev (N, 6), wrench (N, 6),
-    /// identified (N,), excitation (N,).
-    #[pyo3(signature = (q, wrench = None, payload = None))]
+    /// identified (N,), excitation (N,). The inputs get identify's checks (joint angles inside
+    /// the URDF limits unless `allow_outside_limits`).
+    #[pyo3(signature = (q, wrench = None, payload = None, allow_outside_limits = false))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
         q: PyReadonlyArrayDyn<'py, f64>,
         wrench: Option<PyReadonlyArrayDyn<'py, f64>>,
         payload: Option<(f64, f64, f64, f64)>,
+        allow_outside_limits: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let n = self.chain.n_joints();
         let q = batch(&q, "q", &[n])?;
@@ -156,6 +160,7 @@ impl PyStiffnessModel {
             .transpose()?;
         let payload = payload.map(|(mass, cx, cy, cz)| (mass, [cx, cy, cz]));
         let load = crate::use_model::load_of(&q, w.as_ref(), payload)?;
+        crate::use_model::check_inputs(py, &self.chain, &q, load, allow_outside_limits)?;
         let (model, chain) = (&self.model, &self.chain);
         let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
         let rows = pred.len();
@@ -230,7 +235,7 @@ pub fn vjm_identify_model<'py>(
         method,
         allow_outside_limits,
     };
-    let (id, built) = robot.identify_with(
+    let (id, built, warnings) = robot.identify_with(
         py,
         model,
         args,
@@ -238,6 +243,8 @@ pub fn vjm_identify_model<'py>(
         robust_covariance,
     )?;
     let result = crate::results::summary(py, &id)?;
+    // The warnings of vjm::screening (messages), which Robot.identify issues and keeps.
+    result.set_item("warnings", warnings)?;
     let built = built.ok_or_else(|| crate::errors::internal_error("no model was built"))?;
     Ok((result, PyStiffnessModel::new(built, robot.chain.clone())))
 }
@@ -264,10 +271,23 @@ pub fn vjm_read_poses<'py>(
     Ok((q, w))
 }
 
+/// `(urdf, base, tip)` recorded in the model file at `path`, or `None` when the file has no
+/// readable robot record. The file is read with the loader's bounds (size, nesting), so the
+/// CLI never hands an unbounded text to Python's recursive `json`.
+#[pyfunction]
+pub fn vjm_model_file_robot(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+) -> PyResult<Option<(Option<String>, String, String)>> {
+    let record = run(py, || vjm::StiffnessModel::robot_of_file(&path))?;
+    Ok(record.map(|r| (r.urdf, r.base, r.tip)))
+}
+
 /// Registers the class and functions on `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyStiffnessModel>()?;
     m.add_function(wrap_pyfunction!(vjm_identify_model, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_read_poses, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_model_file_robot, m)?)?;
     Ok(())
 }

@@ -24,7 +24,7 @@ const ROW_COLUMNS: [&str; 7] = [
 /// `rows` are `position_error, rotation_error, deflection, rotation_deflection,
 /// inverse_condition, iterations, limit_joint` (0-based joint, −1 when none).
 #[pyfunction]
-#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true))]
+#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_compensate<'py>(
     py: Python<'py>,
@@ -40,6 +40,7 @@ pub fn vjm_compensate<'py>(
     position_tol: f64,
     rotation_tol: f64,
     check_limits: bool,
+    allow_outside_limits: bool,
 ) -> PyResult<CompensationArrays<'py>> {
     let chain = &robot.chain;
     let n = chain.n_joints();
@@ -51,6 +52,7 @@ pub fn vjm_compensate<'py>(
         None => None,
     };
     let load = load_of(&q, w.as_ref(), payload)?;
+    check_inputs(py, chain, &q, load, allow_outside_limits)?;
     let mut opts = CompensateOptions::default();
     opts.match_orientation = match_orientation;
     opts.with_kc = with_kc;
@@ -111,6 +113,30 @@ pub(crate) fn load_of<'a>(
     Ok(load)
 }
 
+/// The checks `identify` runs on its inputs, on the poses and per-row loads of a prediction
+/// or a compensation (`vjm::dataset::check_poses`: plausible joint angles and loads, joint
+/// angles inside the URDF limits unless `allow_outside_limits`), with the GIL released; a
+/// non-finite value is left to the core's own check, which names the array, row and column.
+/// The payload's own check is [`PointMass::new`].
+pub(crate) fn check_inputs(
+    py: Python<'_>,
+    chain: &vjm::SerialChain,
+    q: &Rows<'_>,
+    load: Load<'_>,
+    allow_outside_limits: bool,
+) -> PyResult<()> {
+    let wrench = match load {
+        Load::Wrench(w) => Some(w),
+        _ => None,
+    };
+    let limits = (!allow_outside_limits).then_some(chain);
+    run(py, || {
+        vjm::dataset::check_poses(chain.n_joints(), &q.data, wrench, limits)
+    })?
+    .py()?;
+    Ok(())
+}
+
 /// The result arrays of a compensation.
 fn arrays(py: Python<'_>, out: vjm::Compensation, n: usize) -> PyResult<CompensationArrays<'_>> {
     let rows = out.rows.len();
@@ -137,7 +163,7 @@ fn arrays(py: Python<'_>, out: vjm::Compensation, n: usize) -> PyResult<Compensa
 /// [`vjm_compensate`] with the springs and compliances of a model file (robot and content
 /// hash checked on load). `match_orientation` defaults to whether the model has rotations.
 #[pyfunction]
-#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true))]
+#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_compensate_model_file<'py>(
     py: Python<'py>,
@@ -152,6 +178,7 @@ pub fn vjm_compensate_model_file<'py>(
     position_tol: f64,
     rotation_tol: f64,
     check_limits: bool,
+    allow_outside_limits: bool,
 ) -> PyResult<CompensationArrays<'py>> {
     let chain = &robot.chain;
     let n = chain.n_joints();
@@ -162,6 +189,7 @@ pub fn vjm_compensate_model_file<'py>(
         None => None,
     };
     let load = load_of(&q, w.as_ref(), payload)?;
+    check_inputs(py, chain, &q, load, allow_outside_limits)?;
     let model = run(py, || vjm::StiffnessModel::load(path, chain))?.py()?;
     let opts = ModelCompensation {
         match_orientation,
@@ -207,9 +235,12 @@ pub(crate) fn compensate_with_model<'py>(
 }
 
 /// Plans a VJM campaign (JSON of `vjm::Plan`): `poses` poses × `wrenches_per_pose` wrenches,
-/// noise of the testbed's instruments with its nominal compliances as the prior.
+/// noise of the testbed's instruments with its nominal compliances as the prior. Runs on a
+/// worker thread: Ctrl-C stops it within [`crate::interrupt::POLL_INTERVAL`] (the core checks
+/// its token per pose and per chunk of candidates), and `progress(stage, done, total)`, when
+/// given, is called on the calling thread.
 #[pyfunction]
-#[pyo3(signature = (robot, model, poses = 24, wrenches_per_pose = 4, seed = 0, margin = 0.1, pool_size = 300, force = 80.0, moment = 3.0))]
+#[pyo3(signature = (robot, model, poses = 24, wrenches_per_pose = 4, seed = 0, margin = 0.1, pool_size = 300, force = 80.0, moment = 3.0, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_design(
     py: Python<'_>,
@@ -222,6 +253,7 @@ pub fn vjm_design(
     pool_size: usize,
     force: f64,
     moment: f64,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let chain = &robot.chain;
     let model = parse_model(chain.n_joints(), model)?;
@@ -234,7 +266,10 @@ pub fn vjm_design(
     spec.force = force;
     spec.moment = moment;
     let noise = NoiseModel::testbed(&model);
-    let plan = run(py, || vjm::design(chain, &model, &spec, &noise))?.py()?;
+    let plan = crate::interrupt::run_interruptible(py, progress.as_ref(), |monitor| {
+        vjm::design_monitored(chain, &model, &spec, &noise, monitor)
+    })?
+    .py()?;
     serde_json::to_string(&plan)
         .map_err(|e| crate::errors::internal_error(format!("cannot serialise the plan: {e}")))
 }

@@ -256,7 +256,7 @@ impl PyRobot {
             method,
             allow_outside_limits,
         };
-        let (id, _) = self.identify_with(py, model, args, None, false)?;
+        let (id, _, _) = self.identify_with(py, model, args, None, false)?;
         serde_json::to_string(&id)
             .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))
     }
@@ -325,7 +325,8 @@ impl PyRobot {
     /// call so that it cannot drift from the result. `model_data = Some(Some(path))` records the
     /// measurement file the arrays came from. `robust`: the model carries the cluster-robust
     /// covariance (one more pass over the data, about 10 µs per measurement) instead of the
-    /// identification's own.
+    /// identification's own. With `model_data`, also the warnings of `vjm::screening::review`
+    /// (outlier rows, implausible or negative compliances) as messages.
     pub(crate) fn identify_with<'py>(
         &self,
         py: Python<'py>,
@@ -333,7 +334,11 @@ impl PyRobot {
         a: IdentifyArgs<'py, '_>,
         model_data: Option<Option<&str>>,
         robust: bool,
-    ) -> PyResult<(vjm::Identification, Option<vjm::StiffnessModel>)> {
+    ) -> PyResult<(
+        vjm::Identification,
+        Option<vjm::StiffnessModel>,
+        Vec<String>,
+    )> {
         let c = self.checked(model, &a)?;
         let chain = &self.chain;
         let rot = c.r.as_ref().map(|r| &*r.data);
@@ -350,22 +355,27 @@ impl PyRobot {
         })?
         .py()?;
         let Some(file) = model_data else {
-            return Ok((id, None));
+            return Ok((id, None, Vec::new()));
         };
         let data = match file {
             Some(path) => vjm::DataSource::file(path, q.rows).py()?,
             None => vjm::DataSource::in_memory(q.rows),
         };
-        let built = run(py, || {
+        let (built, warnings) = run(py, || {
             let m = vjm::StiffnessModel::from_identification(&id, chain, model, opts, data)?;
-            if robust {
-                m.with_robust_covariance(chain, &q.data, &w.data, &d.data, rot)
+            let warnings: Vec<String> = vjm::screening::review(&id, &w.data, &d.data)
+                .iter()
+                .map(ToString::to_string)
+                .collect();
+            let m = if robust {
+                m.with_robust_covariance(chain, &q.data, &w.data, &d.data, rot)?
             } else {
-                Ok(m)
-            }
+                m
+            };
+            Ok::<_, vjm::ModelError>((m, warnings))
         })?
         .py()?;
-        Ok((id, Some(built)))
+        Ok((id, Some(built), warnings))
     }
 
     /// The inputs of an identification with their shapes, row counts and options checked

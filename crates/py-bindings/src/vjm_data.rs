@@ -360,23 +360,42 @@ pub fn vjm_simulate<'py>(
 }
 
 /// The seed's study (Table I configurations, two wrenches each) with tilting springs of
-/// `tilt_ratio` × the torsional compliance; returns its JSON.
+/// `tilt_ratio` × the torsional compliance, or (None) of the ratio calibrated to the seed's
+/// torsion share; returns its JSON with the ratio used as `tilt_ratio`.
 #[pyfunction]
-#[pyo3(signature = (robot, tilt_ratio = 0.5, noise = true, seed = 0))]
+#[pyo3(signature = (robot, tilt_ratio = None, noise = true, seed = 0))]
 pub fn vjm_seed_study(
     py: Python<'_>,
     robot: &PyRobot,
-    tilt_ratio: f64,
+    tilt_ratio: Option<f64>,
     noise: bool,
     seed: u64,
 ) -> PyResult<String> {
     let chain = &robot.chain;
-    let n = chain.n_joints();
-    let torsion: Vec<f64> = (0..n).map(|j| testbed::NOMINAL_TORSION[j % 7]).collect();
-    let truth = TrueModel::with_tilts(&torsion, tilt_ratio);
-    let study = run(py, || testbed::seed_study(chain, &truth, noise, seed))?
-        .map_err(IntoPyErr::into_py_err)?;
-    serde_json::to_string(&study).map_err(|e| crate::errors::internal_error(e.to_string()))
+    if let Some(r) = tilt_ratio {
+        if !(r.is_finite() && r >= 0.0) {
+            return Err(value_error(format!(
+                "tilt_ratio must be finite and ≥ 0, got {r}"
+            )));
+        }
+    }
+    let (study, ratio) = run(py, || -> Result<_, testbed::TestbedError> {
+        let (truth, ratio) = match tilt_ratio {
+            Some(r) => {
+                let torsion: Vec<f64> = (0..chain.n_joints())
+                    .map(|j| testbed::NOMINAL_TORSION[j % 7])
+                    .collect();
+                (TrueModel::with_tilts(&torsion, r), r)
+            }
+            None => testbed::seed_truth(chain)?,
+        };
+        Ok((testbed::seed_study(chain, &truth, noise, seed)?, ratio))
+    })?
+    .map_err(IntoPyErr::into_py_err)?;
+    let mut json =
+        serde_json::to_value(&study).map_err(|e| crate::errors::internal_error(e.to_string()))?;
+    json["tilt_ratio"] = serde_json::json!(ratio);
+    Ok(json.to_string())
 }
 
 /// Registers the functions on `m`.

@@ -6,7 +6,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from typing import List, Sequence
+from typing import Iterator, List, Sequence
 
 import numpy as np
 import pytest
@@ -14,6 +14,21 @@ import pytest
 from robot_stiffness.vjm import Robot
 
 DATA = Path(__file__).parent / "data"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def manifest_key_dir(tmp_path_factory) -> Iterator[Path]:
+    """The state folder of the output manifests' signing key (robot_stiffness._outputs): one per
+    test session, shared with the CLI subprocesses (run_cli passes the environment on), so the
+    suite never writes into the user's ~/.local/state."""
+    d = tmp_path_factory.mktemp("state")
+    old = os.environ.get("ROBOT_STIFFNESS_STATE_DIR")
+    os.environ["ROBOT_STIFFNESS_STATE_DIR"] = str(d)
+    yield d
+    if old is None:
+        os.environ.pop("ROBOT_STIFFNESS_STATE_DIR", None)
+    else:
+        os.environ["ROBOT_STIFFNESS_STATE_DIR"] = old
 
 
 @pytest.fixture(scope="session")

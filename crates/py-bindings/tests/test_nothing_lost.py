@@ -38,6 +38,16 @@ def leftovers(*roots: Path) -> List[str]:
     return [str(p) for root in roots for p in root.rglob("*") if ".tmp-" in p.name]
 
 
+def signed(folder: Path, manifest: dict) -> None:
+    """Writes ``manifest`` into ``folder`` signed with the session's key, as the tool would have
+    written it (an earlier run of another version; forged manifests are test_forged_*)."""
+    from robot_stiffness import _outputs
+
+    key = _outputs._manifest_key(create=True)
+    manifest["signature"] = _outputs._signature(key, folder, manifest["files"])
+    (folder / MANIFEST).write_text(json.dumps(manifest))
+
+
 def one_error_line(proc: subprocess.CompletedProcess) -> str:
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1, proc.stderr
@@ -117,7 +127,7 @@ def test_force_replaces_only_the_tools_own_files(small, tmp_path):
     (rep / "stale.png").write_bytes(b"old plot")
     manifest = json.loads((rep / MANIFEST).read_text())
     manifest["files"]["stale.png"] = hashlib.sha256(b"old plot").hexdigest()
-    (rep / MANIFEST).write_text(json.dumps(manifest))
+    signed(rep, manifest)
     (rep / "report.md").write_text("an old report\n")  # changed by the user: must be refused
     user = {k: v for k, v in digest(rep).items() if k in ("data.csv", "notes.txt", "sub/x.bin")}
 
@@ -179,7 +189,7 @@ def test_a_manifest_never_reaches_outside_its_folder(csjm_csv, tmp_path):
     sha = hashlib.sha256(outside.read_bytes()).hexdigest()
     manifest = json.loads((out / MANIFEST).read_text())
     manifest["files"].update({"../outside.txt": sha, str(outside): sha})
-    (out / MANIFEST).write_text(json.dumps(manifest))
+    signed(out, manifest)  # even a manifest the tool signed cannot name a file outside
     write_report(result, out, force=True)
     assert outside.read_text() == "precious\n"
     assert set(json.loads((out / MANIFEST).read_text())["files"]) == {"report.md", "residuals.png", "effects.png"}

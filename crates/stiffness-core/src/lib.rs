@@ -7,6 +7,8 @@
 //!   [`Monitor`] that bundles both for a computation.
 //! - [`decompose`]: SVD and symmetric eigen-decomposition with an iteration cap (nalgebra's
 //!   own loop forever on NaN) and a named [`NotConverged`] error.
+//! - [`num`]: [`num::Short`], the one format of a number quoted in a message (`1e308`, not 309
+//!   digits).
 //!
 //! This crate knows nothing about robots, URDF or SO(3); the model crates (`so3-stiffness`,
 //! `vjm`) depend on it, never the other way round.
@@ -37,6 +39,7 @@ pub mod decompose;
 pub mod engine;
 mod fast_math;
 pub mod lsq;
+pub mod num;
 pub mod so3;
 mod so3_error;
 pub mod stats;

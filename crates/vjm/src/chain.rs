@@ -1,11 +1,15 @@
 //! The immutable kinematic model of a serial chain extracted from a URDF.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
+use stiffness_core::num::Short;
+
 use crate::error::VjmError;
+use crate::gravity::mass::{links_declaring_inertial, mass_source, MassSource};
+use crate::gravity::MassModel;
 
 /// The bundled 7-DoF arm: a Franka Emika Panda with hand, written from Franka's
 /// published kinematic parameters (see `data/panda_arm.urdf`).
@@ -84,6 +88,8 @@ pub struct SerialChain {
     tip_offset: Isometry3<f64>,
     /// Where the chain came from (URDF path and content hash), when it came from a URDF.
     source: Option<UrdfSource>,
+    /// The bodies the actuated joints carry (from the URDF's inertials), for gravity.
+    masses: MassSource,
 }
 
 /// The URDF a [`SerialChain`] was read from: the path as given and the SHA-256 of its text.
@@ -96,6 +102,11 @@ pub struct UrdfSource {
     /// SHA-256 of the URDF text, lowercase hex.
     pub sha256: String,
 }
+
+/// SHA-256 of the earlier revisions of [`BUNDLED_URDF`] with the same kinematics (before its
+/// inertials were added), which a saved model may still name.
+pub(crate) const BUNDLED_URDF_EARLIER_SHA256: &[&str] =
+    &["97135d0b29577346c1becc93f40679498936456ef8a94bf24b109e208be8cd4c"];
 
 /// Name under which the bundled URDF is recorded in a [`UrdfSource`].
 pub const BUNDLED_URDF_PATH: &str = "bundled:panda_arm.urdf";
@@ -115,11 +126,20 @@ impl SerialChain {
         tip: &str,
     ) -> Result<(Self, String), VjmError> {
         let path = path.as_ref();
-        let xml = std::fs::read_to_string(path).map_err(|source| VjmError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        let chain = Self::from_urdf_str_read_from(&xml, &path.display().to_string(), base, tip)?;
+        let shown = path.display().to_string();
+        // Capped: a huge file (or an endless stream) is refused without being read whole.
+        let xml = crate::bounded::read_capped(path, crate::bounded::URDF_MAX_BYTES, "URDF")
+            .map_err(|e| match e {
+                crate::bounded::CappedReadError::Io(source) => VjmError::Io {
+                    path: shown.clone(),
+                    source,
+                },
+                crate::bounded::CappedReadError::TooLarge(limit) => VjmError::UrdfLimit {
+                    path: Some(shown.clone()),
+                    limit,
+                },
+            })?;
+        let chain = Self::from_urdf_str_read_from(&xml, &shown, base, tip)?;
         Ok((chain, xml))
     }
 
@@ -133,7 +153,13 @@ impl SerialChain {
         base: &str,
         tip: &str,
     ) -> Result<Self, VjmError> {
-        let mut chain = Self::from_urdf_str(xml, base, tip)?;
+        let mut chain = Self::from_urdf_str(xml, base, tip).map_err(|e| match e {
+            VjmError::UrdfLimit { path: None, limit } => VjmError::UrdfLimit {
+                path: Some(path.to_string()),
+                limit,
+            },
+            other => other,
+        })?;
         if let Some(source) = chain.source.as_mut() {
             source.path = Some(path.to_string());
         }
@@ -141,11 +167,20 @@ impl SerialChain {
     }
 
     /// Loads the chain from `base` to `tip` from URDF text.
+    ///
+    /// Text larger than [`URDF_MAX_BYTES`](crate::bounded::URDF_MAX_BYTES) or nesting deeper
+    /// than [`URDF_MAX_DEPTH`](crate::bounded::URDF_MAX_DEPTH) is refused with
+    /// [`VjmError::UrdfLimit`] before it is parsed.
     pub fn from_urdf_str(xml: &str, base: &str, tip: &str) -> Result<Self, VjmError> {
+        // Every URDF path of the crate (files, text, the Python package, the CLI) comes here:
+        // the parser recurses per nested element, so the depth is bounded before it runs.
+        crate::bounded::check_urdf_text(xml)
+            .map_err(|limit| VjmError::UrdfLimit { path: None, limit })?;
         let robot = urdf_rs::read_from_string(xml).map_err(|e| VjmError::Urdf {
             message: e.to_string(),
         })?;
-        let mut chain = Self::from_urdf_robot(&robot, base, tip)?;
+        let declared = links_declaring_inertial(xml);
+        let mut chain = Self::from_urdf_robot_declaring(&robot, base, tip, Some(&declared))?;
         chain.source = Some(UrdfSource {
             path: None,
             sha256: crate::hashing::sha256_hex(xml.as_bytes()),
@@ -154,10 +189,24 @@ impl SerialChain {
     }
 
     /// Extracts the chain from `base` to `tip` from an already parsed URDF.
+    ///
+    /// Without the URDF text, a link with a shape whose inertial is all zeros counts as
+    /// having none (see [`mass_model`](Self::mass_model)).
     pub fn from_urdf_robot(
         robot: &urdf_rs::Robot,
         base: &str,
         tip: &str,
+    ) -> Result<Self, VjmError> {
+        Self::from_urdf_robot_declaring(robot, base, tip, None)
+    }
+
+    /// [`from_urdf_robot`](Self::from_urdf_robot); `declared` are the links whose URDF text
+    /// has an `<inertial>` element, where the text is known.
+    fn from_urdf_robot_declaring(
+        robot: &urdf_rs::Robot,
+        base: &str,
+        tip: &str,
+        declared: Option<&HashSet<String>>,
     ) -> Result<Self, VjmError> {
         let available = || {
             let mut names: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
@@ -210,6 +259,7 @@ impl SerialChain {
         path.reverse();
 
         let mut joints = Vec::new();
+        let mut actuated = Vec::new();
         let mut pending = Isometry3::identity();
         for &ji in &path {
             let j = &robot.joints[ji];
@@ -254,6 +304,7 @@ impl SerialChain {
                 a / norm,
                 limits,
             ));
+            actuated.push(ji);
             pending = Isometry3::identity();
         }
         if joints.is_empty() {
@@ -262,7 +313,9 @@ impl SerialChain {
                 tip: tip.to_string(),
             });
         }
-        Ok(Self::from_parts(base, tip, joints, pending))
+        let mut chain = Self::from_parts(base, tip, joints, pending);
+        chain.masses = mass_source(robot, &actuated, declared);
+        Ok(chain)
     }
 
     /// Builds a chain directly from joint data (used by tests and random-chain generators).
@@ -318,7 +371,30 @@ impl SerialChain {
             limits,
             tip_offset,
             source: None,
+            masses: MassSource::None,
         }
+    }
+
+    /// The bodies the actuated joints carry, from the URDF's `<inertial>` elements (see
+    /// [`MassModel`]); an error naming the link when a link with a shape has no inertial, or
+    /// when the chain was not built from a URDF and [`with_masses`](Self::with_masses) was
+    /// not called.
+    pub fn mass_model(&self) -> Result<&MassModel, VjmError> {
+        self.masses.get()
+    }
+
+    /// This chain with the given bodies (one per actuated joint), e.g. for a chain built with
+    /// [`from_joints`](Self::from_joints) or to replace a URDF's inertials.
+    pub fn with_masses(mut self, masses: MassModel) -> Result<Self, VjmError> {
+        if masses.bodies().len() != self.joints.len() {
+            return Err(VjmError::ShapeMismatch {
+                what: "mass model (one body per actuated joint)",
+                expected: self.joints.len(),
+                got: masses.bodies().len(),
+            });
+        }
+        self.masses = MassSource::Known(masses);
+        Ok(self)
     }
 
     /// The bundled Franka Emika Panda arm from `panda_link0` to the flange `panda_link8`.
@@ -446,7 +522,7 @@ fn check_finite_attribute(joint: &str, attribute: &'static str, v: &[f64]) -> Re
     if v.iter().all(|x| x.is_finite()) {
         return Ok(());
     }
-    let shown: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+    let shown: Vec<String> = v.iter().map(|x| Short(*x).to_string()).collect();
     Err(VjmError::InvalidJointValue {
         joint: joint.to_string(),
         attribute,
@@ -462,7 +538,7 @@ fn check_limits(joint: &str, lower: f64, upper: f64, infinite_ok: bool) -> Resul
             return Err(VjmError::InvalidJointValue {
                 joint: joint.to_string(),
                 attribute,
-                message: format!("= {v} is not finite"),
+                message: format!("= {} is not finite", Short(v)),
             });
         }
     }
@@ -470,13 +546,17 @@ fn check_limits(joint: &str, lower: f64, upper: f64, infinite_ok: bool) -> Resul
         return Err(VjmError::InvalidJointValue {
             joint: joint.to_string(),
             attribute: "limit",
-            message: format!("range is empty: lower {lower} > upper {upper} rad"),
+            message: format!(
+                "range is empty: lower {} > upper {} rad",
+                Short(lower),
+                Short(upper)
+            ),
         });
     }
     Ok(())
 }
 
-fn pose_to_isometry(p: &urdf_rs::Pose) -> Isometry3<f64> {
+pub(crate) fn pose_to_isometry(p: &urdf_rs::Pose) -> Isometry3<f64> {
     let [x, y, z] = p.xyz.0;
     let [r, pi, yaw] = p.rpy.0;
     // URDF: R = Rz(yaw)·Ry(pitch)·Rx(roll), which is nalgebra's from_euler_angles.

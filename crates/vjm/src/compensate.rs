@@ -83,7 +83,10 @@ impl CompensateOptions {
             } else {
                 Err(VjmError::InvalidOption {
                     name,
-                    message: format!("must be finite and > 0, got {v}"),
+                    message: format!(
+                        "must be finite and > 0, got {}",
+                        stiffness_core::num::Short(v)
+                    ),
                 })
             }
         };
@@ -96,7 +99,10 @@ impl CompensateOptions {
         {
             return Err(VjmError::InvalidOption {
                 name: "min_inverse_condition",
-                message: format!("must be in [0, 1), got {}", self.min_inverse_condition),
+                message: format!(
+                    "must be in [0, 1), got {}",
+                    stiffness_core::num::Short(self.min_inverse_condition)
+                ),
             });
         }
         if self.max_iterations == 0 || self.max_iterations > 10_000 {

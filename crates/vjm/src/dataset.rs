@@ -34,6 +34,7 @@ use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
+use stiffness_core::num::Short;
 
 /// Largest plausible displacement component, m. A cobot tip moving more than 5 cm under a
 /// static test load is far outside any stiffness experiment; such values are almost always
@@ -52,6 +53,14 @@ pub const JOINT_LIMIT_TOLERANCE: f64 = 1e-3;
 pub const MAX_PLAUSIBLE_FORCE: f64 = 1e5;
 /// Largest plausible moment component, N·m (10 kN·m), for the same reason.
 pub const MAX_PLAUSIBLE_MOMENT: f64 = 1e4;
+/// A campaign whose every force component is below this (N) and every moment component below
+/// [`MIN_INFORMATIVE_MOMENT`] carries no information about a stiffness: 1 mN on a cobot
+/// (1e-4 rad/(N·m), 1 m reach) deflects the tip by 0.1 µm, a hundred times below a laser
+/// tracker's resolution. Such loads are a unit or scaling error (a table multiplied by
+/// 1e-300 gave "rank 0" and an exit status of 0).
+pub const MIN_INFORMATIVE_FORCE: f64 = 1e-3;
+/// The moment counterpart of [`MIN_INFORMATIVE_FORCE`], N·m (1 mN at 0.1 m).
+pub const MIN_INFORMATIVE_MOMENT: f64 = 1e-4;
 
 /// Which part of a campaign a row belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -150,7 +159,7 @@ pub enum DatasetError {
         expected: &'static str,
     },
     /// A cell is NaN or infinite.
-    #[error("line {line}, column '{column}': value {value} is not finite")]
+    #[error("line {line}, column '{column}': value {} is not finite", Short(*.value))]
     NonFinite {
         /// File line (header = 1).
         line: u64,
@@ -168,7 +177,7 @@ pub enum DatasetError {
         label: String,
     },
     /// A displacement, rotation or joint angle is physically implausible for its unit.
-    #[error("line {line}, column '{column}': {value} is larger than physically plausible ({limit} {unit}); {hint}")]
+    #[error("line {line}, column '{column}': {} is larger than physically plausible ({} {unit}); {hint}", Short(*.value), Short(*.limit))]
     Implausible {
         /// File line (header = 1).
         line: u64,
@@ -193,10 +202,13 @@ pub enum DatasetError {
     Empty,
     /// A joint angle lies outside the joint's limits in the robot description.
     #[error(
-        "line {line}, column '{column}' (joint `{joint}`): {value} rad is outside the joint's \
-         limits [{lower}, {upper}] rad (degrees, or a wrong joint order? If the robot really went \
+        "line {line}, column '{column}' (joint `{joint}`): {} rad is outside the joint's \
+         limits [{}, {}] rad (degrees, or a wrong joint order? If the robot really went \
          there, pass allow_outside_limits=True in Python or --allow-outside-limits on the command \
-         line)"
+         line)",
+        Short(*.value),
+        Short(*.lower),
+        Short(*.upper)
     )]
     OutsideLimits {
         /// File line (header = 1; row i of arrays is line i + 2).
@@ -220,6 +232,22 @@ pub enum DatasetError {
     NoLoad {
         /// Rows in the data.
         rows: usize,
+    },
+    /// Every load is so small that no arm deflects measurably under it (see
+    /// [`MIN_INFORMATIVE_FORCE`]).
+    #[error(
+        "the loads carry no information: the largest force component of the {rows} rows is \
+         {force:.3e} N and the largest moment component {moment:.3e} N·m, below what deflects \
+         any arm measurably ({MIN_INFORMATIVE_FORCE} N, {MIN_INFORMATIVE_MOMENT} N·m); check \
+         the unit (N, N·m) and the scale of fx..mz"
+    )]
+    NegligibleLoad {
+        /// Rows in the data.
+        rows: usize,
+        /// The largest |fx|, |fy|, |fz|, N.
+        force: f64,
+        /// The largest |mx|, |my|, |mz|, N·m.
+        moment: f64,
     },
     /// Every displacement is zero: relative errors would be 0/0.
     #[error(
@@ -292,8 +320,9 @@ fn check_len(
 }
 
 /// Checks one value for finiteness and plausibility; `line` is the file line (or row index + 2
-/// for in-memory data, so that messages match the CSV the data would be written to).
-fn check_value(line: u64, column: &str, value: f64) -> Result<(), DatasetError> {
+/// for in-memory data, so that messages match the CSV the data would be written to). The
+/// column's first letter picks the unit (`q`, `f`, `m`, `d`, `r`); also the pose table's.
+pub(crate) fn check_value(line: u64, column: &str, value: f64) -> Result<(), DatasetError> {
     if !value.is_finite() {
         return Err(DatasetError::NonFinite {
             line,
@@ -353,6 +382,20 @@ pub fn check_values(
     displacement: &[f64],
     rotation: Option<&[f64]>,
 ) -> Result<(), DatasetError> {
+    check_cells(n_joints, q, Some(wrench), Some(displacement), rotation)?;
+    check_information(wrench, displacement)
+}
+
+/// The per-cell part of [`check_values`] for the columns that are given; rows are counted
+/// from `q`. Shared with [`check_poses`], so that a prediction refuses exactly the joint
+/// angles and loads an identification refuses.
+fn check_cells(
+    n_joints: usize,
+    q: &[f64],
+    wrench: Option<&[f64]>,
+    displacement: Option<&[f64]>,
+    rotation: Option<&[f64]>,
+) -> Result<(), DatasetError> {
     // The fast path compares without building column names; a name is formatted only for the
     // cell that fails (check_value), so 10⁶ rows cost a few ms.
     // NaN fails too: `is_finite` first, then the cap.
@@ -364,7 +407,7 @@ pub fn check_values(
             Ok(())
         }
     };
-    let rows = displacement.len() / 3;
+    let rows = q.len().checked_div(n_joints).unwrap_or(0);
     for i in 0..rows {
         for j in 0..n_joints {
             let v = q[i * n_joints + j];
@@ -372,16 +415,15 @@ pub fn check_values(
                 check_value(i as u64 + 2, &format!("q{}", j + 1), v)?;
             }
         }
-        for (k, c) in WRENCH_COLUMNS.iter().enumerate() {
-            let limit = if k < 3 {
-                MAX_PLAUSIBLE_FORCE
-            } else {
-                MAX_PLAUSIBLE_MOMENT
-            };
-            check(i, c, wrench[i * 6 + k], limit)?;
+        if let Some(w) = wrench {
+            for (k, c) in WRENCH_COLUMNS.iter().enumerate() {
+                check(i, c, w[i * 6 + k], WRENCH_CAPS[k])?;
+            }
         }
-        for (k, c) in DISPLACEMENT_COLUMNS.iter().enumerate() {
-            check(i, c, displacement[i * 3 + k], MAX_PLAUSIBLE_DISPLACEMENT)?;
+        if let Some(d) = displacement {
+            for (k, c) in DISPLACEMENT_COLUMNS.iter().enumerate() {
+                check(i, c, d[i * 3 + k], MAX_PLAUSIBLE_DISPLACEMENT)?;
+            }
         }
         if let Some(r) = rotation {
             for (k, c) in ROTATION_COLUMNS.iter().enumerate() {
@@ -389,7 +431,32 @@ pub fn check_values(
             }
         }
     }
-    check_information(wrench, displacement)
+    Ok(())
+}
+
+/// The checks of [`check_arrays`] that apply to the input of a prediction or a compensation
+/// (`q` N×n row-major, rad; `wrench` N×6 when the load is given per row): the same
+/// plausibility caps on every joint angle and wrench component and, given a chain, the same
+/// joint limits (callers skip them when the user opts out with `allow_outside_limits`), with
+/// the same messages (row `i` is line `i + 2`). There is no displacement and a zero load is a
+/// valid question, so nothing is required to carry information. Shapes must already match.
+/// [`ArraysCheck::NonFinite`] when a value is NaN or infinite: nothing else was checked, the
+/// caller reports it by array, row and column.
+pub fn check_poses(
+    n_joints: usize,
+    q: &[f64],
+    wrench: Option<&[f64]>,
+    limits_of: Option<&crate::SerialChain>,
+) -> Result<ArraysCheck, DatasetError> {
+    let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
+    if !(finite(q) && wrench.is_none_or(finite)) {
+        return Ok(ArraysCheck::NonFinite);
+    }
+    check_cells(n_joints, q, wrench, None, None)?;
+    if let Some(chain) = limits_of {
+        check_joint_limits(chain, q)?;
+    }
+    Ok(ArraysCheck::Passed)
 }
 
 /// What [`check_arrays`] found when it returned no error.
@@ -1173,6 +1240,20 @@ fn check_information(wrench: &[f64], displacement: &[f64]) -> Result<(), Dataset
     let rows = displacement.len() / 3;
     if wrench.iter().all(|&v| v == 0.0) {
         return Err(DatasetError::NoLoad { rows });
+    }
+    let largest = |k: std::ops::Range<usize>| {
+        wrench
+            .chunks_exact(6)
+            .flat_map(|w| w[k.clone()].iter())
+            .fold(0.0f64, |a, v| a.max(v.abs()))
+    };
+    let (force, moment) = (largest(0..3), largest(3..6));
+    if force < MIN_INFORMATIVE_FORCE && moment < MIN_INFORMATIVE_MOMENT {
+        return Err(DatasetError::NegligibleLoad {
+            rows,
+            force,
+            moment,
+        });
     }
     if displacement.iter().all(|&v| v == 0.0) {
         return Err(DatasetError::NoDisplacement { rows });

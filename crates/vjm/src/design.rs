@@ -22,7 +22,10 @@ pub fn dexterity(chain: &SerialChain, q: &[f64], length: f64) -> Result<f64, Vjm
     if !(length.is_finite() && length > 0.0) {
         return Err(VjmError::InvalidOption {
             name: "length",
-            message: format!("must be finite and > 0 m, got {length}"),
+            message: format!(
+                "must be finite and > 0 m, got {}",
+                stiffness_core::num::Short(length)
+            ),
         });
     }
     let model = VirtualJointModel::traditional(chain.n_joints());

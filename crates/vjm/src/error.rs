@@ -22,6 +22,15 @@ pub enum VjmError {
         /// The parser's message.
         message: String,
     },
+    /// The URDF text is larger or nests deeper than accepted: refused before parsing, so that
+    /// a pathological file cannot overflow the parser's stack (see [`crate::bounded`]).
+    #[error("{}{limit}", path.as_ref().map(|p| format!("`{p}`: ")).unwrap_or_default())]
+    UrdfLimit {
+        /// The file as given, when the text was read from one.
+        path: Option<String>,
+        /// What is too large or too deep, with the limit.
+        limit: crate::bounded::TextLimitError,
+    },
     /// A link named by the caller does not exist in the URDF.
     #[error("the {role} link `{name}` does not exist in the URDF (links: {available})")]
     MissingLink {
@@ -67,7 +76,7 @@ pub enum VjmError {
         kind: String,
     },
     /// A joint axis is zero or not finite.
-    #[error("joint `{joint}` has an invalid axis {axis:?} (must be finite and non-zero)")]
+    #[error("joint `{joint}` has an invalid axis {} (must be finite and non-zero)", stiffness_core::num::short_list(.axis))]
     InvalidAxis {
         /// The joint name.
         joint: String,
@@ -85,6 +94,15 @@ pub enum VjmError {
         /// What is wrong, with the value.
         message: String,
     },
+    /// A link's `<inertial>` cannot give its weight (missing where the link has a shape, or
+    /// not finite), or the chain has no masses at all; only needed where gravity is on.
+    #[error("link `{link}`: {message}")]
+    InvalidInertial {
+        /// The link name (or what stands for it).
+        link: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The chain between base and tip has no actuated joint.
     #[error("the chain from `{base}` to `{tip}` has no revolute or continuous joint")]
     NoActuatedJoints {
@@ -94,7 +112,7 @@ pub enum VjmError {
         tip: String,
     },
     /// A value is NaN or infinite.
-    #[error("non-finite value {value} in {what} at row {row}, column {column}")]
+    #[error("non-finite value {} in {what} at row {row}, column {column}", stiffness_core::num::Short(*.value))]
     NonFinite {
         /// Which input (`"q"`, `"wrench"`, `"displacement"`, `"rotation"`, `"compliance"`, ...).
         what: &'static str,
@@ -161,6 +179,10 @@ pub enum VjmError {
         /// What failed.
         message: String,
     },
+    /// A monitored computation ([`crate::design::plan::design_monitored`]) was cancelled
+    /// through its token.
+    #[error(transparent)]
+    Cancelled(#[from] stiffness_core::Cancelled),
 }
 
 impl From<stiffness_core::lsq::ShapeMismatch> for VjmError {

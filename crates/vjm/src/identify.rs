@@ -486,7 +486,10 @@ fn validate_inner(
         if !(s.is_finite() && *s > 0.0) {
             return Err(VjmError::InvalidOption {
                 name: "noise_sigma",
-                message: format!("entry {i} must be finite and > 0, got {s}"),
+                message: format!(
+                    "entry {i} must be finite and > 0, got {}",
+                    stiffness_core::num::Short(*s)
+                ),
             });
         }
     }

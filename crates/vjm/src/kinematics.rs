@@ -276,9 +276,7 @@ pub fn forward_kinematics_deflected(
     q: &[f64],
     theta: &[f64],
 ) -> Result<Isometry3<f64>, VjmError> {
-    let (frames, tip) = deflected_frames(chain, model, q, theta)?;
-    drop(frames);
-    Ok(tip)
+    Ok(deflected_state(chain, model, q, theta)?.tip)
 }
 
 /// The 6×m virtual-joint Jacobian at the deflected state `theta` (see
@@ -289,8 +287,8 @@ pub fn jacobian_deflected(
     q: &[f64],
     theta: &[f64],
 ) -> Result<DMatrix<f64>, VjmError> {
-    let (frames, tip) = deflected_frames(chain, model, q, theta)?;
-    let p = tip.translation.vector;
+    let state = deflected_state(chain, model, q, theta)?;
+    let (frames, p) = (state.springs, state.tip.translation.vector);
     let mut jac = DMatrix::zeros(6, model.n_params());
     for (k, (w, c)) in frames.iter().enumerate() {
         let lin = w.cross(&(p - c));
@@ -300,14 +298,22 @@ pub fn jacobian_deflected(
     Ok(jac)
 }
 
-/// For every spring, its base-frame axis and centre at the deflected state; and the tip pose.
-#[allow(clippy::type_complexity)]
-fn deflected_frames(
+/// The deflected chain: per spring its base-frame axis and centre, per actuated joint its
+/// child frame after its springs' rotations (the frame its body moves with), and the tip pose.
+#[derive(Debug)]
+pub(crate) struct DeflectedState {
+    pub(crate) springs: Vec<(Vector3<f64>, Vector3<f64>)>,
+    pub(crate) joint_frames: Vec<Isometry3<f64>>,
+    pub(crate) tip: Isometry3<f64>,
+}
+
+/// The deflected chain at `q` and `theta` (see [`forward_kinematics_deflected`]).
+pub(crate) fn deflected_state(
     chain: &SerialChain,
     model: &VirtualJointModel,
     q: &[f64],
     theta: &[f64],
-) -> Result<(Vec<(Vector3<f64>, Vector3<f64>)>, Isometry3<f64>), VjmError> {
+) -> Result<DeflectedState, VjmError> {
     model.check_chain(chain)?;
     chain.check_q(q, 0)?;
     if theta.len() != model.n_params() {
@@ -319,7 +325,8 @@ fn deflected_frames(
     }
     check_finite("theta", theta, 0, 0)?;
     let mut t = Isometry3::identity();
-    let mut out = Vec::with_capacity(model.n_params());
+    let mut springs = Vec::with_capacity(model.n_params());
+    let mut joint_frames = Vec::with_capacity(chain.n_joints());
     for (j, joint) in chain.joints().iter().enumerate() {
         t = t * joint.origin() * rotation_about(joint.axis(), q[j]);
         let axes = spring_axes(joint.axis());
@@ -335,12 +342,17 @@ fn deflected_frames(
             };
             let w = t.rotation * local;
             let c = (t * Point3::from(d)).coords;
-            out.push((w, c));
+            springs.push((w, c));
             let shift = Isometry3::from_parts(Translation3::from(d), Default::default());
             t = t * shift * rotation_about(&local, theta[k]) * shift.inverse();
         }
+        joint_frames.push(t);
     }
-    Ok((out, t * chain.tip_offset()))
+    Ok(DeflectedState {
+        springs,
+        joint_frames,
+        tip: t * chain.tip_offset(),
+    })
 }
 
 /// The complementary stiffness K_C = (∂Jᵀ/∂θ)F (seed eq. 4), m×m, N·m/rad:

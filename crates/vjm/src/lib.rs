@@ -39,12 +39,14 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bounded;
 mod chain;
 mod compensate;
 pub mod dataset;
 pub mod design;
 pub mod diagnose;
 mod error;
+pub mod gravity;
 mod hashing;
 mod identify;
 mod identify_partial;
@@ -54,6 +56,7 @@ pub mod lsq;
 mod model;
 mod predict;
 mod regressor;
+pub mod screening;
 pub mod stiffness_model;
 pub use stiffness_core::stats;
 pub mod testbed;
@@ -66,7 +69,9 @@ pub use compensate::{
     compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
     CompensationStatus, CompensationWorkspace,
 };
-pub use design::plan::{design, predicted_stderr, NoiseModel, Plan, PlanSpec, PlannedCombination};
+pub use design::plan::{
+    design, design_monitored, predicted_stderr, NoiseModel, Plan, PlanSpec, PlannedCombination,
+};
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
 pub use hashing::{kinematics_sha256, sha256_hex};

@@ -20,27 +20,7 @@ pub fn spring_deflection(
     wrench: &[f64; 6],
     with_kc: bool,
 ) -> Result<DVector<f64>, VjmError> {
-    let m = model.n_params();
-    if compliance.len() != m {
-        return Err(VjmError::ShapeMismatch {
-            what: "compliance (one per spring)",
-            expected: m,
-            got: compliance.len(),
-        });
-    }
-    check_finite("compliance", compliance, 0, 0)?;
-    if let Some(i) = compliance.iter().position(|&c| c < 0.0) {
-        // A negative compliance is an unstable spring: the prediction would be meaningless.
-        let s = model.springs()[i];
-        return Err(VjmError::InvalidModel {
-            message: format!(
-                "compliance of spring J{}{} is {} rad/(N·m); compliances must be ≥ 0",
-                s.joint + 1,
-                s.axis,
-                compliance[i]
-            ),
-        });
-    }
+    check_compliance(model, compliance)?;
     check_wrench(wrench, 0)?;
     let j = jacobian(chain, model, q)?;
     let f = DVector::from_column_slice(wrench);
@@ -51,16 +31,14 @@ pub fn spring_deflection(
         return Ok(theta0);
     }
     let kc = complementary_stiffness(chain, model, q, wrench)?;
-    let mut a = DMatrix::identity(m, m);
-    for i in 0..m {
-        for k in 0..m {
-            a[(i, k)] -= c[i] * kc[(i, k)];
-        }
-    }
-    a.lu().solve(&theta0).ok_or_else(|| VjmError::Numerical {
-        message: "I − C·K_C is singular: the load reaches the buckling load of the spring model"
-            .into(),
-    })
+    identity_minus_c_times(&c, &kc)
+        .lu()
+        .solve(&theta0)
+        .ok_or_else(|| VjmError::Numerical {
+            message:
+                "I − C·K_C is singular: the load reaches the buckling load of the spring model"
+                    .into(),
+        })
 }
 
 /// The tip deflection `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame; rotation as a small
@@ -88,4 +66,41 @@ pub fn predict_deflection(
     let j = jacobian(chain, model, q)?;
     let d = j * theta;
     Ok([d[0], d[1], d[2], d[3], d[4], d[5]])
+}
+
+/// Checks that `compliance` has one finite value ≥ 0 per spring of `model` (rad/(N·m)).
+pub(crate) fn check_compliance(
+    model: &VirtualJointModel,
+    compliance: &[f64],
+) -> Result<(), VjmError> {
+    let m = model.n_params();
+    if compliance.len() != m {
+        return Err(VjmError::ShapeMismatch {
+            what: "compliance (one per spring)",
+            expected: m,
+            got: compliance.len(),
+        });
+    }
+    check_finite("compliance", compliance, 0, 0)?;
+    if let Some(i) = compliance.iter().position(|&c| c < 0.0) {
+        // A negative compliance is an unstable spring: the prediction would be meaningless.
+        let s = model.springs()[i];
+        return Err(VjmError::InvalidModel {
+            message: format!(
+                "compliance of spring J{}{} is {} rad/(N·m); compliances must be ≥ 0",
+                s.joint + 1,
+                s.axis,
+                stiffness_core::num::Short(compliance[i])
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// `I − C T` for the diagonal compliance `c` and a stiffness `t` (m×m): the tangent of the
+/// springs' equilibrium `θ = C τ(θ)` where `t = ∂τ/∂θ`, in compliance form so that rigid
+/// springs (c = 0) are fine.
+pub(crate) fn identity_minus_c_times(c: &DVector<f64>, t: &DMatrix<f64>) -> DMatrix<f64> {
+    let m = c.len();
+    DMatrix::from_fn(m, m, |i, k| f64::from(u8::from(i == k)) - c[i] * t[(i, k)])
 }

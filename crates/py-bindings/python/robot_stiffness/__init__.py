@@ -21,8 +21,14 @@ from measurement files.
 
 from __future__ import annotations
 
-from . import _core
-from ._errors import (
+from ._interrupt import leave_quietly_while_starting
+
+# Before the extension and numpy load (a few hundred ms): a Ctrl-C of the console script then
+# exits 130 without a traceback.
+leave_quietly_while_starting()
+
+from . import _core  # noqa: E402
+from ._errors import (  # noqa: E402
     ArgumentTypeError,
     CancelledError,
     ConvergenceError,
@@ -36,6 +42,7 @@ from ._errors import (
     RobotModelError,
     ShapeError,
     StiffnessError,
+    SuspiciousDataWarning,
 )
 
 __version__: str = _core.__version__
@@ -62,4 +69,5 @@ __all__ = [
     "CancelledError",
     "ArgumentTypeError",
     "OutputPathError",
+    "SuspiciousDataWarning",
 ]

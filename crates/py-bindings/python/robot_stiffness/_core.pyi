@@ -44,9 +44,14 @@ __all__ = [
     "vjm_compensate_model_file",
     "vjm_design",
     "vjm_diagnose",
+    "vjm_deflection_under_gravity",
+    "vjm_gravity_sag",
+    "vjm_gravity_stiffness",
+    "vjm_gravity_torques",
     "vjm_identify_model",
     "vjm_identify_timed",
     "vjm_jacobian_timed",
+    "vjm_model_file_robot",
     "vjm_read_csv",
     "vjm_read_poses",
     "vjm_seed_study",
@@ -135,6 +140,37 @@ def vjm_identify_timed(
     repeats: int = 1,
 ) -> List[float]: ...
 def vjm_jacobian_timed(robot: Robot, q: _F64, model: _Model, repeats: int = 1) -> List[float]: ...
+def vjm_gravity_torques(
+    robot: Robot,
+    q: _F64,
+    model: _Model,
+    gravity: Tuple[float, float, float],
+    payload: Optional[Tuple[float, Tuple[float, float, float]]] = None,
+) -> _F64: ...
+def vjm_gravity_sag(
+    robot: Robot,
+    compliance: _F64,
+    q: _F64,
+    model: _Model,
+    gravity: Tuple[float, float, float],
+    payload: Optional[Tuple[float, Tuple[float, float, float]]] = None,
+) -> _F64: ...
+def vjm_deflection_under_gravity(
+    robot: Robot,
+    compliance: _F64,
+    q: _F64,
+    wrench: _F64,
+    model: _Model,
+    gravity: Tuple[float, float, float],
+    payload: Optional[Tuple[float, Tuple[float, float, float]]] = None,
+) -> _F64: ...
+def vjm_gravity_stiffness(
+    robot: Robot,
+    q: _F64,
+    model: _Model,
+    gravity: Tuple[float, float, float],
+    payload: Optional[Tuple[float, Tuple[float, float, float]]] = None,
+) -> _F64: ...
 def vjm_identify_model(
     robot: Robot,
     q: _F64,
@@ -152,6 +188,7 @@ def vjm_identify_model(
     allow_outside_limits: bool = False,
 ) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
+def vjm_model_file_robot(path: _Path) -> Optional[Tuple[Optional[str], str, str]]: ...
 def vjm_compensate(
     robot: Robot,
     model: _Model,
@@ -165,6 +202,7 @@ def vjm_compensate(
     position_tol: float = 1e-9,
     rotation_tol: float = 1e-9,
     check_limits: bool = True,
+    allow_outside_limits: bool = False,
 ) -> Tuple[_F64, _F64, List[str]]: ...
 def vjm_compensate_model_file(
     robot: Robot,
@@ -178,6 +216,7 @@ def vjm_compensate_model_file(
     position_tol: float = 1e-9,
     rotation_tol: float = 1e-9,
     check_limits: bool = True,
+    allow_outside_limits: bool = False,
 ) -> Tuple[_F64, _F64, List[str]]: ...
 def vjm_design(
     robot: Robot,
@@ -189,8 +228,9 @@ def vjm_design(
     pool_size: int = 300,
     force: float = 80.0,
     moment: float = 3.0,
+    progress: Optional[Callable[[str, int, int], Any]] = None,
 ) -> str: ...
-def vjm_seed_study(robot: Robot, tilt_ratio: float = 0.5, noise: bool = True, seed: int = 0) -> str: ...
+def vjm_seed_study(robot: Robot, tilt_ratio: Optional[float] = None, noise: bool = True, seed: int = 0) -> str: ...
 def vjm_diagnose(
     robot: Robot,
     q: _F64,
@@ -320,6 +360,7 @@ class StiffnessModel:
         q: _F64,
         wrench: Optional[_F64] = None,
         payload: Optional[Tuple[float, float, float, float]] = None,
+        allow_outside_limits: bool = False,
     ) -> Dict[str, Any]: ...
     def compensate(
         self,
@@ -332,4 +373,5 @@ class StiffnessModel:
         position_tol: float = 1e-9,
         rotation_tol: float = 1e-9,
         check_limits: bool = True,
+        allow_outside_limits: bool = False,
     ) -> Tuple[_F64, _F64, List[str]]: ...

@@ -26,6 +26,7 @@ __all__ = [
     "CancelledError",
     "ArgumentTypeError",
     "OutputPathError",
+    "SuspiciousDataWarning",
     "reworded",
 ]
 
@@ -96,6 +97,15 @@ class CancelledError(StiffnessError, RuntimeError):
     Ctrl-C during a long call raises the ordinary ``KeyboardInterrupt`` and an exception raised
     by a ``progress`` callback propagates as itself; this class covers a cancel with neither
     cause."""
+class SuspiciousDataWarning(UserWarning):
+    """Measurements that passed every check, or an identification from them, look wrong: a
+    row whose load or displacement is orders of magnitude above the others, a compliance
+    beyond any arm's (wrenches in kN? displacements in mm?), a compliance negative beyond
+    doubt. Issued by :meth:`robot_stiffness.vjm.Robot.identify` (the messages are also in
+    ``Identification.warnings``; the command line prints them as ``warning:`` lines). Turn it
+    into an error with ``warnings.simplefilter("error", SuspiciousDataWarning)``."""
+
+
 @contextlib.contextmanager
 def reworded(names: Mapping[str, str]) -> Iterator[None]:
     """Within the block, a :class:`StiffnessError` whose message names a term of another

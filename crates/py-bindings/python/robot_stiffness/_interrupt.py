@@ -25,6 +25,7 @@ Python < 3.13 (bpo-45274: ``is_alive()`` then says False for a running thread).
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import sys
 import threading
@@ -180,3 +181,32 @@ def flush_std_streams() -> None:
             stream.flush()
         except (OSError, ValueError):
             pass
+
+
+def _leave_while_starting(signum: int, frame: Any) -> None:
+    # Nothing has been reserved or written yet: leave at once, without the traceback of a
+    # KeyboardInterrupt raised inside an import (or inside rust-numpy's first import of numpy's
+    # C-API capsule, which it turns into a panic).
+    os.write(2, b"robot-stiffness: interrupted\n")
+    os._exit(130 if signum == signal.SIGINT else 143)
+
+
+def _launched_as_console_script() -> bool:
+    argv = list(getattr(sys, "orig_argv", []))
+    if "-m" in argv[:-1] and argv[argv.index("-m") + 1] == "robot_stiffness.cli":
+        return True
+    name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
+    return name in ("robot-stiffness", "robot-stiffness.exe")
+
+
+def leave_quietly_while_starting() -> None:
+    """When the process is the console script, SIGINT/SIGTERM that arrive while the package is
+    still importing (before :func:`signals_raise` takes over) end it with 130/143 and one line,
+    no traceback. A library import (``import robot_stiffness``) keeps Python's handlers; a
+    signal the caller ignores stays ignored."""
+    if not _in_main_thread() or not _launched_as_console_script():
+        return
+    defaults = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
+    for sig, default in defaults.items():
+        if signal.getsignal(sig) is default:
+            signal.signal(sig, _leave_while_starting)

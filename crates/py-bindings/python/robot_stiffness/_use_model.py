@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -157,6 +157,7 @@ def compensate(
     payload: Any = None,
     match_orientation: bool = False,
     with_kc: bool = True,
+    allow_outside_limits: bool = False,
 ) -> Compensation:
     """Corrected joint targets so that the loaded tip reaches the nominal unloaded tip.
 
@@ -165,13 +166,15 @@ def compensate(
     minimum-norm solution); the load is ``wrench`` (N, 6) N and N·m at the tip point, base frame,
     or ``payload`` ``(mass,)`` / ``(mass, cx, cy, cz)`` kg and m in the tip frame (gravity along −z
     of the base). ``match_orientation`` matches the tip orientation too; ``with_kc`` includes the
-    complementary stiffness K_C in the deflection.
+    complementary stiffness K_C in the deflection. The inputs get the checks of
+    :meth:`Robot.identify <robot_stiffness.vjm.Robot.identify>` (implausible angles or loads,
+    joint angles outside the URDF limits — ``allow_outside_limits=True`` to accept those).
     """
     inner = _robot_inner(robot)
     arr, w = _q_and_wrench(q, wrench)
     out = _core.vjm_compensate(
         inner, _model(model), f64(compliance, "compliance"), arr, w, _payload(payload),
-        bool(match_orientation), bool(with_kc),
+        bool(match_orientation), bool(with_kc), allow_outside_limits=bool(allow_outside_limits),
     )
     return _compensation(*out)
 
@@ -185,6 +188,7 @@ def compensate_with_model_file(
     payload: Any = None,
     match_orientation: Optional[bool] = None,
     with_kc: bool = True,
+    allow_outside_limits: bool = False,
 ) -> Compensation:
     """:func:`compensate` with the springs and compliances of a saved model file (``identify vjm
     --save``); the file's robot and content hash are checked. ``match_orientation`` defaults to
@@ -192,7 +196,8 @@ def compensate_with_model_file(
     inner = _robot_inner(robot)
     arr, w = _q_and_wrench(q, wrench)
     out = _core.vjm_compensate_model_file(
-        inner, str(path), arr, w, _payload(payload), match_orientation, bool(with_kc)
+        inner, str(path), arr, w, _payload(payload), match_orientation, bool(with_kc),
+        allow_outside_limits=bool(allow_outside_limits),
     )
     return _compensation(*out)
 
@@ -206,14 +211,21 @@ def design(
     seed: int = 0,
     margin: float = 0.1,
     pool_size: int = 300,
+    progress: Optional[Callable[[str, int, int], None]] = None,
 ) -> Plan:
     """Plans a campaign: ``poses`` poses inside the joint limits (``margin`` rad inside) and
     ``wrenches_per_pose`` wrenches each (80 N, 3 N·m), chosen greedily to minimise the worst
     predicted standard error of the identifiable combinations of ``model``, under the testbed's
-    laser-tracker and force/torque-sensor noise with its nominal compliances as the prior."""
+    laser-tracker and force/torque-sensor noise with its nominal compliances as the prior.
+    Limits: ``poses`` ≤ 10 000, ``wrenches_per_pose`` ≤ 100, at most 100 000 measurements
+    (poses × wrenches), ``pool_size`` ≤ 100 000 (the largest take under a minute).
+    ``progress(stage, done, total)`` is called during the run (stages ``poses``, ``pool``,
+    ``selection``, ``check``); an exception it raises, or Ctrl-C, stops it."""
+    if progress is not None and not callable(progress):
+        raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     inner = _robot_inner(robot)
     text = _core.vjm_design(inner, _model(model), int(poses), int(wrenches_per_pose), int(seed), float(margin),
-                            int(pool_size))
+                            int(pool_size), progress=progress)
     doc = json.loads(text)
     labels = robot.labels(model)
     n = robot.n_joints

@@ -26,12 +26,13 @@ import re
 import sys
 import time
 import traceback
+import warnings
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequence, Tuple
 
 from . import __version__, cli_model
 from . import _cli_types as T
-from ._errors import DataFileError, StiffnessError, reworded
+from ._errors import DataFileError, StiffnessError, SuspiciousDataWarning, reworded
 from ._interrupt import (
     Cancelled,
     Terminated,
@@ -43,6 +44,12 @@ from ._interrupt import (
     worker_running,
 )
 from ._outputs import Outputs
+
+if __name__ == "__main__":
+    # `python -m robot_stiffness.cli`: the subcommand modules' `from .cli import …` must find
+    # this module, not import a second copy whose CliError the handler here does not know
+    # (it would be reported as an internal error).
+    sys.modules.setdefault("robot_stiffness.cli", sys.modules[__name__])
 
 PROG = "robot-stiffness"
 
@@ -63,9 +70,11 @@ Examples:
   robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
   robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
 
-Outputs: every output path is checked before the run. A --report/--out folder is created if
-missing; an existing non-empty one needs --force, and then only the files robot-stiffness wrote
-there earlier (its .robot-stiffness-manifest.json) are replaced — nothing else is touched.
+Outputs: every output path is checked before the run. No output may be an input (or the URDF a
+model file names); outputs are regular files (a FIFO, device, socket or symbolic link is refused). An existing
+output file is replaced only with --force. A --report/--out folder is created if missing; an
+existing non-empty one needs --force, and then only the files robot-stiffness wrote there earlier
+(its signed .robot-stiffness-manifest.json) are replaced — nothing else is touched.
 Exit status: 0 done, 1 error (one line on stderr), 2 bad flag, 130 Ctrl-C, 143 SIGTERM.
 ROBOT_STIFFNESS_DEBUG=1 shows the traceback of an internal error.
 """
@@ -483,6 +492,24 @@ DEMO_EFFECTS: List[Dict[str, Any]] = [
 ]
 
 
+def _seed_study_lines(study: Any) -> List[str]:
+    """The demo's two lines on the seed study: ours next to the seed's for the same metric
+    (the seed's is the error of the deflection magnitude), then the vector error."""
+    paper, trad, ext = study.paper, study.traditional, study.extended
+    return [
+        f"Seed study (Table I poses, truth at the seed's {100 * study.torsion_share:.1f} % torsion share), "
+        f"error of the deflection magnitude (the seed's metric): traditional {100 * trad.magnitude.all:.2f} % → "
+        f"extended {100 * ext.magnitude.all:.2f} % over the 26 tests (seed: {100 * paper.traditional_all:.2f} % → "
+        f"{100 * paper.extended_all:.2f} %); worst verification test, extended: "
+        f"{100 * ext.magnitude.verification_max:.1f} % at test {ext.magnitude.verification_max_test} "
+        f"(seed: {100 * paper.extended_verification_max:.1f} % at test {paper.extended_verification_max_test}).",
+        f"Seed study, error of the deflection vector ‖d_pred − d‖/‖d‖ (the seed does not report it): "
+        f"traditional {100 * trad.vector.all:.2f} % → extended {100 * ext.vector.all:.2f} % over the 26 tests; "
+        f"worst verification test, extended: {100 * ext.vector.verification_max:.1f} % at test "
+        f"{ext.vector.verification_max_test}.",
+    ]
+
+
 def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     from .report import REPORT_FILES, story
     from .vjm import Robot, seed_study, simulate
@@ -510,9 +537,8 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
           f"on the bundled Franka Panda; hidden in the truth: {hidden}.")
     for line in story(result):
         print(line)
-    print(f"Seed study (Table I poses): traditional {100 * study['traditional_verification_error']:.2f} % → "
-          f"extended {100 * study['extended_verification_error']:.2f} % verification error "
-          f"(the seed paper reports 7.75 % → 3.74 %).")
+    for line in _seed_study_lines(study):
+        print(line)
     print(f"Wrote {directory}/ (campaign.csv, diagnosis.json, report/report.md) in {time.monotonic() - t0:.1f} s.")
     return 0
 
@@ -526,8 +552,9 @@ REPORT_HELP = (
 )
 ROWS_HELP = "also write the per-row data (measured, baseline and extended values) as CSV"
 FORCE_HELP = (
-    "write into a non-empty output folder: replace only the files robot-stiffness wrote there "
-    "earlier (listed in its .robot-stiffness-manifest.json); every other file is left alone"
+    "replace existing output files; in a non-empty output folder replace only the files "
+    "robot-stiffness wrote there earlier (listed in its signed .robot-stiffness-manifest.json), "
+    "every other file is left alone"
 )
 
 
@@ -586,6 +613,7 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
                     help="random seed, 0..2**64-1; same seed, same file (default 0)")
     sv.add_argument("--no-noise", action="store_true", help="no instrument noise")
     sv.add_argument("--truth", metavar="TRUTH.json", help="also write the hidden true model as JSON")
+    sv.add_argument("--force", action="store_true", help=FORCE_HELP)
     sv.set_defaults(func=cmd_simulate)
     sc = sim_sub.add_parser(
         "csjm",
@@ -608,6 +636,7 @@ effects (--effect NAME:key=value,...):
                     help=f"largest load increment, N·m, at most {T.MAX_CSJM_INCREMENT:g} (default 1)")
     sc.add_argument("--seed", type=T.seed, default=0, help="random seed, 0..2**64-1 (default 0)")
     sc.add_argument("--truth", metavar="TRUTH.json", help="also write the true stiffness as JSON")
+    sc.add_argument("--force", action="store_true", help=FORCE_HELP)
     sc.set_defaults(func=cmd_simulate_csjm)
 
     # identify
@@ -634,6 +663,7 @@ effects (--effect NAME:key=value,...):
                     help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")
     iv.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
     cli_model.add_save_option(iv)
+    iv.add_argument("--force", action="store_true", help=FORCE_HELP)
     iv.set_defaults(func=cmd_identify_vjm)
     ic = ide_sub.add_parser(
         "csjm",
@@ -646,6 +676,7 @@ effects (--effect NAME:key=value,...):
     ic.add_argument("--project", action="store_true",
                     help="project measured orientation matrices onto SO(3) instead of rejecting them")
     ic.add_argument("--json", metavar="OUT.json", help="write K, K_D, K_stderr, tau0, n, order as JSON")
+    ic.add_argument("--force", action="store_true", help=FORCE_HELP)
     ic.set_defaults(func=cmd_identify_csjm)
 
     # diagnose
@@ -701,7 +732,7 @@ effects (--effect NAME:key=value,...):
     dc.add_argument("--force", action="store_true", help=FORCE_HELP)
     dc.set_defaults(func=cmd_diagnose_csjm)
 
-    cli_model.add_commands(sub, sys.modules[__name__])  # predict
+    cli_model.add_commands(sub, sys.modules[__name__], FORCE_HELP)  # predict
 
     # demo
     demo = sub.add_parser(
@@ -776,9 +807,11 @@ def _outcome(e: BaseException, out: Outputs) -> Tuple[int, Optional[str]]:
 def _run(args: argparse.Namespace) -> int:
     cancel.clear()
     inputs = [getattr(args, k, None) for k in ("data", "urdf", "model_file")]
-    out = Outputs(inputs=inputs)
+    out = Outputs(inputs=inputs, force=bool(getattr(args, "force", False)))
     with signals_raise():
         try:
+            for path, what in cli_model.named_inputs(args):  # the URDF a model file names
+                out.add_input(path, what)
             return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:
             with signals_deferred():
@@ -792,12 +825,30 @@ def _run(args: argparse.Namespace) -> int:
                 out.discard()
 
 
+def _warning_lines() -> None:
+    """The package's warnings (:class:`SuspiciousDataWarning`) as one ``robot-stiffness:
+    warning: …`` line on stderr each, without Python's file and line; others as Python
+    shows them."""
+    python_way = warnings.showwarning
+
+    def show(message: Any, category: Any, filename: str, lineno: int, file: Any = None,
+             line: Optional[str] = None) -> None:
+        if isinstance(category, type) and issubclass(category, SuspiciousDataWarning):
+            print(f"{PROG}: warning: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+        else:
+            python_way(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``robot-stiffness`` console script; returns the exit status.
 
     Exit status: 0 success, 1 a bad input or an error (one line on stderr), 2 a bad flag,
     130 Ctrl-C, 143 SIGTERM. Every temporary file is removed in all of these cases.
+    Warnings about the data go to stderr as ``robot-stiffness: warning: …`` lines.
     """
+    _warning_lines()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -8,16 +8,19 @@ command) and :func:`add_save_option` (``--save`` on ``identify vjm``).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
-from typing import Any, List, Optional
+from typing import Any, List, Optional, Tuple
 
 import numpy as np
+from ._errors import reworded
+from ._interrupt import in_worker
+from .model import BUNDLED_URDF_PATH, recorded_urdf
 
 
-BUNDLED_URDF_PATH = "bundled:panda_arm.urdf"
+#: The core's name of a bad payload, as the command line spells it (predict and compensate).
+PAYLOAD_NAMES = {"invalid payload:": "--payload:"}
 
 PREDICT_EPILOG = """\
 POSES.csv: a header and one row per pose: q1..qn (rad) and either fx,fy,fz,mx,my,mz (N, N·m, at
@@ -66,7 +69,7 @@ def write_model(staged: Any, result: Any) -> None:
 _CLI: Any = None
 
 
-def add_commands(sub: Any, cli: Any) -> None:
+def add_commands(sub: Any, cli: Any, force_help: str) -> None:
     """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser;
     ``cli`` is the calling CLI module (for its robot options, input checks and CliError)."""
     global _CLI
@@ -92,12 +95,16 @@ def add_commands(sub: Any, cli: Any) -> None:
     pv.add_argument("model_file", metavar="MODEL.json", help="stiffness model file (identify vjm --save)")
     pv.add_argument("data", metavar="POSES.csv", help="poses (q1..qn) and optionally fx..mz")
     pv.add_argument("--out", required=True, metavar="PRED.csv", help="predictions to write")
+    pv.add_argument("--force", action="store_true", help=force_help)
     pv.add_argument(
         "--payload",
         metavar="MASS[,cx,cy,cz]",
         help="a point mass in kg at (cx,cy,cz) m in the tip frame (default at the tip point), gravity "
         "9.80665 m/s² along −z of the base frame; instead of the fx..mz columns",
     )
+    pv.add_argument("--allow-outside-limits", action="store_true",
+                    help="accept joint angles outside the URDF limits (refused by default, as by identify: "
+                    "degrees or a wrong joint order?)")
     _add_robot_args(pv)
     pv.set_defaults(func=cmd_predict_vjm)
 
@@ -115,14 +122,24 @@ def _parse_payload(text: str) -> List[float]:
 
 def _recorded_robot(path: str) -> Optional[dict]:
     """The ``robot`` record of a model file, or None when the file cannot be read as one (the
-    loader then reports what is wrong)."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = json.load(f)
-        robot = doc["model"]["robot"]
-        return robot if isinstance(robot, dict) else None
-    except (OSError, ValueError, KeyError, TypeError):
+    loader then reports what is wrong). The core reads it with the loader's size and nesting
+    bounds: Python's ``json`` recurses (RecursionError on 200 000 nested ``[``)."""
+    from . import _core
+
+    if not Path(path).is_file():  # a FIFO would block; a folder or a missing file is reported later
         return None
+    rec = _core.vjm_model_file_robot(path)
+    return None if rec is None else {"urdf": rec[0], "base": rec[1], "tip": rec[2]}
+
+
+def named_inputs(args: argparse.Namespace) -> List[Tuple[str, str]]:
+    """The files the command's model file names (its URDF), with what they are: inputs that no
+    output may replace, even when ``--urdf`` overrides the robot."""
+    model_file = getattr(args, "model_file", None)
+    if not model_file:
+        return []
+    urdf = recorded_urdf(_recorded_robot(model_file))
+    return [] if urdf is None else [(urdf, f"the URDF {model_file} names")]
 
 
 def _robot_for(args: argparse.Namespace) -> Any:
@@ -133,8 +150,8 @@ def _robot_for(args: argparse.Namespace) -> Any:
     rec = _recorded_robot(args.model_file)
     if rec is None:
         return Robot.bundled()
-    urdf, base, tip = rec.get("urdf"), rec.get("base"), rec.get("tip")
-    if urdf == BUNDLED_URDF_PATH:
+    urdf, base, tip = recorded_urdf(rec), rec.get("base"), rec.get("tip")
+    if rec.get("urdf") == BUNDLED_URDF_PATH:
         return Robot.bundled(tip)
     if not urdf:
         raise _CLI.CliError(f"{args.model_file} records no URDF path: give --urdf, --base and --tip")
@@ -175,12 +192,16 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     payload = None if args.payload is None else _parse_payload(args.payload)
     robot = _robot_for(args)
     model = StiffnessModel.load(args.model_file, robot)
-    q, wrench = _core.vjm_read_poses(args.data, robot._inner)
+    # The long Rust calls run in a worker so that Ctrl-C ends the command at once (in_worker).
+    q, wrench = in_worker(_core.vjm_read_poses, args.data, robot._inner)
     if payload is not None and wrench is not None:
         raise _CLI.CliError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
         raise _CLI.CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
-    pred = model.predict(q, wrench=wrench, payload=payload)
+    # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
+    with _CLI._data_file(args.data), reworded(PAYLOAD_NAMES):
+        pred = in_worker(model.predict, q, wrench=wrench, payload=payload,
+                         allow_outside_limits=args.allow_outside_limits)
     staged.write_text(predictions_csv(robot.n_joints, q, pred))
     out.commit()
     n = q.shape[0]

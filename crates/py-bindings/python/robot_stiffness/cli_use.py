@@ -40,12 +40,14 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     dv.add_argument("--model", default="extended",
                     help="traditional, extended or labels like J1z,J2x (default extended)")
     dv.add_argument("--poses", type=T.count(1, 10000), default=24, help="number of poses (default 24)")
-    dv.add_argument("--wrenches-per-pose", type=T.count(1, 100), default=4, help="wrenches per pose (default 4)")
+    dv.add_argument("--wrenches-per-pose", type=T.count(1, 100), default=4,
+                    help="wrenches per pose (default 4); poses × wrenches at most 100000")
     dv.add_argument("--margin", type=T.positive_float(3.2, "rad"), default=0.1,
                     help="stay this far inside every joint limit, rad (default 0.1)")
     dv.add_argument("--pool", type=T.count(1, 100000), default=300, help="candidate poses drawn (default 300)")
     dv.add_argument("--seed", type=T.seed, default=0, help="seed of the candidate poses (default 0)")
     dv.add_argument("--out", required=True, metavar="PLAN.csv", help="the planned rows (dx,dy,dz empty)")
+    dv.add_argument("--force", action="store_true", help=force_help)
     dv.set_defaults(func=cmd_design_vjm)
 
     com = sub.add_parser("compensate", help="corrected joint targets for a trajectory under load",
@@ -67,20 +69,30 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     cv.add_argument("--position-only", action="store_true",
                     help="match the position only (default: also the orientation when the model has rotations)")
     cv.add_argument("--no-kc", action="store_true", help="leave out the complementary stiffness K_C")
+    cv.add_argument("--allow-outside-limits", action="store_true",
+                    help="accept nominal joint angles outside the URDF limits (refused by default, as by identify: "
+                    "degrees or a wrong joint order?)")
     cv.add_argument("--out", required=True, metavar="COMP.csv", help="corrected targets and per-row outcome")
     cv.add_argument("--plot", metavar="FILE.png", help="deflection along the trajectory before/after (PNG)")
+    cv.add_argument("--force", action="store_true", help=force_help)
     cv.set_defaults(func=cmd_compensate_vjm)
 
 
 def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
-    from .cli import _robot
+    from .cli import _clear_progress, _progress, _robot, _show_progress
     from .vjm import design
 
     plan_out = out.file(args.out, "--out")
     robot = _robot(args)
     model: Any = args.model if args.model in ("traditional", "extended") else args.model.split(",")
-    plan = in_worker(design, robot, model=model, poses=args.poses, wrenches_per_pose=args.wrenches_per_pose,
-                     seed=args.seed, margin=args.margin, pool_size=max(args.pool, args.poses))
+    show = _show_progress(args)
+    try:
+        # The callback shows progress on a terminal and stops the core once Ctrl-C was seen.
+        plan = in_worker(design, robot, model=model, poses=args.poses, wrenches_per_pose=args.wrenches_per_pose,
+                         seed=args.seed, margin=args.margin, pool_size=max(args.pool, args.poses),
+                         progress=_progress(show, "design"))
+    finally:
+        _clear_progress(show)
     plan_out.write_text(plan.csv_text())
     out.commit()
     print(f"Planned {len(plan.pose)} measurements ({args.poses} poses × {args.wrenches_per_pose} wrenches) "
@@ -133,31 +145,34 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from pathlib import Path
 
     from . import _core
-    from ._errors import InvalidValueError, MissingFileError
-    from .cli import CliError, _check_input
-    from .cli_model import _parse_payload, _robot_for
+    from ._errors import InvalidValueError, MissingFileError, reworded
+    from . import cli_model  # its _CLI: the running CLI module (__main__ under python -m)
+    from .cli import _check_input
+    from .cli_model import PAYLOAD_NAMES, _parse_payload, _robot_for
     from .vjm import compensate_with_model_file
 
     for path, what in ((args.model_file, "MODEL.json"), (args.data, "TRAJ.csv")):
         _check_input(path, what)
         if not Path(path).exists():
             raise MissingFileError(f"{what} {path}: file not found")
-    for flag, value in (("--out", args.out), ("--plot", args.plot)):
-        if value is not None and Path(value).exists() and Path(value).resolve() == Path(args.model_file).resolve():
-            raise CliError(f"{flag} is the model file MODEL.json; choose another output name")
+    # --out/--plot onto MODEL.json, TRAJ.csv, --urdf or the URDF the model names: refused by
+    # `out` (cli._run gives it the inputs).
     comp_out = out.file(args.out, "--out")
     plot_out = out.file(args.plot, "--plot") if args.plot is not None else None
     payload = None if args.payload is None else _parse_payload(args.payload)
     robot = _robot_for(args)  # the robot the model file records, unless --urdf/--base/--tip
-    q, wrench = _core.vjm_read_poses(args.data, robot._inner)
+    q, wrench = in_worker(_core.vjm_read_poses, args.data, robot._inner)  # Ctrl-C stays prompt
     if payload is not None and wrench is not None:
         raise InvalidValueError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
         raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
-    comp = in_worker(
-        compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
-        match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
-    )
+    # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
+    with cli_model._CLI._data_file(args.data), reworded(PAYLOAD_NAMES):
+        comp = in_worker(
+            compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
+            match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
+            allow_outside_limits=args.allow_outside_limits,
+        )
     comp_out.write_text(_comp_csv(q, comp))
     if plot_out is not None:
         plot_compensation(plot_out.tmp, comp)

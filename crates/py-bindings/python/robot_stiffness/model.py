@@ -38,6 +38,7 @@ from . import _core
 from ._arguments import checked, real
 from ._arrays import f64
 from ._errors import InvalidValueError
+from ._outputs import Outputs
 from ._use_model import Compensation, _compensation, _q_and_wrench
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -50,6 +51,22 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 #: Standard gravity (m/s²) acting along −z of the base frame on a payload (vjm::STANDARD_GRAVITY).
 STANDARD_GRAVITY = 9.80665
+
+#: The ``urdf`` a model file records for the bundled arm (vjm::BUNDLED_URDF_PATH).
+BUNDLED_URDF_PATH = "bundled:panda_arm.urdf"
+
+
+def recorded_urdf(robot: Optional[Dict[str, Any]]) -> Optional[str]:
+    """The URDF file a model's ``robot`` record names, as the CLI's loader opens it (the
+    recorded path as given, so a relative one is relative to the current folder); None for the
+    bundled arm, URDF text given directly, or no record. The CLI loads the robot from it and
+    protects it as an input of ``predict``/``compensate``; :meth:`StiffnessModel.save` never
+    writes over it: one rule for the three."""
+    urdf = robot.get("urdf") if isinstance(robot, dict) else None
+    if not isinstance(urdf, str) or not urdf or urdf == BUNDLED_URDF_PATH:
+        return None
+    return urdf
+
 
 #: A payload: a mass in kg (at the tip point), or ``(mass, cx, cy, cz)`` with the centre of
 #: mass in m in the tip frame.
@@ -121,9 +138,20 @@ class StiffnessModel:
         return cls(_core.StiffnessModel.load(os.fspath(path), robot._inner), robot)
 
     @checked
-    def save(self, path: PathLike) -> None:
-        """Writes the model file to ``path`` atomically (a failure leaves ``path`` untouched)."""
-        self._inner.save(os.fspath(path))
+    def save(self, path: PathLike, *, force: bool = False) -> None:
+        """Writes the model file to ``path`` atomically (a failure leaves ``path`` untouched).
+
+        Raises :class:`~robot_stiffness.OutputPathError` when ``path`` exists (unless ``force``),
+        is not a regular file (a FIFO, a device, a symbolic link: never replaced), or is the
+        URDF this model names; the rules of the CLI's outputs (``docs/python.md``)."""
+        urdf = recorded_urdf(self.to_dict().get("robot"))
+        out = Outputs(inputs=[] if urdf is None else [(urdf, "the URDF this model names")], force=force,
+                      hint="force=True")
+        try:
+            out.file(path).write_text(self.to_json())
+            out.commit()
+        finally:
+            out.discard()
 
     def to_json(self) -> str:
         """The model file's text."""
@@ -175,6 +203,7 @@ class StiffnessModel:
         q: Any,
         wrench: Any = None,
         payload: Optional[Payload] = None,
+        allow_outside_limits: bool = False,
     ) -> Prediction:
         """Predicted tip deflections and their standard deviations.
 
@@ -183,6 +212,12 @@ class StiffnessModel:
         ``payload`` — a mass in kg, or ``(mass, cx, cy, cz)`` with the centre of mass in m in
         the tip frame, under gravity 9.80665 m/s² along −z of the base frame. Returns a
         :class:`Prediction` with one row per configuration.
+
+        The inputs get the checks of :meth:`robot_stiffness.vjm.Robot.identify` (a
+        :class:`~robot_stiffness.DataFileError` naming the row and column): joint angles
+        within two turns (else degrees?) and inside the URDF limits —
+        ``allow_outside_limits=True`` to accept those — forces up to 1e5 N and moments up to
+        1e4 N·m, a payload whose weight and moment stay within those.
         """
         arr = f64(q, "q")
         if arr.ndim == 1:
@@ -193,7 +228,7 @@ class StiffnessModel:
             if w.ndim == 1:
                 w = np.broadcast_to(w.reshape(1, -1), (arr.shape[0], w.shape[0])).copy()
         p = None if payload is None else _payload(payload)
-        d = self._inner.predict(arr, wrench=w, payload=p)
+        d = self._inner.predict(arr, wrench=w, payload=p, allow_outside_limits=bool(allow_outside_limits))
         return Prediction(
             deflection=d["deflection"],
             stddev=d["stddev"],
@@ -210,6 +245,7 @@ class StiffnessModel:
         payload: Optional[Payload] = None,
         match_orientation: Optional[bool] = None,
         with_kc: bool = True,
+        allow_outside_limits: bool = False,
     ) -> Compensation:
         """Corrected joint targets so that the tip, loaded, reaches where the nominal targets
         put it unloaded — :func:`robot_stiffness.vjm.compensate` with this model's springs and
@@ -217,7 +253,8 @@ class StiffnessModel:
 
         ``q``: nominal targets in rad, (n,) or (N, n). The load as for :meth:`predict`.
         ``match_orientation`` defaults to whether the model was identified with rotations;
-        ``with_kc`` includes the complementary stiffness K_C. See ``docs/use-the-model.md``.
+        ``with_kc`` includes the complementary stiffness K_C. The inputs get the checks of
+        :meth:`predict` (``allow_outside_limits``). See ``docs/use-the-model.md``.
         """
         arr, w = _q_and_wrench(q, wrench)
         p = None
@@ -225,7 +262,7 @@ class StiffnessModel:
             mass, cx, cy, cz = _payload(payload)
             p = (mass, [cx, cy, cz])
         out = self._inner.compensate(arr, wrench=w, payload=p, match_orientation=match_orientation,
-                                     with_kc=bool(with_kc))
+                                     with_kc=bool(with_kc), allow_outside_limits=bool(allow_outside_limits))
         return _compensation(*out)
 
     def __repr__(self) -> str:

@@ -552,7 +552,7 @@ class atomic_directory:
     nothing else is touched."""
 
     def __init__(self, path: PathLike, *, force: bool = False, expected: Sequence[str] = ()) -> None:
-        self._outputs = Outputs()
+        self._outputs = Outputs(hint="force=True")
         self._staged = self._outputs.directory(path, force=force, expected=expected)
         self.path = Path(path)
 

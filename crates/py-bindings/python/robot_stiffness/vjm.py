@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -39,12 +40,13 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import checked
 from ._arrays import f64
-from ._errors import ArgumentTypeError, InvalidValueError, ShapeError
+from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, SuspiciousDataWarning
 from ._vjm_data import (
     Campaign,
     Diagnosis,
     Measurements,
     diagnose,
+    SeedStudy,
     read_measurements,
     seed_study,
     simulate,
@@ -84,6 +86,7 @@ __all__ = [
     "simulate",
     "diagnose",
     "seed_study",
+    "SeedStudy",
     "design",
     "Plan",
     "PlannedCombination",
@@ -195,6 +198,7 @@ class _CoreIdentification:
     singular_values: List[float]
     condition_number: Optional[float]
     method: str
+    warnings: List[str] = field(default_factory=list)
 
 
 def _json_combination(c: _CoreCombination) -> Dict[str, object]:
@@ -220,6 +224,8 @@ class Identification:
     (``"normal_equations"`` or ``"qr"``); ``sigma2`` the residual variance per equation (None
     when the noise scale was given as known). ``stiffness_model`` is the
     :class:`~robot_stiffness.model.StiffnessModel` to predict with (or :meth:`save`).
+    ``warnings`` holds the messages of the :class:`~robot_stiffness.SuspiciousDataWarning`
+    issued by :meth:`Robot.identify` (outlier rows, implausible or negative compliances).
     """
 
     model: str
@@ -239,18 +245,20 @@ class Identification:
     method: str
     parameters: List[IdentifiedParameter] = field(default_factory=list, repr=False)
     sigma2: Optional[float] = field(default=None, repr=False)
+    warnings: Tuple[str, ...] = field(default=(), repr=False)
     stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
     _combinations_json: List[Dict[str, object]] = field(default_factory=list, repr=False, compare=False)
 
     @checked
-    def save(self, path: PathLike) -> None:
+    def save(self, path: PathLike, *, force: bool = False) -> None:
         """Writes the stiffness model file (``docs/model-file.md``) to ``path``, atomically; read
-        it back with :meth:`robot_stiffness.model.StiffnessModel.load`."""
+        it back with :meth:`robot_stiffness.model.StiffnessModel.load`. An existing ``path`` is
+        replaced only with ``force`` (see :meth:`~robot_stiffness.model.StiffnessModel.save`)."""
         if self.stiffness_model is None:
             raise InvalidValueError(
                 "this identification carries no stiffness model (it was not made by Robot.identify)"
             )
-        self.stiffness_model.save(path)
+        self.stiffness_model.save(path, force=force)
 
     @classmethod
     def _from_core(cls, value: Mapping[str, object], model: Optional["StiffnessModel"] = None) -> "Identification":
@@ -287,6 +295,7 @@ class Identification:
             method=core.method,
             parameters=core.parameters,
             sigma2=core.sigma2,
+            warnings=tuple(core.warnings),
             stiffness_model=model,
             _combinations_json=[_json_combination(c) for c in core.combinations],
         )
@@ -318,7 +327,28 @@ class Identification:
             "residual_rms": self.residual_rms,
             "condition_number": self.condition_number if math.isfinite(self.condition_number) else None,
             "method": self.method,
+            "warnings": list(self.warnings),
         }
+
+
+#: Gravity in the base frame, m/s²: 9.80665 along −z (a floor-mounted arm).
+DEFAULT_GRAVITY: Tuple[float, float, float] = (0.0, 0.0, -9.80665)
+
+
+def _gravity_args(
+    gravity: Sequence[float], payload: Optional[Tuple[float, Sequence[float]]]
+) -> Tuple[Tuple[float, float, float], Optional[Tuple[float, Tuple[float, float, float]]]]:
+    g = tuple(float(x) for x in gravity)
+    if len(g) != 3:
+        raise ShapeError(f"gravity must have 3 components (gx, gy, gz) in m/s², got {len(g)}")
+    p = None
+    if payload is not None:
+        mass, centre = payload
+        c = tuple(float(x) for x in centre)
+        if len(c) != 3:
+            raise ShapeError(f"payload centre must have 3 components (cx, cy, cz) in m, got {len(c)}")
+        p = (float(mass), (c[0], c[1], c[2]))
+    return (g[0], g[1], g[2]), p
 
 
 class Robot:
@@ -417,6 +447,83 @@ class Robot:
         out = self._inner.jacobian(arr, _model(model))
         return out[0] if single else out
 
+    def gravity_torques(
+        self,
+        q: Any,
+        model: ModelSpec = "extended",
+        *,
+        gravity: Sequence[float] = DEFAULT_GRAVITY,
+        payload: Optional[Tuple[float, Sequence[float]]] = None,
+    ) -> Array:
+        """Torques of gravity on the virtual springs, N·m: (m,) or (N, m).
+
+        ``q`` in rad, (n,) or (N, n); ``gravity`` in m/s², base frame (default 9.80665 along
+        −z); ``payload`` = ``(mass_kg, (cx, cy, cz))`` with the centre in the tip frame, m.
+        Positive in each spring's rotation sense (τ_g = −∂U_g/∂θ, docs/gravity.md). The bodies
+        come from the URDF's ``<inertial>`` elements; a link with a shape and no inertial is an
+        error naming it.
+        """
+        arr, single = self._q(q)
+        out = _core.vjm_gravity_torques(self._inner, arr, _model(model), *_gravity_args(gravity, payload))
+        return out[0] if single else out
+
+    def gravity_stiffness(
+        self,
+        q: Any,
+        model: ModelSpec = "extended",
+        *,
+        gravity: Sequence[float] = DEFAULT_GRAVITY,
+        payload: Optional[Tuple[float, Sequence[float]]] = None,
+    ) -> Array:
+        """The stiffness of gravity K_G = ∂τ_g/∂θ on the virtual springs, N·m/rad, symmetric:
+        (m, m) or (N, m, m). The tangent stiffness under gravity and a tip wrench W is
+        K_θ − K_G − K_C(W) (docs/gravity.md). Arguments as :meth:`gravity_torques`."""
+        arr, single = self._q(q)
+        out = _core.vjm_gravity_stiffness(self._inner, arr, _model(model), *_gravity_args(gravity, payload))
+        return out[0] if single else out
+
+    def gravity_sag(
+        self,
+        compliance: Any,
+        q: Any,
+        model: ModelSpec = "extended",
+        *,
+        gravity: Sequence[float] = DEFAULT_GRAVITY,
+        payload: Optional[Tuple[float, Sequence[float]]] = None,
+    ) -> Array:
+        """The tip's static sag under the arm's own weight (and ``payload``) relative to the
+        rigid forward kinematics: ``[dx, dy, dz, rx, ry, rz]`` (m, rad; base frame), (6,) or
+        (N, 6). ``compliance``: (m,) rad/(N·m) for the springs of ``model`` (0 = rigid). Solved
+        on the deflected chain (no linearisation; docs/gravity.md)."""
+        arr, single = self._q(q)
+        out = _core.vjm_gravity_sag(
+            self._inner, f64(compliance, "compliance"), arr, _model(model), *_gravity_args(gravity, payload)
+        )
+        return out[0] if single else out
+
+    def deflection_under_gravity(
+        self,
+        compliance: Any,
+        q: Any,
+        wrench: Any,
+        model: ModelSpec = "extended",
+        *,
+        gravity: Sequence[float] = DEFAULT_GRAVITY,
+        payload: Optional[Tuple[float, Sequence[float]]] = None,
+    ) -> Array:
+        """What a measurement under gravity records: the tip under ``wrench`` (N, N·m at the
+        tip point, base frame) minus the tip unloaded, both at the springs' static equilibrium
+        under the arm's weight (and ``payload``). ``[dx, dy, dz, rx, ry, rz]`` (m, rad), (6,) or
+        (N, 6); one wrench per configuration."""
+        arr, single = self._q(q)
+        w = f64(wrench, "wrench")
+        if w.ndim == 1:
+            w = w.reshape(1, -1)
+        out = _core.vjm_deflection_under_gravity(
+            self._inner, f64(compliance, "compliance"), arr, w, _model(model), *_gravity_args(gravity, payload)
+        )
+        return out[0] if single else out
+
     @checked
     def identify(
         self,
@@ -461,7 +568,11 @@ class Robot:
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
         naming the array and dimension, :class:`~robot_stiffness.InvalidValueError` for NaN,
-        :class:`~robot_stiffness.IdentificationError` for too few measurements.
+        :class:`~robot_stiffness.IdentificationError` for too few measurements. Data that pass
+        those checks but look wrong — a row whose load or displacement is over 100 times the
+        median row's, a best-determined compliance above 1e-2 rad/(N·m) (kN? mm?), a compliance
+        more than 5 standard errors below 0 — give a :class:`~robot_stiffness.SuspiciousDataWarning` per
+        finding (also in ``Identification.warnings``; see ``docs/vjm.md``).
         """
         from_table, q, wrench, displacement, rotation = self._measurement_arrays(
             "identify", q, wrench, displacement, rotation)
@@ -471,7 +582,11 @@ class Robot:
             core, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
                                               noise_scale_known, nonnegative, dense, method, data_file,
                                               robust_covariance, allow_outside_limits)
-        return Identification._from_core(core, StiffnessModel(core_model, self))
+        result = Identification._from_core(core, StiffnessModel(core_model, self))
+        for message in result.warnings:
+            # stacklevel: this method, its @checked wrapper, the caller.
+            warnings.warn(message, SuspiciousDataWarning, stacklevel=3)
+        return result
 
     def _measurement_arrays(self, what: str, q: Any, wrench: Any, displacement: Any,
                             rotation: Any) -> Tuple[bool, Any, Any, Any, Any]:

@@ -135,7 +135,7 @@ pub enum DiagnoseError {
     #[error(transparent)]
     Data(#[from] IdentificationError),
     /// An option is out of range.
-    #[error("invalid diagnose option `{option}` = {value}: must be {requirement}")]
+    #[error("invalid diagnose option `{option}` = {}: must be {requirement}", stiffness_core::num::Short(*.value))]
     InvalidOption {
         /// The option's name.
         option: &'static str,

@@ -351,7 +351,10 @@ impl CampaignConfig {
         if !(self.max_increment.is_finite() && self.max_increment > 0.0) {
             return bad(
                 "max_increment",
-                format!("must be finite and > 0 N·m, got {}", self.max_increment),
+                format!(
+                    "must be finite and > 0 N·m, got {}",
+                    stiffness_core::num::Short(self.max_increment)
+                ),
             );
         }
         let t = &self.tracker;
@@ -366,7 +369,7 @@ impl CampaignConfig {
                 format!(
                     "noise terms must be finite and ≥ 0, lever arm > 0: constant {} m, per metre {}, \
                      distance {} m, lever arm {} m",
-                    t.constant, t.per_metre, t.distance, t.lever_arm
+                    stiffness_core::num::Short(t.constant), stiffness_core::num::Short(t.per_metre), stiffness_core::num::Short(t.distance), stiffness_core::num::Short(t.lever_arm)
                 ),
             );
         }
@@ -378,15 +381,19 @@ impl CampaignConfig {
             return bad(
                 "moment_noise",
                 format!(
-                    "must be finite and ≥ 0: full scale {} N·m, 95 % fractions {:?}",
-                    m.full_scale, m.fraction_95
+                    "must be finite and ≥ 0: full scale {} N·m, 95 % fractions {}",
+                    stiffness_core::num::Short(m.full_scale),
+                    stiffness_core::num::short_list(&m.fraction_95)
                 ),
             );
         }
         if !(self.hysteresis_moment.is_finite() && self.hysteresis_moment >= 0.0) {
             return bad(
                 "hysteresis_moment",
-                format!("must be finite and ≥ 0 N·m, got {}", self.hysteresis_moment),
+                format!(
+                    "must be finite and ≥ 0 N·m, got {}",
+                    stiffness_core::num::Short(self.hysteresis_moment)
+                ),
             );
         }
         Ok(())

@@ -176,7 +176,10 @@ impl CsjmDataset {
             if !(tol.is_finite() && tol >= 0.0) {
                 return Err(IdentificationError::InvalidSetting {
                     field: "RotationPolicy::Reject tol",
-                    message: format!("must be finite and ≥ 0, got {tol}"),
+                    message: format!(
+                        "must be finite and ≥ 0, got {}",
+                        stiffness_core::num::Short(tol)
+                    ),
                 });
             }
         }

@@ -52,7 +52,7 @@ pub enum IdentificationError {
         value: String,
     },
     /// A field is NaN or ±∞.
-    #[error("data row {row} (line {line}), column `{column}`: value {value} is not finite")]
+    #[error("data row {row} (line {line}), column `{column}`: value {} is not finite", stiffness_core::num::Short(*.value))]
     NonFinite {
         /// 1-based data row.
         row: usize,

@@ -265,7 +265,10 @@ pub fn identify_increments(
     if !(options.max_condition >= 1.0) {
         return Err(IdentificationError::InvalidSetting {
             field: "max_condition",
-            message: format!("must be ≥ 1, got {}", options.max_condition),
+            message: format!(
+                "must be ≥ 1, got {}",
+                stiffness_core::num::Short(options.max_condition)
+            ),
         });
     }
     let mut estimate = fit(tau0, dzeta, dtau, options)?;

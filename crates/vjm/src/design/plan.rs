@@ -5,11 +5,14 @@
 use nalgebra::{DMatrix, DVector, Matrix3, SymmetricEigen};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
+use stiffness_core::num::Short;
+use stiffness_core::{Monitor, Progress};
 
 use crate::chain::SerialChain;
 use crate::error::VjmError;
-use crate::identify::{identify_dense, CombinationTerm, IdentifyOptions};
+use crate::identify::{CombinationTerm, IdentifyOptions};
 use crate::kinematics::{jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
 use crate::testbed::{inverse_condition, ForceSensorNoise, TrackerNoise, NOMINAL_TORSION};
@@ -127,10 +130,10 @@ pub struct Plan {
 /// and tip point `p`.
 struct PoseData {
     jac: Vec<f64>,
+    /// The whitened translation rows `M = L⁻¹ J_lin` (3×m, column k at `3k..3k+3`).
+    mw: Vec<f64>,
     /// Displacement noise covariance, m².
     cov: Matrix3<f64>,
-    /// Inverse Cholesky factor of `cov` (whitening).
-    whiten: Matrix3<f64>,
 }
 
 fn pose_data(
@@ -168,7 +171,13 @@ fn pose_data(
         .ok_or_else(|| VjmError::Numerical {
             message: "the displacement noise covariance is not positive definite (check the tracker noise)".into(),
         })?;
-    Ok(PoseData { jac, cov, whiten })
+    let mut mw = vec![0.0; 3 * m];
+    for k in 0..m {
+        for i in 0..3 {
+            mw[3 * k + i] = (0..3).map(|r| whiten[(i, r)] * jac[6 * k + r]).sum();
+        }
+    }
+    Ok(PoseData { jac, mw, cov })
 }
 
 /// Regressor translation rows (3×m) at a pose under `wrench`.
@@ -313,9 +322,23 @@ fn candidate_wrenches(force: f64, moment: f64) -> Vec<[f64; 6]> {
     out
 }
 
+/// Most random draws [`sample_poses`] makes, whatever the pool size: at a few µs a draw this
+/// bounds the sampling to seconds, and a pool that needs more draws than this is refused.
+const MAX_DRAWS: usize = 2_000_000;
+
+/// Draws after which a sampler that has accepted nothing gives up: the chain cannot satisfy
+/// the filters (a tip that never rises above the base, a chain that is always near-singular).
+const HOPELESS_DRAWS: usize = 50_000;
+
 /// Draws `count` poses uniformly within the limits (clamped to ±π, `margin` inside), keeping
-/// those above `min_tip_height` with inverse condition ≥ `min_inverse_condition`.
-fn sample_poses(chain: &SerialChain, spec: &PlanSpec) -> Result<Vec<f64>, VjmError> {
+/// those above `min_tip_height` with inverse condition ≥ `min_inverse_condition`. At most
+/// [`MAX_DRAWS`] draws (fewer when the acceptance rate seen so far says the pool cannot be
+/// filled within them); the error then says which filter rejects the poses and by how much.
+fn sample_poses(
+    chain: &SerialChain,
+    spec: &PlanSpec,
+    monitor: &Monitor<'_>,
+) -> Result<Vec<f64>, VjmError> {
     for (joint, &(lo, hi)) in chain.joints().iter().zip(chain.limits()) {
         let (lo, hi) = (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI));
         if hi - lo <= 2.0 * spec.limit_margin {
@@ -332,18 +355,41 @@ fn sample_poses(chain: &SerialChain, spec: &PlanSpec) -> Result<Vec<f64>, VjmErr
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
     let n = chain.n_joints();
     let mut out = Vec::with_capacity(spec.pool_size * n);
-    let cap = 2000 * spec.pool_size;
-    let mut attempts = 0;
+    let cap = spec.pool_size.saturating_mul(2000).min(MAX_DRAWS);
+    let (mut low_tip, mut low_condition) = (0usize, 0usize);
+    let (mut highest_tip, mut best_condition) = (f64::NEG_INFINITY, 0.0f64);
+    let mut attempts = 0usize;
     while out.len() < spec.pool_size * n {
-        attempts += 1;
-        if attempts > cap {
+        let accepted = out.len() / n;
+        // Acceptance so far, projected to the cap: stop as soon as the pool cannot be filled.
+        let hopeless = attempts >= HOPELESS_DRAWS
+            && (accepted as f64 / attempts as f64) * (cap as f64) < spec.pool_size as f64;
+        if attempts >= cap || hopeless {
             return Err(VjmError::InvalidOption {
                 name: "limit_margin/min_inverse_condition/min_tip_height",
                 message: format!(
-                    "only {} acceptable poses in {cap} draws; relax the margin or the filters",
-                    out.len() / n
+                    "only {accepted} acceptable poses in {attempts} draws, {} needed (a pool \
+                     needs at most {cap} draws): {low_tip} draws put the tip `{}` less than {} m \
+                     above the base `{}` (highest {} m), {low_condition} had an inverse condition \
+                     below {} (best {}); use a smaller pool, a smaller margin, or a chain whose \
+                     tip rises above its base",
+                    spec.pool_size,
+                    chain.tip_link(),
+                    spec.min_tip_height,
+                    chain.base_link(),
+                    Short(highest_tip),
+                    spec.min_inverse_condition,
+                    Short(best_condition),
                 ),
             });
+        }
+        attempts += 1;
+        if attempts.is_multiple_of(4096) {
+            monitor.report(Progress {
+                stage: "poses",
+                done: accepted,
+                total: spec.pool_size,
+            })?;
         }
         let q: Vec<f64> = chain
             .limits()
@@ -354,14 +400,25 @@ fn sample_poses(chain: &SerialChain, spec: &PlanSpec) -> Result<Vec<f64>, VjmErr
             })
             .collect();
         let tip = chain.forward_kinematics(&q)?.translation.vector;
-        if tip.z < spec.min_tip_height || inverse_condition(chain, &q) < spec.min_inverse_condition
-        {
+        highest_tip = highest_tip.max(tip.z);
+        if tip.z < spec.min_tip_height {
+            low_tip += 1;
+            continue;
+        }
+        let condition = inverse_condition(chain, &q);
+        best_condition = best_condition.max(condition);
+        if condition < spec.min_inverse_condition {
+            low_condition += 1;
             continue;
         }
         out.extend_from_slice(&q);
     }
     Ok(out)
 }
+
+/// Most rows a plan may have (poses × wrenches per pose): the planning time and the plan's
+/// size grow with it, and this keeps the largest plan within a minute on two cores.
+pub const MAX_MEASUREMENTS: usize = 100_000;
 
 fn check_spec(spec: &PlanSpec) -> Result<(), VjmError> {
     let bad = |name: &'static str, message: String| Err(VjmError::InvalidOption { name, message });
@@ -377,22 +434,43 @@ fn check_spec(spec: &PlanSpec) -> Result<(), VjmError> {
             format!("must be in 1..=100, got {}", spec.wrenches_per_pose),
         );
     }
+    if spec.n_poses * spec.wrenches_per_pose > MAX_MEASUREMENTS {
+        return bad(
+            "poses/wrenches_per_pose",
+            format!(
+                "{} poses × {} wrenches is {} measurements, more than the {MAX_MEASUREMENTS} a \
+                 plan may have",
+                spec.n_poses,
+                spec.wrenches_per_pose,
+                spec.n_poses * spec.wrenches_per_pose
+            ),
+        );
+    }
     if !(spec.force.is_finite() && spec.force > 0.0) {
         return bad(
             "force",
-            format!("must be finite and > 0 N, got {}", spec.force),
+            format!(
+                "must be finite and > 0 N, got {}",
+                stiffness_core::num::Short(spec.force)
+            ),
         );
     }
     if !(spec.moment.is_finite() && spec.moment >= 0.0) {
         return bad(
             "moment",
-            format!("must be finite and ≥ 0 N·m, got {}", spec.moment),
+            format!(
+                "must be finite and ≥ 0 N·m, got {}",
+                stiffness_core::num::Short(spec.moment)
+            ),
         );
     }
     if !(spec.limit_margin.is_finite() && spec.limit_margin >= 0.0) {
         return bad(
             "margin",
-            format!("must be finite and ≥ 0 rad, got {}", spec.limit_margin),
+            format!(
+                "must be finite and ≥ 0 rad, got {}",
+                stiffness_core::num::Short(spec.limit_margin)
+            ),
         );
     }
     if spec.pool_size < spec.n_poses || spec.pool_size > 100_000 {
@@ -407,6 +485,16 @@ fn check_spec(spec: &PlanSpec) -> Result<(), VjmError> {
     Ok(())
 }
 
+/// Pose evaluations (a pose scored under every candidate wrench) the greedy selection makes
+/// over the full pool: while `n_poses × pool_size` stays within it every step scans every
+/// unchosen pose; beyond it each step scans a random sample of `EXACT_SCANS / n_poses` of
+/// them (at least [`MIN_SCAN`]), so that the largest campaigns finish in seconds (stochastic
+/// greedy). At about 10 µs an evaluation this is a few seconds on two cores.
+const EXACT_SCANS: usize = 600_000;
+
+/// The fewest poses a sampled step scans.
+const MIN_SCAN: usize = 48;
+
 /// Plans a campaign for `model` on `chain`: a pool of candidate poses (see [`PlanSpec`]), then
 /// greedily, pose by pose, the pose and its wrenches (from 13 force directions × {no moment,
 /// ±x, ±y, ±z}) that most reduce the predicted variances of the identifiable combinations
@@ -419,28 +507,81 @@ pub fn design(
     spec: &PlanSpec,
     noise: &NoiseModel,
 ) -> Result<Plan, VjmError> {
+    design_monitored(chain, model, spec, noise, &Monitor::none())
+}
+
+/// [`design`] polling `monitor`: it stops with [`VjmError::Cancelled`] within a few
+/// milliseconds of a cancel (checked per draw batch, per pool chunk and per pose) and reports
+/// the stages `poses` (sampling the pool), `pool` (its Jacobians), `selection` (poses
+/// picked) and `check` (the predicted errors of the planned rows).
+pub fn design_monitored(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    spec: &PlanSpec,
+    noise: &NoiseModel,
+    monitor: &Monitor<'_>,
+) -> Result<Plan, VjmError> {
     check_spec(spec)?;
     check_noise(model, noise)?;
     model.check_chain(chain)?;
     let n = chain.n_joints();
     let m = model.n_params();
-    let pool = sample_poses(chain, spec)?;
+    let pool = sample_poses(chain, spec, monitor)?;
     let cands = candidate_wrenches(spec.force, spec.moment);
     let mut ws = Workspace::new(chain, model)?;
-    let data: Vec<PoseData> = pool
-        .chunks_exact(n)
-        .map(|q| pose_data(chain, model, q, noise, &mut ws))
-        .collect::<Result<_, _>>()?;
+    let mut data = Vec::with_capacity(spec.pool_size);
+    for (i, q) in pool.chunks_exact(n).enumerate() {
+        if i % 1024 == 0 {
+            monitor.report(Progress {
+                stage: "pool",
+                done: i,
+                total: spec.pool_size,
+            })?;
+        }
+        data.push(pose_data(chain, model, q, noise, &mut ws)?);
+    }
     // Identifiable combinations and rank of the model on the pool (structural for the chain).
     let pool_comb = combinations_of(chain, model, &pool, &cands[..2.min(cands.len())], noise)?;
     let rank = pool_comb.0;
-    // Whitened pool information over all candidates, for the scaling and the subspace basis.
-    let whitened = |p: usize, w: &[f64; 6]| pool_whitened(&data[p], m, w);
+    if rank == 0 {
+        return Err(VjmError::InvalidModel {
+            message: format!(
+                "no spring of the model moves the tip point of the chain `{}` → `{}` under any \
+                 of the {} candidate poses (rank 0): there is nothing to identify; choose a tip \
+                 link away from the joint axes",
+                chain.base_link(),
+                chain.tip_link(),
+                spec.pool_size
+            ),
+        });
+    }
+    // Whitened pool information over all candidates, for the scaling and the subspace basis:
+    // Σ_w (L A_w)ᵀ(L A_w) = (MᵀM) ∘ (Jᵀ W J) with M = L J_lin and W = Σ_w w wᵀ, since the
+    // whitened rows are L A_w = M diag(Jᵀ w).
+    let mut wsum = [[0.0; 6]; 6];
+    for w in &cands {
+        for a in 0..6 {
+            for b in 0..6 {
+                wsum[a][b] += w[a] * w[b];
+            }
+        }
+    }
     let mut pool_info = DMatrix::<f64>::zeros(m, m);
-    for p in 0..data.len() {
-        for w in &cands {
-            let a = whitened(p, w);
-            pool_info += a.transpose() * &a;
+    for (i, pd) in data.iter().enumerate() {
+        if i % 1024 == 0 {
+            monitor.check()?;
+        }
+        let jwj = |k: usize, l: usize| -> f64 {
+            let (jk, jl) = (&pd.jac[6 * k..6 * k + 6], &pd.jac[6 * l..6 * l + 6]);
+            (0..6)
+                .map(|a| jk[a] * (0..6).map(|b| wsum[a][b] * jl[b]).sum::<f64>())
+                .sum()
+        };
+        for k in 0..m {
+            for l in 0..m {
+                let mm: f64 = (0..3).map(|r| pd.mw[3 * k + r] * pd.mw[3 * l + r]).sum();
+                pool_info[(k, l)] += mm * jwj(k, l);
+            }
         }
     }
     let (scale, eig) = scaled_eigen(&pool_info)?;
@@ -456,15 +597,35 @@ pub fn design(
             })
             .sum()
     });
-    let reduce = |a: DMatrix<f64>| a * &basis;
     let total_z = basis.transpose() * &pool_info * &basis;
     let ridge = 1e-9 * total_z.trace() / (rank.max(1) * data.len() * cands.len()) as f64;
     let mut info = DMatrix::<f64>::identity(rank, rank) * ridge;
-    let mut chosen = vec![false; data.len()];
+    let wrenches: Vec<SparseWrench> = cands.iter().map(SparseWrench::new).collect();
+    let scorer = Scorer {
+        data: &data,
+        basis: &basis,
+        basis_rows: (0..m)
+            .flat_map(|k| (0..rank).map(move |j| (k, j)))
+            .map(|(k, j)| basis[(k, j)])
+            .collect(),
+        wrenches: &wrenches,
+    };
+    let mut remaining: Vec<usize> = (0..data.len()).collect();
+    let scan = if spec.n_poses.saturating_mul(data.len()) <= EXACT_SCANS {
+        usize::MAX
+    } else {
+        (EXACT_SCANS / spec.n_poses).max(MIN_SCAN)
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed ^ 0x005e_ed0f_5ca7);
     let mut rows_q = Vec::new();
     let mut rows_w = Vec::new();
     let mut rows_p = Vec::new();
     for pose in 0..spec.n_poses {
+        monitor.report(Progress {
+            stage: "selection",
+            done: pose,
+            total: spec.n_poses,
+        })?;
         let state = State::new(&info, &funcs)?;
         let covered = super::symmetric_eigen(
             info.clone(),
@@ -473,23 +634,40 @@ pub fn design(
         .eigenvalues
         .min()
             > 1e3 * ridge;
-        let score = |vars: &[f64]| -> f64 {
-            if covered {
-                vars.iter().copied().fold(0.0, f64::max)
-            } else {
-                vars.iter().map(|v| v.max(f64::MIN_POSITIVE).ln()).sum()
-            }
-        };
-        // The pose whose best single wrench scores best.
-        let mut best = (f64::INFINITY, usize::MAX);
-        for p in (0..data.len()).filter(|&p| !chosen[p]) {
-            for w in &cands {
-                let s = score(&state.after(&reduce(whitened(p, w))));
-                if s < best.0 {
-                    best = (s, p);
-                }
+        // The candidates of this step: every unchosen pose, or a random sample of them.
+        let k = scan.min(remaining.len());
+        if k < remaining.len() {
+            for i in 0..k {
+                let j = rng.random_range(i..remaining.len());
+                remaining.swap(i, j);
             }
         }
+        // The pose whose best single wrench scores best (ties: the lowest pose index).
+        let chunk = 64;
+        let best = remaining[..k]
+            .par_chunks(chunk)
+            .map(|ps| -> Result<(f64, usize), VjmError> {
+                monitor.check()?;
+                let mut scratch = Scratch::new(rank, funcs.ncols());
+                let mut best = (f64::INFINITY, usize::MAX);
+                for &p in ps {
+                    let (s, _) = scorer.best_wrench(&state, p, covered, None, &mut scratch);
+                    if s < best.0 || (s == best.0 && p < best.1) {
+                        best = (s, p);
+                    }
+                }
+                Ok(best)
+            })
+            .try_reduce(
+                || (f64::INFINITY, usize::MAX),
+                |a, b| {
+                    Ok(if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
+                        b
+                    } else {
+                        a
+                    })
+                },
+            )?;
         let p = best.1;
         if p == usize::MAX {
             return Err(VjmError::Numerical {
@@ -498,28 +676,35 @@ pub fn design(
                         .into(),
             });
         }
-        chosen[p] = true;
+        let at = remaining.iter().position(|&x| x == p).unwrap_or(0);
+        remaining.swap_remove(at);
         let mut used = vec![false; cands.len()];
+        let mut scratch = Scratch::new(rank, funcs.ncols());
         for _ in 0..spec.wrenches_per_pose {
-            let state = State::new(&info, &funcs)?;
-            let mut pick = (f64::INFINITY, 0);
-            for (d, w) in cands.iter().enumerate().filter(|(d, _)| !used[*d]) {
-                let s = score(&state.after(&reduce(whitened(p, w))));
-                if s < pick.0 {
-                    pick = (s, d);
-                }
+            monitor.check()?;
+            // More wrenches per pose than candidates: the second round repeats the best ones.
+            if used.iter().all(|&u| u) {
+                used.fill(false);
             }
-            used[pick.1] = true;
-            let g = reduce(whitened(p, &cands[pick.1]));
+            let state = State::new(&info, &funcs)?;
+            let (_, d) = scorer.best_wrench(&state, p, covered, Some(&used), &mut scratch);
+            used[d] = true;
+            let g = scorer.reduced(p, &cands[d]);
             info += g.transpose() * &g;
             rows_q.extend_from_slice(&pool[p * n..(p + 1) * n]);
-            rows_w.push(cands[pick.1]);
+            rows_w.push(cands[d]);
             rows_p.push(pose);
         }
     }
+    monitor.report(Progress {
+        stage: "check",
+        done: 0,
+        total: 1,
+    })?;
     // The plan's own combinations (as the identification of its rows will report them) and
     // their predicted standard errors.
     let (plan_rank, combos) = combinations_of_rows(chain, model, &rows_q, &rows_w, noise)?;
+    monitor.check()?;
     let terms: Vec<Vec<(usize, f64)>> = combos.iter().map(|c| c.1.clone()).collect();
     let se = predicted_stderr(chain, model, &rows_q, &rows_w, plan_rank, &terms, noise)?;
     let combinations: Vec<PlannedCombination> = combos
@@ -543,14 +728,225 @@ pub fn design(
     })
 }
 
-/// The whitened regressor rows `L⁻¹ A` (3×m) of a pool pose under `w`.
-fn pool_whitened(pd: &PoseData, m: usize, w: &[f64; 6]) -> DMatrix<f64> {
-    let a = regressor(&pd.jac, m, w);
-    let l = DMatrix::from_fn(3, 3, |r, c| pd.whiten[(r, c)]);
-    l * a
+/// A candidate wrench as its non-zero components `(index, value)` (at most 4 of 6).
+struct SparseWrench {
+    terms: Vec<(usize, f64)>,
 }
 
-/// Inverse information and the current variances of the functionals, for rank-3 updates.
+impl SparseWrench {
+    fn new(w: &[f64; 6]) -> Self {
+        Self {
+            terms: (0..6).filter(|&a| w[a] != 0.0).map(|a| (a, w[a])).collect(),
+        }
+    }
+}
+
+/// Scores candidate (pose, wrench) pairs against a [`State`]. The reduced whitened rows of a
+/// pose are linear in the wrench, `g(w) = Σ_a w_a G_a` with `G_a = M diag(J_a) B` (M = L J_lin,
+/// J_a the a-th row of the pose Jacobian, B the basis), so everything the Woodbury update
+/// needs is formed once per pose for the six `G_a` and combined per wrench from its non-zero
+/// components: `S = I + Σ w_a w_b G_a M⁻¹ G_bᵀ`, `h = Σ w_a G_a M⁻¹ T`.
+struct Scorer<'a> {
+    data: &'a [PoseData],
+    basis: &'a DMatrix<f64>,
+    /// `basis` row-major (m×r).
+    basis_rows: Vec<f64>,
+    wrenches: &'a [SparseWrench],
+}
+
+/// Per-thread buffers of [`Scorer`] (no allocation per candidate).
+struct Scratch {
+    /// `G_a`, 6 × (3×r) row-major.
+    g: Vec<f64>,
+    /// `G_a M⁻¹`, 6 × (3×r).
+    y: Vec<f64>,
+    /// `G_a M⁻¹ T`, 6 × (3×c).
+    h: Vec<f64>,
+    /// `G_a M⁻¹ G_bᵀ`, 6×6 × (3×3).
+    q: Vec<f64>,
+    /// `h(w)`, 3×c.
+    hw: Vec<f64>,
+}
+
+impl Scratch {
+    fn new(r: usize, c: usize) -> Self {
+        Self {
+            g: vec![0.0; 18 * r],
+            y: vec![0.0; 18 * r],
+            h: vec![0.0; 18 * c],
+            q: vec![0.0; 36 * 9],
+            hw: vec![0.0; 3 * c],
+        }
+    }
+}
+
+impl Scorer<'_> {
+    /// The reduced whitened rows `L A B` (3×r) of pool pose `p` under `w`.
+    fn reduced(&self, p: usize, w: &[f64; 6]) -> DMatrix<f64> {
+        let pd = &self.data[p];
+        let (m, r) = (self.basis.nrows(), self.basis.ncols());
+        DMatrix::from_fn(3, r, |i, j| {
+            (0..m)
+                .map(|k| {
+                    let u: f64 = (0..6).map(|a| pd.jac[6 * k + a] * w[a]).sum();
+                    pd.mw[3 * k + i] * u * self.basis[(k, j)]
+                })
+                .sum()
+        })
+    }
+
+    /// The best wrench (skipping `used` ones) at pose `p`: its score (lower is better; the
+    /// largest variance when `covered`, else the sum of log-variances up to a constant) and
+    /// its index. A wrench whose update is not positive definite scores as no improvement.
+    fn best_wrench(
+        &self,
+        state: &State<'_>,
+        p: usize,
+        covered: bool,
+        used: Option<&[bool]>,
+        s: &mut Scratch,
+    ) -> (f64, usize) {
+        let pd = &self.data[p];
+        let (m, r) = (self.basis.nrows(), self.basis.ncols());
+        let c = state.funcs.ncols();
+        // G_a[i][j] = Σ_k M[i][k] J[a][k] B[k][j].
+        s.g.fill(0.0);
+        for k in 0..m {
+            let brow = &self.basis_rows[k * r..(k + 1) * r];
+            for a in 0..6 {
+                let jak = pd.jac[6 * k + a];
+                if jak == 0.0 {
+                    continue;
+                }
+                for i in 0..3 {
+                    let f = pd.mw[3 * k + i] * jak;
+                    let row = &mut s.g[(3 * a + i) * r..(3 * a + i + 1) * r];
+                    for (x, b) in row.iter_mut().zip(brow) {
+                        *x += f * b;
+                    }
+                }
+            }
+        }
+        // Y = G M⁻¹ (18×r), H = G (M⁻¹ T) (18×c), Q_ab = Y_a G_bᵀ.
+        for i in 0..18 {
+            let gi = &s.g[i * r..(i + 1) * r];
+            for j in 0..r {
+                s.y[i * r + j] = (0..r).map(|l| gi[l] * state.inv[(l, j)]).sum();
+            }
+            for j in 0..c {
+                s.h[i * c + j] = (0..r).map(|l| gi[l] * state.inv_f[(l, j)]).sum();
+            }
+        }
+        for a in 0..6 {
+            for b in 0..6 {
+                for i in 0..3 {
+                    let yi = &s.y[(3 * a + i) * r..(3 * a + i + 1) * r];
+                    for j in 0..3 {
+                        let gj = &s.g[(3 * b + j) * r..(3 * b + j + 1) * r];
+                        s.q[(a * 6 + b) * 9 + 3 * i + j] =
+                            yi.iter().zip(gj).map(|(x, y)| x * y).sum();
+                    }
+                }
+            }
+        }
+        let mut best = (f64::INFINITY, 0);
+        for (d, w) in self.wrenches.iter().enumerate() {
+            if used.is_some_and(|u| u[d]) {
+                continue;
+            }
+            let mut sm = nalgebra::Matrix3::<f64>::identity();
+            for &(a, wa) in &w.terms {
+                for &(b, wb) in &w.terms {
+                    let q = &s.q[(a * 6 + b) * 9..(a * 6 + b) * 9 + 9];
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            sm[(i, j)] += wa * wb * q[3 * i + j];
+                        }
+                    }
+                }
+            }
+            s.hw.fill(0.0);
+            for &(a, wa) in &w.terms {
+                for (x, h) in s.hw.iter_mut().zip(&s.h[3 * a * c..3 * (a + 1) * c]) {
+                    *x += wa * h;
+                }
+            }
+            let score = match cholesky3(&sm) {
+                // h_jᵀ S⁻¹ h_j = ‖L⁻¹ h_j‖² by forward substitution.
+                Some(l) => {
+                    let var = |j: usize| -> f64 {
+                        let z0 = s.hw[j] / l[0];
+                        let z1 = (s.hw[c + j] - l[1] * z0) / l[2];
+                        let z2 = (s.hw[2 * c + j] - l[3] * z0 - l[4] * z1) / l[5];
+                        state.vars[j] - (z0 * z0 + z1 * z1 + z2 * z2)
+                    };
+                    score_of((0..c).map(var), &state.vars, covered)
+                }
+                None => score_of(state.vars.iter().copied(), &state.vars, covered),
+            };
+            if score < best.0 {
+                best = (score, d);
+            }
+        }
+        if best.0 == f64::INFINITY {
+            // Every score non-finite: the first wrench not yet used.
+            best.1 = (0..self.wrenches.len())
+                .find(|&d| !used.is_some_and(|u| u[d]))
+                .unwrap_or(0);
+        }
+        (best.0, best.1)
+    }
+}
+
+/// The Cholesky factor of a symmetric 3×3 matrix as `[l00, l10, l11, l20, l21, l22]`, or `None`
+/// when it is not (numerically) positive definite.
+fn cholesky3(a: &nalgebra::Matrix3<f64>) -> Option<[f64; 6]> {
+    let d0 = a[(0, 0)];
+    if d0.is_nan() || d0 <= 0.0 {
+        return None;
+    }
+    let l00 = d0.sqrt();
+    let l10 = a[(1, 0)] / l00;
+    let d1 = a[(1, 1)] - l10 * l10;
+    if d1.is_nan() || d1 <= 0.0 {
+        return None;
+    }
+    let l11 = d1.sqrt();
+    let l20 = a[(2, 0)] / l00;
+    let l21 = (a[(2, 1)] - l20 * l10) / l11;
+    let d2 = a[(2, 2)] - l20 * l20 - l21 * l21;
+    if d2.is_nan() || d2 <= 0.0 {
+        return None;
+    }
+    Some([l00, l10, l11, l20, l21, d2.sqrt()])
+}
+
+/// The score of variances `vars` (after a candidate) given the current ones `now`: the largest
+/// when `covered`, else `Σ ln max(v, MIN_POSITIVE)` minus the constant `Σ ln now` — as a
+/// product of ratios, with one logarithm per candidate instead of one per combination.
+fn score_of(vars: impl Iterator<Item = f64>, now: &[f64], covered: bool) -> f64 {
+    if covered {
+        return vars.fold(0.0, f64::max);
+    }
+    let (mut prod, mut acc) = (1.0f64, 0.0f64);
+    for (v, &v0) in vars.zip(now) {
+        let (v, v0) = (v.max(f64::MIN_POSITIVE), v0.max(f64::MIN_POSITIVE));
+        let ratio = v / v0;
+        if !(1e-100..=1e100).contains(&ratio) {
+            acc += v.ln() - v0.ln();
+            continue;
+        }
+        prod *= ratio;
+        if !(1e-200..=1e200).contains(&prod) {
+            acc += prod.ln();
+            prod = 1.0;
+        }
+    }
+    acc + prod.ln()
+}
+
+/// Inverse information and the current variances of the functionals, for the rank-3
+/// (Woodbury) updates of [`Scorer`].
 struct State<'a> {
     inv: DMatrix<f64>,
     funcs: &'a DMatrix<f64>,
@@ -577,21 +973,6 @@ impl<'a> State<'a> {
             inv_f,
             vars,
         })
-    }
-
-    /// Variances after adding the rows `g` (3×r), by Woodbury:
-    /// `v_j − h_jᵀ (I + g M⁻¹ gᵀ)⁻¹ h_j` with `h_j = g M⁻¹ t_j`.
-    fn after(&self, g: &DMatrix<f64>) -> Vec<f64> {
-        let y = g * &self.inv;
-        let s = DMatrix::<f64>::identity(g.nrows(), g.nrows()) + &y * g.transpose();
-        let h = g * &self.inv_f;
-        let Some(sinv) = s.cholesky().map(|c| c.inverse()) else {
-            return self.vars.clone();
-        };
-        let sh = &sinv * &h;
-        (0..self.funcs.ncols())
-            .map(|j| self.vars[j] - h.column(j).dot(&sh.column(j)))
-            .collect()
     }
 }
 
@@ -621,7 +1002,7 @@ fn combinations_of(
     Ok((rank, defs.into_iter().map(|d| d.1).collect()))
 }
 
-/// Rank and combinations reported by [`identify_dense`] on noise-free data at the rows (the
+/// Rank and combinations reported by [`crate::identify`] on noise-free data at the rows (the
 /// combinations depend on the design, not on the values).
 fn combinations_of_rows(
     chain: &SerialChain,
@@ -645,7 +1026,7 @@ fn combinations_of_rows(
         d.extend_from_slice(&x[..3]);
         f.extend_from_slice(w);
     }
-    let id = identify_dense(chain, model, q, &f, &d, None, &IdentifyOptions::default())?;
+    let id = crate::identify(chain, model, q, &f, &d, None, &IdentifyOptions::default())?;
     let defs = id
         .combinations
         .iter()

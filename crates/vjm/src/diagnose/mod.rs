@@ -98,7 +98,10 @@ impl NoiseAssumption {
         if !(d.is_finite() && d > 0.0) {
             return Err(DiagnoseError::InvalidOption {
                 name: "tracker_sigma",
-                message: format!("the displacement noise must be a finite number > 0 m, got {d}"),
+                message: format!(
+                    "the displacement noise must be a finite number > 0 m, got {}",
+                    stiffness_core::num::Short(d)
+                ),
             });
         }
         for (k, s) in self.wrench_sigma.iter().enumerate() {
@@ -111,7 +114,8 @@ impl NoiseAssumption {
                 return Err(DiagnoseError::InvalidOption {
                     name,
                     message: format!(
-                        "the wrench noise must be a finite number ≥ 0 {unit}, got {s}"
+                        "the wrench noise must be a finite number ≥ 0 {unit}, got {}",
+                        stiffness_core::num::Short(*s)
                     ),
                 });
             }
@@ -261,12 +265,21 @@ fn check_options(opts: &DiagnoseOptions) -> Result<(), DiagnoseError> {
     let bad =
         |name: &'static str, message: String| Err(DiagnoseError::InvalidOption { name, message });
     if !(opts.fdr > 0.0 && opts.fdr < 1.0) {
-        return bad("fdr", format!("must be in (0, 1), got {}", opts.fdr));
+        return bad(
+            "fdr",
+            format!(
+                "must be in (0, 1), got {}",
+                stiffness_core::num::Short(opts.fdr)
+            ),
+        );
     }
     if !(opts.test_fraction > 0.0 && opts.test_fraction < 1.0) {
         return bad(
             "test_fraction",
-            format!("must be in (0, 1), got {}", opts.test_fraction),
+            format!(
+                "must be in (0, 1), got {}",
+                stiffness_core::num::Short(opts.test_fraction)
+            ),
         );
     }
     opts.noise.check()

@@ -422,19 +422,28 @@ fn check_options(opts: &SolveOptions) -> Result<(), VjmError> {
     if !(opts.rank_rtol > 0.0 && opts.rank_rtol < 1.0) {
         return Err(VjmError::InvalidOption {
             name: "rank_rtol",
-            message: format!("must be in (0, 1), got {}", opts.rank_rtol),
+            message: format!(
+                "must be in (0, 1), got {}",
+                stiffness_core::num::Short(opts.rank_rtol)
+            ),
         });
     }
     if !(opts.zero_column_rtol >= 0.0 && opts.zero_column_rtol < 1.0) {
         return Err(VjmError::InvalidOption {
             name: "zero_column_rtol",
-            message: format!("must be in [0, 1), got {}", opts.zero_column_rtol),
+            message: format!(
+                "must be in [0, 1), got {}",
+                stiffness_core::num::Short(opts.zero_column_rtol)
+            ),
         });
     }
     if !(opts.null_tol > 0.0 && opts.null_tol < 1.0) {
         return Err(VjmError::InvalidOption {
             name: "null_tol",
-            message: format!("must be in (0, 1), got {}", opts.null_tol),
+            message: format!(
+                "must be in (0, 1), got {}",
+                stiffness_core::num::Short(opts.null_tol)
+            ),
         });
     }
     Ok(())

@@ -35,6 +35,15 @@ pub enum ModelError {
         /// What is wrong.
         message: String,
     },
+    /// The file is larger or nests deeper than any model file: refused before parsing (see
+    /// [`crate::bounded`]).
+    #[error("`{path}` is not a usable stiffness model file: {limit}")]
+    Limit {
+        /// The path as given.
+        path: String,
+        /// What is too large or too deep, with the limit.
+        limit: crate::bounded::TextLimitError,
+    },
     /// The file was written for another schema version.
     #[error("model file `{path}` has schema `{found}`, this version reads `{expected}`: identify again with --save")]
     Schema {

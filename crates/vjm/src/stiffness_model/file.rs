@@ -91,22 +91,51 @@ impl StiffnessModel {
     pub fn load(path: impl AsRef<Path>, chain: &SerialChain) -> Result<Self, ModelError> {
         let path = path.as_ref();
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Read {
-            path: shown.clone(),
-            source,
-        })?;
+        // Capped: a huge file (or an endless stream) is refused without being read whole.
+        let text =
+            crate::bounded::read_capped(path, crate::bounded::MODEL_FILE_MAX_BYTES, "model file")
+                .map_err(|e| match e {
+                crate::bounded::CappedReadError::Io(source) => ModelError::Read {
+                    path: shown.clone(),
+                    source,
+                },
+                crate::bounded::CappedReadError::TooLarge(limit) => ModelError::Limit {
+                    path: shown.clone(),
+                    limit,
+                },
+            })?;
         let model = Self::from_json(&text, &shown)?;
         model.check_robot(chain, &shown)?;
         Ok(model)
     }
 
+    /// The robot record of the model file at `path`, read with the same bounds as
+    /// [`load`](Self::load) but without checking the rest of the file: which robot to load
+    /// before the file can be loaded against it. `None` when the file has no readable record
+    /// (then [`load`](Self::load) names what is wrong).
+    pub fn robot_of_file(path: impl AsRef<Path>) -> Option<super::RobotRecord> {
+        let path = path.as_ref();
+        let text =
+            crate::bounded::read_capped(path, crate::bounded::MODEL_FILE_MAX_BYTES, "model file")
+                .ok()?;
+        crate::bounded::check_model_file_text(&text).ok()?;
+        let mut value: serde_json::Value = serde_json::from_str(&text).ok()?;
+        serde_json::from_value(value.get_mut("model")?.get_mut("robot")?.take()).ok()
+    }
+
     /// Parses the file text (schema and hash checked, no robot check); `name` is used in
-    /// errors.
+    /// errors. Text larger than [`MODEL_FILE_MAX_BYTES`](crate::bounded::MODEL_FILE_MAX_BYTES)
+    /// or nesting deeper than [`MODEL_FILE_MAX_DEPTH`](crate::bounded::MODEL_FILE_MAX_DEPTH)
+    /// is refused with [`ModelError::Limit`] before it is parsed.
     pub fn from_json(text: &str, name: &str) -> Result<Self, ModelError> {
         let format = |message: String| ModelError::Format {
             path: name.to_string(),
             message,
         };
+        crate::bounded::check_model_file_text(text).map_err(|limit| ModelError::Limit {
+            path: name.to_string(),
+            limit,
+        })?;
         let value: serde_json::Value =
             serde_json::from_str(text).map_err(|e| format(format!("not JSON ({e})")))?;
         let schema = value

@@ -44,6 +44,7 @@ mod predict;
 mod robust;
 
 use serde::{Deserialize, Serialize};
+use stiffness_core::num::Short;
 
 pub use error::ModelError;
 pub use file::MODEL_SCHEMA;
@@ -446,7 +447,13 @@ impl StiffnessModel {
             );
         }
         if let (Some(stored), Some(source)) = (&r.urdf_sha256, chain.urdf_source()) {
-            if *stored != source.sha256 {
+            // The bundled URDF gained inertials (for gravity) with its kinematics unchanged: a
+            // model saved against an earlier revision of it still names the same arm (the
+            // kinematics hash below still has to match).
+            let earlier_bundled = r.urdf.as_deref() == Some(crate::BUNDLED_URDF_PATH)
+                && source.path.as_deref() == Some(crate::BUNDLED_URDF_PATH)
+                && crate::chain::BUNDLED_URDF_EARLIER_SHA256.contains(&stored.as_str());
+            if *stored != source.sha256 && !earlier_bundled {
                 return other(
                     "the URDF content (SHA-256)",
                     format!("{} ({})", short(stored), r.urdf.as_deref().unwrap_or("?")),
@@ -465,6 +472,114 @@ impl StiffnessModel {
                 short(&r.kinematics_sha256).into(),
                 short(&k).into(),
             );
+        }
+        Ok(())
+    }
+
+    /// The values that cannot be negative, zero or lopsided, named by their path in the file
+    /// (`estimate.covariance[2][2]`) with the value.
+    fn validate_values(&self) -> Result<(), String> {
+        let e = &self.estimate;
+        let id = &self.identification;
+        let bad = |field: String, v: f64, must: &str| {
+            Err(format!("{field} is {}, it must be {must}", Short(v)))
+        };
+        // `x` finite and ≥ 0 (> 0 when `strict`).
+        let non_negative = |field: &dyn Fn() -> String, x: f64, strict: bool| {
+            if x.is_finite() && (x > 0.0 || (!strict && x == 0.0)) {
+                Ok(())
+            } else {
+                bad(
+                    field(),
+                    x,
+                    if strict {
+                        "finite and > 0"
+                    } else {
+                        "finite and ≥ 0"
+                    },
+                )
+            }
+        };
+        let all_non_negative = |field: &str, v: &[f64], strict: bool| {
+            v.iter()
+                .enumerate()
+                .try_for_each(|(i, &x)| non_negative(&|| format!("{field}[{i}]"), x, strict))
+        };
+        // Whitening divides by them; identification refuses σ ≤ 0.
+        all_non_negative("noise.noise_sigma", &self.noise.noise_sigma, true)?;
+        if let Some(s2) = self.noise.sigma2 {
+            non_negative(&|| "noise.sigma2".into(), s2, false)?;
+        }
+        // Prediction divides by the column scales (a zero column is stored as 1).
+        all_non_negative("estimate.column_scale", &e.column_scale, true)?;
+        all_non_negative("identification.singular_values", &id.singular_values, false)?;
+        non_negative(
+            &|| "identification.residual_rms".into(),
+            id.residual_rms,
+            false,
+        )?;
+        if let Some(c) = id.condition_number {
+            if !(c.is_finite() && c >= 1.0) {
+                return bad(
+                    "identification.condition_number".into(),
+                    c,
+                    "finite and ≥ 1",
+                );
+            }
+        }
+        for (k, c) in id.combinations.iter().enumerate() {
+            let field = format!("identification.combinations[{k}]");
+            if !c.value.is_finite() {
+                return bad(format!("{field}.value"), c.value, "finite");
+            }
+            if let Some(se) = c.stderr {
+                non_negative(&|| format!("{field}.stderr"), se, false)?;
+            }
+            if let Some((t, term)) = c
+                .terms
+                .iter()
+                .enumerate()
+                .find(|(_, t)| !t.coefficient.is_finite())
+            {
+                return bad(
+                    format!("{field}.terms[{t}].coefficient"),
+                    term.coefficient,
+                    "finite",
+                );
+            }
+        }
+        for (j, o) in self.springs.offsets.iter().enumerate() {
+            if let Some(k) = o.iter().position(|x| !x.is_finite()) {
+                return bad(format!("springs.offsets[{j}][{k}]"), o[k], "finite");
+            }
+        }
+        if let Some(c) = &e.covariance {
+            // Non-finite entries were refused with the shapes, so `< 0` catches every bad one.
+            for (i, row) in c.iter().enumerate() {
+                if row[i] < 0.0 {
+                    return bad(
+                        format!("estimate.covariance[{i}][{i}]"),
+                        row[i],
+                        "≥ 0 (a variance)",
+                    );
+                }
+            }
+            // Symmetric up to rounding: the tolerance is relative to the entry and to the
+            // variances it lies between (a covariance entry is at most √(cᵢᵢ·cⱼⱼ)).
+            for i in 0..c.len() {
+                for j in i + 1..c.len() {
+                    let (a, b) = (c[i][j], c[j][i]);
+                    let scale = a.abs().max(b.abs()).max((c[i][i] * c[j][j]).sqrt());
+                    if (a - b).abs() > 1e-6 * scale {
+                        return Err(format!(
+                            "estimate.covariance is not symmetric: [{i}][{j}] is {} but \
+                             [{j}][{i}] is {}",
+                            Short(a),
+                            Short(b)
+                        ));
+                    }
+                }
+            }
         }
         Ok(())
     }
@@ -517,11 +632,13 @@ impl StiffnessModel {
             }
         }
         finite("estimate.compliance", &e.compliance)?;
-        finite("estimate.column_scale", &e.column_scale)?;
         for (i, v) in e.null_space.iter().enumerate() {
             finite(&format!("null_space[{i}]"), v)?;
         }
-        finite("noise.noise_sigma", &self.noise.noise_sigma)?;
+        // A file whose hash was recomputed after an edit passes the hash check, so what the
+        // predictions rely on is checked for being possible at all: variances, scales and
+        // noise levels (a negative variance gave sd = 0, a negative σ a negative stddev).
+        self.validate_values()?;
         if e.covariance_method != robust::COVARIANCE_MODEL
             && e.covariance_method != robust::COVARIANCE_ROBUST
         {
@@ -533,7 +650,7 @@ impl StiffnessModel {
         if !(e.identified_tol > 0.0 && e.identified_tol < 1.0) {
             return Err(format!(
                 "identified_tol must be in (0, 1), got {}",
-                e.identified_tol
+                Short(e.identified_tol)
             ));
         }
         self.spring_model().map_err(|e| e.to_string())?;

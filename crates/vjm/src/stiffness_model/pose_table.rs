@@ -130,13 +130,9 @@ impl PoseTable {
                         expected: "a number",
                     })
                 })?;
-                if !v.is_finite() {
-                    return Err(bad(DatasetError::NonFinite {
-                        line,
-                        column: column.to_string(),
-                        value: v,
-                    }));
-                }
+                // A measurement file's checks (finite, plausible for the unit): a pose in
+                // degrees or a load in the wrong unit is refused here as in `identify`.
+                crate::dataset::check_value(line, column, v).map_err(bad)?;
                 Ok(v)
             };
             for (j, &k) in q_idx.iter().enumerate() {

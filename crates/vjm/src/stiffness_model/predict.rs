@@ -2,9 +2,11 @@
 
 use super::{ModelError, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
+use crate::dataset::{MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
 use crate::error::VjmError;
 use crate::kinematics::Workspace;
 use crate::regressor::{regressor_rows, Measured};
+use stiffness_core::num::Short;
 
 /// Standard gravity, m/s² (acts along −z of the base frame for a [`PointMass`]).
 pub const GRAVITY: f64 = 9.80665;
@@ -24,11 +26,17 @@ pub struct PointMass {
 }
 
 impl PointMass {
-    /// A point mass of `mass` kg (finite, ≥ 0) at `centre` (finite, m, tip frame).
+    /// A point mass of `mass` kg (finite, ≥ 0) at `centre` (finite, m, tip frame). Its weight
+    /// and the largest moment it can exert must be within a measurement file's caps
+    /// ([`MAX_PLAUSIBLE_FORCE`], [`MAX_PLAUSIBLE_MOMENT`]): a prediction refuses the loads an
+    /// identification refuses (10⁶ kg is a unit error, not a payload).
     pub fn new(mass: f64, centre: [f64; 3]) -> Result<Self, ModelError> {
         if !(mass.is_finite() && mass >= 0.0) {
             return Err(ModelError::Payload {
-                message: format!("the mass must be a finite number ≥ 0 kg, got {mass}"),
+                message: format!(
+                    "the mass must be a finite number ≥ 0 kg, got {}",
+                    Short(mass)
+                ),
             });
         }
         if let Some(k) = centre.iter().position(|c| !c.is_finite()) {
@@ -36,7 +44,31 @@ impl PointMass {
                 message: format!(
                     "the centre of mass {} must be finite, got {}",
                     ["cx", "cy", "cz"][k],
-                    centre[k]
+                    Short(centre[k])
+                ),
+            });
+        }
+        let weight = mass * GRAVITY;
+        // The mass is finite and ≥ 0 (above): the weight is at most inf (an overflow), never NaN.
+        if weight > MAX_PLAUSIBLE_FORCE {
+            return Err(ModelError::Payload {
+                message: format!(
+                    "a mass of {} kg weighs {weight:.3e} N, more than physically plausible \
+                     ({MAX_PLAUSIBLE_FORCE} N, the cap of a measurement file's forces); check \
+                     the unit (kg)",
+                    Short(mass)
+                ),
+            });
+        }
+        let arm = nalgebra::Vector3::from(centre).norm();
+        let moment = arm * weight;
+        if moment > MAX_PLAUSIBLE_MOMENT {
+            return Err(ModelError::Payload {
+                message: format!(
+                    "a mass of {} kg at {arm:.3e} m from the tip point exerts up to \
+                     {moment:.3e} N·m, more than physically plausible ({MAX_PLAUSIBLE_MOMENT} \
+                     N·m, the cap of a measurement file's moments); check the units (kg, m)",
+                    Short(mass)
                 ),
             });
         }

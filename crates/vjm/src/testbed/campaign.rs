@@ -107,7 +107,7 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 "compliance of spring J{}{} must be finite and ≥ 0 rad/(N·m), got {}",
                 c / 3 + 1,
                 ["z", "x", "y"][c % 3],
-                truth.compliance[c]
+                stiffness_core::num::Short(truth.compliance[c])
             ),
         });
     }
@@ -122,8 +122,9 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                     return Err(TestbedError::InvalidTruth {
                         message: format!(
                             "joint_tilt at joint {}: compliance must be finite and ≥ 0 rad/(N·m), \
-                             got {compliance}",
-                            joint + 1
+                             got {}",
+                            joint + 1,
+                            stiffness_core::num::Short(*compliance)
                         ),
                     });
                 }
@@ -157,8 +158,9 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 if !(lost_motion.is_finite() && *lost_motion >= 0.0) {
                     return Err(TestbedError::InvalidTruth {
                         message: format!(
-                            "backlash at joint {} must be finite and ≥ 0, got {lost_motion}",
-                            joint + 1
+                            "backlash at joint {} must be finite and ≥ 0, got {}",
+                            joint + 1,
+                            stiffness_core::num::Short(*lost_motion)
                         ),
                     });
                 }
@@ -175,7 +177,9 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 {
                     return Err(TestbedError::InvalidTruth {
                         message: format!(
-                            "mount compliances must be finite and ≥ 0, got {translation} m/N and {rotation} rad/(N·m)"
+                            "mount compliances must be finite and ≥ 0, got {} m/N and {} rad/(N·m)",
+                            stiffness_core::num::Short(*translation),
+                            stiffness_core::num::Short(*rotation)
                         ),
                     });
                 }
@@ -185,7 +189,8 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 if !(compliance.is_finite() && *compliance >= 0.0) {
                     return Err(TestbedError::InvalidTruth {
                         message: format!(
-                            "tool axial compliance must be finite and ≥ 0, got {compliance} m/N"
+                            "tool axial compliance must be finite and ≥ 0, got {} m/N",
+                            stiffness_core::num::Short(*compliance)
                         ),
                     });
                 }
@@ -195,7 +200,8 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 if !(coupling.is_finite() && coupling.abs() <= 0.5) {
                     return Err(TestbedError::InvalidTruth {
                         message: format!(
-                            "sensor cross-talk coupling must be finite and within ±0.5, got {coupling}"
+                            "sensor cross-talk coupling must be finite and within ±0.5, got {}",
+                            stiffness_core::num::Short(*coupling)
                         ),
                     });
                 }
@@ -204,7 +210,10 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
             Effect::PoseDrift { sigma } => {
                 if !(sigma.is_finite() && *sigma >= 0.0) {
                     return Err(TestbedError::InvalidTruth {
-                        message: format!("pose drift sigma must be finite and ≥ 0, got {sigma}"),
+                        message: format!(
+                            "pose drift sigma must be finite and ≥ 0, got {}",
+                            stiffness_core::num::Short(*sigma)
+                        ),
                     });
                 }
                 None
@@ -519,10 +528,12 @@ fn blame_the_simulation(e: DatasetError) -> TestbedError {
             ..
         } => TestbedError::InvalidTruth {
             message: format!(
-                "the simulated {column} of row {} is {value} {unit}, beyond the plausible {limit} \
+                "the simulated {column} of row {} is {} {unit}, beyond the plausible {} \
                  {unit}: the true model's compliances or effects are implausibly large for these \
                  loads",
-                line - 1
+                line - 1,
+                stiffness_core::num::Short(value),
+                stiffness_core::num::Short(limit)
             ),
         },
         DatasetError::NonFinite { line, column, .. } => TestbedError::InvalidTruth {

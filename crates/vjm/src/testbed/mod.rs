@@ -24,7 +24,11 @@ pub use campaign::{
     CampaignSpec, CHECK_EVERY_ROWS,
 };
 pub use effects::{ForceSensorNoise, HarmonicDriveSpring, TrackerNoise};
-pub use seed_study::{seed_study, SeedStudy, SEED_TABLE_I_DEG, SEED_WRENCHES};
+pub use seed_study::{
+    magnitude_error, seed_study, seed_tilt_ratio, seed_torsion_share, seed_truth, vector_error,
+    ClippedAngle, ErrorSummary, ModelErrors, SeedPaperFigures, SeedStudy, SeedStudyRow, SEED_PAPER,
+    SEED_TABLE_I_DEG, SEED_TORSION_SHARE, SEED_WRENCHES,
+};
 pub use truth::{Effect, TrueModel, NOMINAL_TORSION};
 
 use crate::dataset::DatasetError;

@@ -6,7 +6,7 @@
 
 use serde::Serialize;
 
-use super::campaign::{simulate_at, CampaignSpec};
+use super::campaign::{check_truth, simulate_at, CampaignSpec};
 use super::truth::TrueModel;
 use super::TestbedError;
 use crate::chain::SerialChain;
@@ -52,27 +52,157 @@ pub struct ClippedAngle {
     pub used: f64,
 }
 
-/// Result of [`seed_study`]. Errors are means over rows of ‖d_pred − d_meas‖/‖d_meas‖.
+/// What the seed paper reports for the quantities [`SeedStudy`] measures (Section IV-A, Fig. 4,
+/// and Section IV-B), as fractions. Its metric is the error of the deflection's magnitude
+/// ("on the total deformation"), i.e. [`magnitude_error`].
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct SeedPaperFigures {
+    /// Traditional model, mean magnitude error over the 26 tests: 7.75 %.
+    pub traditional_all: f64,
+    /// Extended model, mean magnitude error over the 26 tests: 3.74 %.
+    pub extended_all: f64,
+    /// Extended model, largest magnitude error on the 10 verification tests: 10.9 %.
+    pub extended_verification_max: f64,
+    /// The test (1-based, 1–26) where that maximum occurs: 21.
+    pub extended_verification_max_test: usize,
+    /// Traditional model, largest verification error: 10.9 % + 6.1 points = 17.0 %.
+    pub traditional_verification_max: f64,
+    /// Mean share of the torsional springs in the deflection magnitude (Section IV-B): 76.5 %.
+    pub torsion_share: f64,
+}
+
+/// The seed paper's figures (see [`SeedPaperFigures`]).
+pub const SEED_PAPER: SeedPaperFigures = SeedPaperFigures {
+    traditional_all: 0.0775,
+    extended_all: 0.0374,
+    extended_verification_max: 0.109,
+    extended_verification_max_test: 21,
+    traditional_verification_max: 0.170,
+    torsion_share: 0.765,
+};
+
+/// The seed's torsion share, Section IV-B: over the 13 configurations under the load
+/// [`SEED_WRENCHES`]`[0]`, the torsional springs carry 76.5 % of the deflection on average.
+pub const SEED_TORSION_SHARE: f64 = SEED_PAPER.torsion_share;
+
+/// Error of the deflection's magnitude, |‖pred‖ − ‖meas‖| / ‖meas‖ (the seed's metric: it
+/// compares "the total deformation", Fig. 4). Blind to direction.
+pub fn magnitude_error(pred: &[f64; 3], meas: &[f64; 3]) -> f64 {
+    (norm3(pred) - norm3(meas)).abs() / norm3(meas)
+}
+
+/// Error of the deflection vector, ‖pred − meas‖ / ‖meas‖ (≥ [`magnitude_error`] by the
+/// triangle inequality).
+pub fn vector_error(pred: &[f64; 3], meas: &[f64; 3]) -> f64 {
+    norm3(&[pred[0] - meas[0], pred[1] - meas[1], pred[2] - meas[2]]) / norm3(meas)
+}
+
+fn norm3(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// One of the 26 tests: a Table I configuration under one of the two loads.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedStudyRow {
+    /// The seed's test number, 1–26: configuration c under load l is test 2(c − 1) + l.
+    pub test: usize,
+    /// 1-based Table I configuration.
+    pub configuration: usize,
+    /// 1-based load ([`SEED_WRENCHES`]).
+    pub load: usize,
+    /// Whether the row is one of the 16 the models are fitted on (configurations 1–8).
+    pub identification: bool,
+    /// Measured tip displacement, m (base frame).
+    pub measured: [f64; 3],
+    /// Traditional model's prediction, m.
+    pub traditional: [f64; 3],
+    /// Extended model's prediction, m.
+    pub extended: [f64; 3],
+    /// [`magnitude_error`] of the traditional model.
+    pub traditional_magnitude_error: f64,
+    /// [`vector_error`] of the traditional model.
+    pub traditional_vector_error: f64,
+    /// [`magnitude_error`] of the extended model.
+    pub extended_magnitude_error: f64,
+    /// [`vector_error`] of the extended model.
+    pub extended_vector_error: f64,
+}
+
+/// One metric of one model summarised over the rows.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ErrorSummary {
+    /// Mean over the 16 identification rows.
+    pub identification: f64,
+    /// Mean over the 10 verification rows.
+    pub verification: f64,
+    /// Mean over all 26 rows (the seed's "mean relative error").
+    pub all: f64,
+    /// Largest error on the verification rows.
+    pub verification_max: f64,
+    /// The test (1–26) where it occurs.
+    pub verification_max_test: usize,
+}
+
+impl ErrorSummary {
+    fn of(rows: &[SeedStudyRow], err: impl Fn(&SeedStudyRow) -> f64) -> Self {
+        let mean = |keep: &dyn Fn(&SeedStudyRow) -> bool| {
+            let e: Vec<f64> = rows.iter().filter(|r| keep(r)).map(&err).collect();
+            e.iter().sum::<f64>() / e.len() as f64
+        };
+        let (verification_max_test, verification_max) = rows
+            .iter()
+            .filter(|r| !r.identification)
+            .map(|r| (r.test, err(r)))
+            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        ErrorSummary {
+            identification: mean(&|r| r.identification),
+            verification: mean(&|r| !r.identification),
+            all: mean(&|_| true),
+            verification_max,
+            verification_max_test,
+        }
+    }
+}
+
+/// Both metrics of one model.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ModelErrors {
+    /// [`magnitude_error`]: the seed's metric.
+    pub magnitude: ErrorSummary,
+    /// [`vector_error`].
+    pub vector: ErrorSummary,
+}
+
+impl ModelErrors {
+    fn of(
+        rows: &[SeedStudyRow],
+        magnitude: impl Fn(&SeedStudyRow) -> f64,
+        vector: impl Fn(&SeedStudyRow) -> f64,
+    ) -> Self {
+        ModelErrors {
+            magnitude: ErrorSummary::of(rows, magnitude),
+            vector: ErrorSummary::of(rows, vector),
+        }
+    }
+}
+
+/// Result of [`seed_study`]: both models under both metrics, per row and summarised.
 #[derive(Debug, Clone, Serialize)]
 pub struct SeedStudy {
-    /// Traditional model on the 10 verification rows.
-    pub traditional_verification_error: f64,
-    /// Extended model on the 10 verification rows.
-    pub extended_verification_error: f64,
-    /// Traditional model on the 16 identification rows.
-    pub traditional_identification_error: f64,
-    /// Extended model on the 16 identification rows.
-    pub extended_identification_error: f64,
-    /// Traditional model over all 26 rows (the seed's 7.75 %).
-    pub traditional_all_error: f64,
-    /// Extended model over all 26 rows (the seed's 3.74 %).
-    pub extended_all_error: f64,
+    /// Traditional model (7 torsional springs).
+    pub traditional: ModelErrors,
+    /// Extended model (21 springs).
+    pub extended: ModelErrors,
+    /// The 26 tests in the seed's order.
+    pub rows: Vec<SeedStudyRow>,
     /// Rank of the extended model's identification matrix (≤ 21).
     pub extended_rank: usize,
-    /// Mean share of the torsional springs in the true deflection norm, ‖J_t C_z Jᵀ W‖/‖d‖.
+    /// The truth's torsion share, [`seed_torsion_share`].
     pub torsion_share: f64,
     /// Joint angles moved inside the limits.
     pub clipped: Vec<ClippedAngle>,
+    /// The seed's figures for the same quantities.
+    pub paper: SeedPaperFigures,
 }
 
 impl TrueModel {
@@ -88,28 +218,10 @@ impl TrueModel {
     }
 }
 
-fn mean_rel(pred: &[[f64; 3]], meas: &[[f64; 3]], rows: std::ops::Range<usize>) -> f64 {
-    let n = rows.len() as f64;
-    rows.map(|i| {
-        let e = (0..3)
-            .map(|k| (pred[i][k] - meas[i][k]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let d = (0..3).map(|k| meas[i][k].powi(2)).sum::<f64>().sqrt();
-        e / d
-    })
-    .sum::<f64>()
-        / n
-}
-
-/// Runs the seed's study on `chain` (7 actuated joints) with `truth`; `noise` adds the
-/// default instrument noise drawn from `seed`.
-pub fn seed_study(
+/// Table I in radians, clipped to `chain`'s limits, and the angles that moved.
+fn seed_configurations(
     chain: &SerialChain,
-    truth: &TrueModel,
-    noise: bool,
-    seed: u64,
-) -> Result<SeedStudy, TestbedError> {
+) -> Result<(Vec<Vec<f64>>, Vec<ClippedAngle>), TestbedError> {
     let n = chain.n_joints();
     if n != 7 {
         return Err(TestbedError::InvalidSpec {
@@ -118,30 +230,137 @@ pub fn seed_study(
         });
     }
     let mut clipped = Vec::new();
+    let configurations = SEED_TABLE_I_DEG
+        .iter()
+        .enumerate()
+        .map(|(c, row)| {
+            row.iter()
+                .zip(chain.limits())
+                .enumerate()
+                .map(|(j, (deg, &(lo, hi)))| {
+                    let table = deg.to_radians();
+                    let used = table.clamp(lo, hi);
+                    if used != table {
+                        clipped.push(ClippedAngle {
+                            configuration: c + 1,
+                            joint: j + 1,
+                            table,
+                            used,
+                        });
+                    }
+                    used
+                })
+                .collect()
+        })
+        .collect();
+    Ok((configurations, clipped))
+}
+
+/// The torsion share of `truth` as the seed defines it (Section IV-B): the mean over the 13
+/// Table I configurations (clipped to the limits), under the load [`SEED_WRENCHES`]`[0]`, of
+/// ‖d_torsion‖ / ‖d‖, where d is the truth's tip displacement and d_torsion the displacement
+/// of the truth's torsional springs alone (tilts and effects removed).
+pub fn seed_torsion_share(chain: &SerialChain, truth: &TrueModel) -> Result<f64, TestbedError> {
+    check_truth(chain, truth)?;
+    let (configurations, _) = seed_configurations(chain)?;
+    Ok(torsion_share_at(chain, truth, &configurations))
+}
+
+fn torsion_share_at(chain: &SerialChain, truth: &TrueModel, configurations: &[Vec<f64>]) -> f64 {
+    let torsion = TrueModel {
+        compliance: truth
+            .compliance
+            .iter()
+            .enumerate()
+            .map(|(s, c)| if s % 3 == 0 { *c } else { 0.0 })
+            .collect(),
+        effects: Vec::new(),
+    };
+    let w = SEED_WRENCHES[0];
+    configurations
+        .iter()
+        .map(|q| {
+            torsion.displacement(chain, q, &w).0.norm() / truth.displacement(chain, q, &w).0.norm()
+        })
+        .sum::<f64>()
+        / configurations.len() as f64
+}
+
+/// Doublings of the upper bracket and bisection steps of [`seed_tilt_ratio`] (the share is
+/// solved to ~1e-12 relative in well under 100 steps).
+const CALIBRATION_STEPS: usize = 200;
+
+/// The tilt ratio r for which [`TrueModel::with_tilts`]`(torsion, r)` has the torsion share
+/// [`seed_torsion_share`] = `share`, solved by bisection on r (the share is 1 at r = 0 and
+/// falls as the tilts grow; the bracket's upper end is doubled until it is below `share`).
+pub fn seed_tilt_ratio(
+    chain: &SerialChain,
+    torsion: &[f64],
+    share: f64,
+) -> Result<f64, TestbedError> {
+    if !(share > 0.0 && share < 1.0) {
+        return Err(TestbedError::InvalidSpec {
+            field: "share",
+            message: format!("the torsion share must be in (0, 1), got {share}"),
+        });
+    }
+    check_truth(chain, &TrueModel::torsion_only(torsion))?;
+    let (configurations, _) = seed_configurations(chain)?;
+    let at = |r: f64| torsion_share_at(chain, &TrueModel::with_tilts(torsion, r), &configurations);
+    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+    let mut steps = 0;
+    while at(hi) > share {
+        steps += 1;
+        if steps > CALIBRATION_STEPS {
+            return Err(TestbedError::Fit {
+                message: format!(
+                    "no tilt ratio up to {hi:.3e} brings the torsion share down to {share}"
+                ),
+            });
+        }
+        lo = hi;
+        hi *= 2.0;
+    }
+    for _ in 0..CALIBRATION_STEPS {
+        let mid = 0.5 * (lo + hi);
+        if at(mid) > share {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo <= 1e-12 * hi {
+            break;
+        }
+    }
+    Ok(0.5 * (lo + hi))
+}
+
+/// The seed study's truth: [`NOMINAL_TORSION`](super::NOMINAL_TORSION) with tilts calibrated to
+/// the seed's torsion share ([`SEED_TORSION_SHARE`]); returns it and its tilt ratio.
+pub fn seed_truth(chain: &SerialChain) -> Result<(TrueModel, f64), TestbedError> {
+    let torsion: Vec<f64> = (0..chain.n_joints())
+        .map(|j| super::NOMINAL_TORSION[j % 7])
+        .collect();
+    let r = seed_tilt_ratio(chain, &torsion, SEED_TORSION_SHARE)?;
+    Ok((TrueModel::with_tilts(&torsion, r), r))
+}
+
+/// Runs the seed's study on `chain` (7 actuated joints) with `truth` (e.g. [`seed_truth`]);
+/// `noise` adds the default instrument noise drawn from `seed`.
+pub fn seed_study(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    noise: bool,
+    seed: u64,
+) -> Result<SeedStudy, TestbedError> {
+    let n = chain.n_joints();
+    let (configurations, clipped) = seed_configurations(chain)?;
     let mut q = Vec::new();
     let mut wrenches = Vec::new();
     let mut poses = Vec::new();
-    for (c, row) in SEED_TABLE_I_DEG.iter().enumerate() {
-        let qc: Vec<f64> = row
-            .iter()
-            .zip(chain.limits())
-            .enumerate()
-            .map(|(j, (deg, &(lo, hi)))| {
-                let table = deg.to_radians();
-                let used = table.clamp(lo, hi);
-                if used != table {
-                    clipped.push(ClippedAngle {
-                        configuration: c + 1,
-                        joint: j + 1,
-                        table,
-                        used,
-                    });
-                }
-                used
-            })
-            .collect();
+    for (c, qc) in configurations.iter().enumerate() {
         for w in SEED_WRENCHES {
-            q.extend_from_slice(&qc);
+            q.extend_from_slice(qc);
             wrenches.push(w);
             poses.push(c as i64);
         }
@@ -205,34 +424,37 @@ pub fn seed_study(
     let ext: Vec<usize> = (0..3 * n).collect();
     let (p_trad, _) = fit(&trad);
     let (p_ext, extended_rank) = fit(&ext);
-    let rows = data.len();
-    // Torsion share of the true deflection.
-    let torsion_truth = TrueModel {
-        compliance: truth
-            .compliance
-            .iter()
-            .enumerate()
-            .map(|(s, c)| if s % 3 == 0 { *c } else { 0.0 })
-            .collect(),
-        effects: Vec::new(),
-    };
-    let torsion_share = (0..rows)
-        .map(|i| {
-            let (dt, _) = torsion_truth.displacement(chain, data.q(i), &campaign.applied_wrench[i]);
-            let d = campaign.true_displacement[i];
-            dt.norm() / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    let n_loads = SEED_WRENCHES.len();
+    let rows: Vec<SeedStudyRow> = (0..data.len())
+        .map(|i| SeedStudyRow {
+            test: i + 1,
+            configuration: i / n_loads + 1,
+            load: i % n_loads + 1,
+            identification: i < n_id,
+            measured: meas[i],
+            traditional: p_trad[i],
+            extended: p_ext[i],
+            traditional_magnitude_error: magnitude_error(&p_trad[i], &meas[i]),
+            traditional_vector_error: vector_error(&p_trad[i], &meas[i]),
+            extended_magnitude_error: magnitude_error(&p_ext[i], &meas[i]),
+            extended_vector_error: vector_error(&p_ext[i], &meas[i]),
         })
-        .sum::<f64>()
-        / rows as f64;
+        .collect();
     Ok(SeedStudy {
-        traditional_verification_error: mean_rel(&p_trad, &meas, n_id..rows),
-        extended_verification_error: mean_rel(&p_ext, &meas, n_id..rows),
-        traditional_identification_error: mean_rel(&p_trad, &meas, 0..n_id),
-        extended_identification_error: mean_rel(&p_ext, &meas, 0..n_id),
-        traditional_all_error: mean_rel(&p_trad, &meas, 0..rows),
-        extended_all_error: mean_rel(&p_ext, &meas, 0..rows),
+        traditional: ModelErrors::of(
+            &rows,
+            |r| r.traditional_magnitude_error,
+            |r| r.traditional_vector_error,
+        ),
+        extended: ModelErrors::of(
+            &rows,
+            |r| r.extended_magnitude_error,
+            |r| r.extended_vector_error,
+        ),
+        rows,
         extended_rank,
-        torsion_share,
+        torsion_share: torsion_share_at(chain, truth, &configurations),
         clipped,
+        paper: SEED_PAPER,
     })
 }

@@ -3,9 +3,11 @@
 mod strategies;
 
 mod bad_input;
+mod bounded_input;
 mod check_arrays;
 mod compensation;
 mod design;
+mod gravity;
 mod identification;
 mod identify_partial;
 mod kinematics;
@@ -14,6 +16,8 @@ mod pinocchio;
 mod planning;
 mod prediction;
 mod robustness;
+mod screening;
+mod seed_study;
 mod stiffness_model;
 mod urdf;
 

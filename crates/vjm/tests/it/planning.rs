@@ -188,3 +188,137 @@ fn plan_errors_name_the_option() {
         .to_string();
     assert!(e.contains("prior compliance"), "{e}");
 }
+
+/// A planar-ish arm: `j1` about z at 0.3 m height, `j2` about y 0.4 m out, tool 0.3 m beyond
+/// and 0.1 m up. `base`→`l1` is one joint with the tip on its axis (nothing moves it).
+const ARM2: &str = r#"<?xml version="1.0"?>
+<robot name="arm2">
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-2.5" upper="2.5" effort="10" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.4 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1.0" upper="1.0" effort="10" velocity="1"/></joint>
+  <joint name="tip" type="fixed"><parent link="l2"/><child link="tool"/>
+    <origin xyz="0.3 0 0.1" rpy="0 0 0"/></joint>
+</robot>"#;
+
+fn arm2(base: &str, tip: &str) -> SerialChain {
+    SerialChain::from_urdf_str(ARM2, base, tip).unwrap()
+}
+
+/// Issue 21: chains of one and two joints get a plan or a clear error, never a panic (a
+/// rank-0 chain used to reach nalgebra's "empty matrix" panic).
+#[test]
+fn short_chains_get_a_plan_or_a_clear_error() {
+    for (base, tip, joints) in [("base", "tool", 2), ("l1", "tool", 1)] {
+        let chain = arm2(base, tip);
+        assert_eq!(chain.n_joints(), joints);
+        for model in [
+            VirtualJointModel::traditional(joints),
+            VirtualJointModel::extended(joints),
+        ] {
+            let plan = design(
+                &chain,
+                &model,
+                &PlanSpec::default(),
+                &NoiseModel::testbed(&model),
+            )
+            .unwrap_or_else(|e| panic!("{base}→{tip}: {e}"));
+            assert!(
+                plan.rank >= 1 && plan.worst_stderr.is_finite(),
+                "{base}→{tip}"
+            );
+            assert_eq!(plan.wrench.len(), 96);
+        }
+    }
+    // The tip on the only joint's axis: nothing to identify.
+    let chain = arm2("base", "l1");
+    let model = VirtualJointModel::extended(1);
+    let e = design(
+        &chain,
+        &model,
+        &PlanSpec::default(),
+        &NoiseModel::testbed(&model),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("rank 0") && e.contains("`l1`"), "{e}");
+}
+
+/// A chain whose tip never rises above the height filter is refused early (not after 600 000
+/// draws) with the filter, the links and the highest tip seen in the message.
+#[test]
+fn a_tip_below_the_height_filter_is_named() {
+    let chain = arm2("l1", "tool");
+    let model = VirtualJointModel::extended(1);
+    let mut spec = PlanSpec::default();
+    spec.min_tip_height = 1.0;
+    let e = design(&chain, &model, &spec, &NoiseModel::testbed(&model))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("acceptable poses")
+            && e.contains("1 m above the base `l1`")
+            && e.contains("highest"),
+        "{e}"
+    );
+    assert!(e.contains("in 50000 draws"), "gave up late: {e}");
+}
+
+/// The measurement cap (poses × wrenches) is checked before any work.
+#[test]
+fn too_many_measurements_are_refused() {
+    let chain = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let mut spec = PlanSpec::default();
+    spec.n_poses = 10_000;
+    spec.wrenches_per_pose = 11;
+    spec.pool_size = 10_000;
+    let e = design(&chain, &model, &spec, &NoiseModel::testbed(&model))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("110000 measurements") && e.contains("100000"),
+        "{e}"
+    );
+}
+
+/// A cancelled token stops the planning with `Cancelled`; progress is reported per stage.
+#[test]
+fn design_is_cancellable_and_reports_progress() {
+    use std::sync::Mutex;
+    use stiffness_core::{Cancel, Monitor, Progress};
+    let chain = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let noise = NoiseModel::testbed(&model);
+    let cancel = Cancel::new();
+    cancel.cancel();
+    let e = vjm::design_monitored(
+        &chain,
+        &model,
+        &PlanSpec::default(),
+        &noise,
+        &Monitor::new(cancel),
+    )
+    .unwrap_err();
+    assert!(matches!(e, vjm::VjmError::Cancelled(_)), "{e}");
+    let seen = Mutex::new(Vec::new());
+    let sink = |p: Progress| seen.lock().unwrap().push(p.stage);
+    let mut spec = PlanSpec::default();
+    spec.n_poses = 3;
+    spec.pool_size = 30;
+    vjm::design_monitored(
+        &chain,
+        &model,
+        &spec,
+        &noise,
+        &Monitor::new(Cancel::new()).with_progress(&sink),
+    )
+    .unwrap();
+    let seen = seen.into_inner().unwrap();
+    for stage in ["pool", "selection", "check"] {
+        assert!(seen.contains(&stage), "{seen:?}");
+    }
+}

@@ -8,7 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use vjm::testbed::effects::{backlash_deflection, rotate};
 use vjm::testbed::kinematics::{deflected_pose, deflected_tip};
 use vjm::testbed::{
-    seed_study, simulate, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel, NOMINAL_TORSION,
+    simulate, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel, NOMINAL_TORSION,
 };
 use vjm::{complementary_stiffness, jacobian, SerialChain, SpringAxis, VirtualJointModel};
 
@@ -391,40 +391,4 @@ fn invalid_truth_and_spec_are_rejected() {
         ..Default::default()
     };
     assert!(simulate(&chain, &TrueModel::nominal(7), &spec).is_err());
-}
-
-#[test]
-fn seed_study_extended_beats_traditional() {
-    let chain = SerialChain::bundled();
-    // Tilting springs at 0.3 × the torsion of each joint, about both axes.
-    let truth = TrueModel::with_tilts(&NOMINAL_TORSION, 0.3);
-    let quiet = seed_study(&chain, &truth, false, 0).unwrap();
-    let noisy = seed_study(&chain, &truth, true, 0).unwrap();
-    for (name, s) in [("noise-free", &quiet), ("noisy", &noisy)] {
-        println!(
-            "seed study ({name}): all 26 rows traditional {:.2} % → extended {:.2} % (seed: 7.75 % → 3.74 %); \
-             verification {:.2} % → {:.2} %; identification {:.2} % → {:.2} %; extended rank {}; torsion share {:.1} %; {} angles clipped",
-            100.0 * s.traditional_all_error,
-            100.0 * s.extended_all_error,
-            100.0 * s.traditional_verification_error,
-            100.0 * s.extended_verification_error,
-            100.0 * s.traditional_identification_error,
-            100.0 * s.extended_identification_error,
-            s.extended_rank,
-            100.0 * s.torsion_share,
-            s.clipped.len()
-        );
-    }
-    // Noise-free: the extended model contains the truth, so on the identification rows it is
-    // exact; the traditional model misses the tilt share of the deflection.
-    assert!(quiet.extended_identification_error < 1e-9);
-    assert!(quiet.traditional_identification_error > 0.02);
-    assert!(quiet.extended_all_error < quiet.traditional_all_error);
-    assert!(noisy.extended_all_error < noisy.traditional_all_error);
-    // The seed's truth: torsion carries most of the deflection (seed: 76.5 % on average).
-    assert!(quiet.torsion_share > 0.5 && quiet.torsion_share < 1.0);
-    assert!(
-        !quiet.clipped.is_empty(),
-        "Table I exceeds the Panda's joint 4/6 limits"
-    );
 }

@@ -32,7 +32,7 @@ use targets::Target;
 use worker::Outcome;
 
 const USAGE: &str = "usage: fuzz [--seconds S] [--seed N] [--record FILE] [--corpus DIR] \
-[--crashes DIR] [--timeout S] [--max-execs N]\n       fuzz --replay FILE --target vjm|csjm|urdf";
+[--crashes DIR] [--timeout S] [--max-execs N]\n       fuzz --replay FILE --target vjm|csjm|urdf|model";
 
 /// Command-line options.
 #[derive(Debug)]

@@ -6,7 +6,10 @@
 use so3_stiffness::identification::{self as csjm, CsjmDataset, FitOptions, FitOrder, ReadOptions};
 use vjm::dataset::Dataset;
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
-use vjm::{identify, jacobian, IdentifyOptions, SerialChain, SolveMethod, VirtualJointModel};
+use vjm::{
+    identify, jacobian, CompensateOptions, IdentifyOptions, Load, ModelError, SerialChain,
+    SolveMethod, StiffnessModel, VirtualJointModel,
+};
 
 /// One reader (and what follows it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -18,11 +21,21 @@ pub enum Target {
     /// `SerialChain::from_urdf_str` with the base/tip named in the input's first-line comment,
     /// then kinematics, a small simulated campaign and `identify` on it.
     Urdf,
+    /// `StiffnessModel::from_json` (a model file of the bundled Panda), then `check_robot`,
+    /// `predict` and `compensate`; when only the content hash is wrong, the hash is recomputed
+    /// and the file read again, as a user who edits a file by hand can do, so that the
+    /// value checks behind the hash are fuzzed too.
+    ModelFile,
 }
 
 impl Target {
     /// Every target, in a fixed order.
-    pub const ALL: [Target; 3] = [Target::VjmCsv, Target::CsjmCsv, Target::Urdf];
+    pub const ALL: [Target; 4] = [
+        Target::VjmCsv,
+        Target::CsjmCsv,
+        Target::Urdf,
+        Target::ModelFile,
+    ];
 
     /// Folder name of the target's seeds and crashes.
     pub fn name(self) -> &'static str {
@@ -30,6 +43,7 @@ impl Target {
             Target::VjmCsv => "vjm",
             Target::CsjmCsv => "csjm",
             Target::Urdf => "urdf",
+            Target::ModelFile => "model",
         }
     }
 
@@ -59,6 +73,7 @@ impl Target {
             Target::VjmCsv => run_vjm_csv(input),
             Target::CsjmCsv => run_csjm_csv(input),
             Target::Urdf => run_urdf(input),
+            Target::ModelFile => run_model_file(input),
         }
     }
 }
@@ -190,5 +205,74 @@ fn run_urdf(input: &[u8]) -> Result<String, String> {
     Ok(format!(
         "{n} joints, tip at {:?}, {id}",
         tip_pose.translation.vector.as_slice()
+    ))
+}
+
+fn run_model_file(input: &[u8]) -> Result<String, String> {
+    let text = String::from_utf8_lossy(input);
+    // The bundled arm's joints without its URDF text, so that the seeds stay valid when the
+    // bundled URDF's text changes (its kinematics are still checked).
+    let panda = SerialChain::bundled();
+    let joints: Vec<vjm::JointSpec> = panda
+        .joints()
+        .iter()
+        .map(|j| (j.name().to_string(), *j.origin(), *j.axis(), j.limits()))
+        .collect();
+    let chain = SerialChain::from_joints(
+        vjm::BUNDLED_BASE,
+        vjm::BUNDLED_FLANGE,
+        joints,
+        *panda.tip_offset(),
+    )
+    .map_err(|e| e.to_string())?;
+    let model = match StiffnessModel::from_json(&text, "model.json") {
+        Ok(m) => m,
+        Err(ModelError::Edited { .. }) => {
+            // Recompute the hash (the reader has bounded the text already) and read again.
+            let mut doc: serde_json::Value =
+                serde_json::from_str(&text).map_err(|e| e.to_string())?;
+            let inner: StiffnessModel =
+                serde_json::from_value(doc["model"].clone()).map_err(|e| e.to_string())?;
+            doc["content_sha256"] = serde_json::Value::String(inner.content_sha256());
+            StiffnessModel::from_json(&doc.to_string(), "model.json").map_err(|e| e.to_string())?
+        }
+        Err(e) => return Err(e.to_string()),
+    };
+    model
+        .check_robot(&chain, "model.json")
+        .map_err(|e| e.to_string())?;
+    let n = chain.n_joints();
+    let mid: Vec<f64> = chain
+        .limits()
+        .iter()
+        .map(|(lo, hi)| 0.5 * (lo + hi))
+        .collect();
+    let q: Vec<f64> = [vec![0.0; n], mid].concat();
+    let wrench = [
+        [40.0, -20.0, 10.0, 1.0, 0.5, -2.0],
+        [0.0, 0.0, -50.0, 0.0, 0.0, 0.0],
+    ]
+    .concat();
+    let predicted = model
+        .predict(&chain, &q, Load::Wrench(&wrench))
+        .map_err(|e| e.to_string())?;
+    let sd = model.measurement_stddev();
+    if sd.iter().any(|s| *s < 0.0) {
+        // A negative standard deviation is a silent wrong answer, not an error.
+        panic!("measurement_stddev {sd:?} < 0 from a file the reader accepted");
+    }
+    let compensated = model
+        .compensate(
+            &chain,
+            &q,
+            Load::Wrench(&wrench),
+            &CompensateOptions::default(),
+        )
+        .map_err(|e| e.to_string())?;
+    Ok(format!(
+        "{} rows predicted ({} identified), {} compensated",
+        predicted.len(),
+        predicted.iter().filter(|p| p.identified).count(),
+        compensated.rows.len()
     ))
 }

@@ -1,0 +1,189 @@
+"""Gravity against an engine we did not write: MuJoCo (mujoco_testbed.py) on six arms of
+example-robot-data, rebuilt from their URDF kinematics and inertials.
+
+Checked: the torques of gravity on every virtual spring (torsions and tilts), the stiffness of
+gravity K_G (against central differences of MuJoCo's generalized gravity), the crate's linear
+response at small loads, and the tip's sag under its own weight. Skipped with a reason when
+mujoco or example-robot-data is not installed (scripts/test.sh installs both).
+"""
+
+from __future__ import annotations
+
+import sys
+import sysconfig
+from pathlib import Path
+from typing import List, Optional, Tuple
+
+import numpy as np
+import pytest
+
+from robot_stiffness.vjm import Robot
+
+mujoco = pytest.importorskip("mujoco", reason="mujoco is not installed (pip install mujoco)")
+
+from mujoco_testbed import MujocoArm  # noqa: E402
+
+_ROBOTS = "cmeel.prefix/share/example-robot-data/robots"
+
+#: (URDF below example-robot-data's robots/, base link, tip link)
+ARMS: List[Tuple[str, str, str]] = [
+    ("panda_description/urdf/panda.urdf", "panda_link0", "panda_link8"),
+    ("ur_description/urdf/ur10_robot.urdf", "base_link", "tool0"),
+    ("z1_description/urdf/z1.urdf", "link00", "link06"),
+    ("kinova_description/robots/kinova.urdf", "j2s6s200_link_base", "j2s6s200_end_effector"),
+    ("xarm_description/urdf/xarm7.urdf", "link_base", "link_eef"),
+    ("baxter_description/urdf/baxter.urdf", "left_arm_mount", "left_gripper"),
+    # The crate's bundled Panda (crates/vjm/data/panda_arm.urdf), to its tool centre point.
+    ("bundled", "panda_link0", "panda_hand_tcp"),
+]
+
+_BUNDLED = Path(__file__).resolve().parents[2] / "vjm" / "data" / "panda_arm.urdf"
+
+def _urdf_text(rel: str) -> Optional[str]:
+    if rel == "bundled":
+        return _BUNDLED.read_text()
+    for site in [sysconfig.get_paths()["purelib"], *sys.path]:
+        p = Path(site) / _ROBOTS / rel
+        if p.is_file():
+            return p.read_text()
+    return None
+
+
+def _arm(rel: str, base: str, tip: str) -> Tuple[Robot, MujocoArm, List[int]]:
+    text = _urdf_text(rel)
+    if text is None:
+        pytest.skip(f"example-robot-data's {rel} not found")
+    robot = Robot.bundled(tip) if rel == "bundled" else Robot.from_urdf_string(text, base, tip)
+    arm = MujocoArm(text, base, tip, tilts=range(robot.n_joints))
+    # The crate's extended order [J1z, J1x, J1y, J2z, ...] as MuJoCo dof indices.
+    order: List[int] = []
+    for k in range(robot.n_joints):
+        order += [arm.q_dof[k], *arm.tilt_dof[k]]
+    return robot, arm, order
+
+
+def _q(robot: Robot, rng: np.random.Generator) -> np.ndarray:
+    return rng.uniform(-1.3, 1.3, robot.n_joints)
+
+
+@pytest.mark.parametrize("rel,base,tip", ARMS, ids=[a[0].split("/")[-1] for a in ARMS])
+def test_gravity_torques_on_every_spring_are_mujocos(rel, base, tip):
+    robot, arm, order = _arm(rel, base, tip)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q = _q(robot, rng)
+        ours = robot.gravity_torques(q, "extended")
+        theirs = arm.generalized_gravity(q)[order]
+        assert np.abs(theirs).max() > 0.1  # a real arm's weight, not an empty model
+        np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10 * np.abs(theirs).max())
+    # A payload (1.5 kg, 5 cm along the tip's z) is one more body on the last joint.
+    arm.set_payload((1.5, (0.0, 0.0, 0.05)))
+    q = _q(robot, rng)
+    ours = robot.gravity_torques(q, "extended", payload=(1.5, (0.0, 0.0, 0.05)))
+    theirs = arm.generalized_gravity(q)[order]
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10 * np.abs(theirs).max())
+    # A ceiling-mounted arm: gravity along +z of the base.
+    arm.set_payload(None)
+    arm.set_gravity([0.0, 0.0, 9.80665])
+    ours = robot.gravity_torques(q, "extended", gravity=(0.0, 0.0, 9.80665))
+    theirs = arm.generalized_gravity(q)[order]
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10 * np.abs(theirs).max())
+
+
+@pytest.mark.parametrize("rel,base,tip", ARMS[::2], ids=[a[0].split("/")[-1] for a in ARMS[::2]])
+def test_gravity_stiffness_is_the_derivative_of_mujocos_gravity(rel, base, tip):
+    robot, arm, order = _arm(rel, base, tip)
+    rng = np.random.default_rng(11)
+    q = _q(robot, rng)
+    ours = robot.gravity_stiffness(q, "extended")
+    m = len(order)
+    h = 1e-6
+    fd = np.zeros((m, m))
+    for i in range(m):
+        e = np.zeros(arm.model.nv)
+        e[order[i]] = h
+        fd[:, i] = ((arm.generalized_gravity(q, e) - arm.generalized_gravity(q, -e)) / (2 * h))[order]
+    assert np.abs(ours).max() > 1.0
+    np.testing.assert_allclose(ours, fd, rtol=0, atol=1e-7 * np.abs(ours).max())
+    np.testing.assert_array_equal(ours, ours.T)
+
+
+def _springs(robot: Robot, arm: MujocoArm, rng: np.random.Generator):
+    """Panda-class springs: torsions 2–10 kN·m/rad, tilts 3× stiffer; compliances in the
+    crate's extended order and the same springs as MuJoCo laws."""
+    n = robot.n_joints
+    kz = rng.uniform(2e3, 1e4, n)
+    kt = 3.0 * kz
+    c = 1.0 / np.ravel(np.column_stack([kz, kt, kt]))
+    laws = arm.springs_for(kz, {k: (kt[k], kt[k]) for k in range(n)})
+    return c, laws
+
+
+@pytest.mark.parametrize("rel,base,tip", ARMS, ids=[a[0].split("/")[-1] for a in ARMS])
+def test_linear_response_is_mujocos_at_small_loads(rel, base, tip):
+    robot, arm, _ = _arm(rel, base, tip)
+    rng = np.random.default_rng(3)
+    c, laws = _springs(robot, arm, rng)
+    arm.set_gravity([0.0, 0.0, 0.0])
+    for _ in range(3):
+        q = _q(robot, rng)
+        w = np.concatenate([rng.normal(0, 0.1, 3), rng.normal(0, 0.01, 3)])
+        p0, _ = arm.tip(q)
+        p1, _ = arm.tip(q, arm.equilibrium(q, laws, w))
+        ours = robot.predict_deflection(c, q, w, "extended")[:3]
+        # Agreement to the geometric non-linearity (θ ~ 1e-5 rad here): measured ≤ 4e-5.
+        assert np.linalg.norm(p1 - p0 - ours) <= 1e-3 * np.linalg.norm(ours)
+
+
+@pytest.mark.parametrize("rel,base,tip", ARMS, ids=[a[0].split("/")[-1] for a in ARMS])
+def test_sag_under_own_weight_is_mujocos(rel, base, tip):
+    """The tip's static sag relative to the rigid kinematics: J C τ_g to first order, and
+    J (K − K_G)⁻¹ τ_g with gravity's own stiffness, which must come closer to MuJoCo."""
+    robot, arm, _ = _arm(rel, base, tip)
+    rng = np.random.default_rng(5)
+    c, laws = _springs(robot, arm, rng)
+    for _ in range(2):
+        q = _q(robot, rng)
+        rigid, _ = arm.tip(q)
+        sag, _ = arm.tip(q, arm.equilibrium(q, laws))
+        truth = sag - rigid
+        jac = robot.jacobian(q, "extended")[:3]
+        tau = robot.gravity_torques(q, "extended")
+        first = jac @ (c * tau)
+        with_kg = jac @ np.linalg.solve(np.diag(1.0 / c) - robot.gravity_stiffness(q, "extended"), tau)
+        e1 = np.linalg.norm(truth - first) / np.linalg.norm(truth)
+        e2 = np.linalg.norm(truth - with_kg) / np.linalg.norm(truth)
+        assert np.linalg.norm(truth) > 1e-4  # a visible sag (0.1 mm or more)
+        assert e1 < 0.03, e1
+        assert e2 < 0.02, e2
+
+
+@pytest.mark.parametrize("rel,base,tip", ARMS, ids=[a[0].split("/")[-1] for a in ARMS])
+def test_static_equilibrium_under_weight_and_load_is_mujocos(rel, base, tip):
+    """The crate's non-linear equilibrium on the deflected chain is the same physics as
+    MuJoCo's: the sag under the arm's weight with a payload, and what a measurement records
+    (loaded − unloaded, both under gravity), agree to the solvers' tolerance."""
+    robot, arm, _ = _arm(rel, base, tip)
+    rng = np.random.default_rng(17)
+    c, laws = _springs(robot, arm, rng)
+    payload = (2.0, (0.01, -0.02, 0.08))
+    arm.set_payload(payload)
+    for _ in range(2):
+        q = _q(robot, rng)
+        rigid, rigid_r = arm.tip(q)
+        rest_theta = arm.equilibrium(q, laws)
+        rest, rest_r = arm.tip(q, rest_theta)
+        sag = robot.gravity_sag(c, q, "extended", payload=payload)
+        assert np.linalg.norm(rest - rigid) > 1e-4
+        np.testing.assert_allclose(sag[:3], rest - rigid, rtol=0, atol=1e-9 * np.linalg.norm(rest - rigid))
+        # The tip's rotation of the sag, as a rotation vector of R_rest R_rigidᵀ.
+        dr = rest_r @ rigid_r.T
+        angle = np.arccos(np.clip((np.trace(dr) - 1) / 2, -1, 1))
+        assert abs(np.linalg.norm(sag[3:]) - angle) <= 1e-9 * max(angle, 1e-6)
+        w = np.concatenate([rng.uniform(-30, 30, 3), rng.uniform(-1.5, 1.5, 3)])
+        loaded, _ = arm.tip(q, arm.equilibrium(q, laws, w))
+        d = robot.deflection_under_gravity(c, q, w, "extended", payload=payload)
+        np.testing.assert_allclose(d[:3], loaded - rest, rtol=0, atol=1e-8 * np.linalg.norm(loaded - rest))
+        # And the weightless linear model is off by much more than that: gravity matters.
+        lin = robot.predict_deflection(c, q, w, "extended")[:3]
+        assert np.linalg.norm(lin - (loaded - rest)) > 100 * np.linalg.norm(d[:3] - (loaded - rest))
