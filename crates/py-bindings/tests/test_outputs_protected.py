@@ -413,3 +413,15 @@ def test_a_dash_is_not_a_file_named_dash(world):
     assert proc.returncode == 1
     assert "standard output is not supported" in proc.stderr, proc.stderr
     assert state(world) == before
+
+
+def test_an_output_onto_the_data_the_model_was_identified_from_is_refused(world):
+    """The model file names its campaign (c.csv) as well as its URDF: `predict --out c.csv
+    --force` replaced the data the model was fitted on."""
+    shutil.copy(world / "c.csv", world / "poses.csv")
+    before = state(world)
+    for target in ("c.csv", str(world / "c.csv")):
+        proc = run_cli(["predict", "vjm", "m.json", "poses.csv", "--out", target, "--force"], cwd=world)
+        assert proc.returncode == 1, proc.stdout + proc.stderr
+        assert "the data m.json was identified from" in one_error_line(proc), proc.stderr
+        assert state(world) == before

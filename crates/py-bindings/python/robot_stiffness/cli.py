@@ -810,7 +810,7 @@ def _run(args: argparse.Namespace) -> int:
     out = Outputs(inputs=inputs, force=bool(getattr(args, "force", False)))
     with signals_raise():
         try:
-            for path, what in cli_model.named_inputs(args):  # the URDF a model file names
+            for path, what in cli_model.named_inputs(args):  # the URDF and data a model file names
                 out.add_input(path, what)
             return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:

@@ -8,6 +8,7 @@ command) and :func:`add_save_option` (``--save`` on ``identify vjm``).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from pathlib import Path
@@ -132,14 +133,34 @@ def _recorded_robot(path: str) -> Optional[dict]:
     return None if rec is None else {"urdf": rec[0], "base": rec[1], "tip": rec[2]}
 
 
+def _recorded_data(path: str) -> List[str]:
+    """Where the campaign a model file was identified from may be: its recorded name as given
+    and beside the model file (only the name is recorded). Read after the core has bounded the
+    file (``_recorded_robot``), so Python's ``json`` cannot recurse deeply here."""
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        name = doc["model"]["data"]["file"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    if not isinstance(name, str) or not name:
+        return []
+    return [c for c in {name, str(Path(path).parent / name)} if Path(c).is_file()]
+
+
 def named_inputs(args: argparse.Namespace) -> List[Tuple[str, str]]:
-    """The files the command's model file names (its URDF), with what they are: inputs that no
-    output may replace, even when ``--urdf`` overrides the robot."""
+    """The files the command's model file names (its URDF and the campaign it was identified
+    from), with what they are: inputs that no output may replace, even when ``--urdf``
+    overrides the robot."""
     model_file = getattr(args, "model_file", None)
     if not model_file:
         return []
-    urdf = recorded_urdf(_recorded_robot(model_file))
-    return [] if urdf is None else [(urdf, f"the URDF {model_file} names")]
+    robot = _recorded_robot(model_file)
+    if robot is None:
+        return []
+    urdf = recorded_urdf(robot)
+    named = [] if urdf is None else [(urdf, f"the URDF {model_file} names")]
+    named += [(d, f"the data {model_file} was identified from") for d in _recorded_data(model_file)]
+    return named
 
 
 def _robot_for(args: argparse.Namespace) -> Any:
