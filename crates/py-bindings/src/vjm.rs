@@ -262,7 +262,11 @@ impl PyRobot {
     }
 
     /// Predicted tip deflections (N, 6) `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame).
-    #[pyo3(signature = (compliance, q, wrench, model, with_kc = false))]
+    ///
+    /// The poses and wrenches get identify's plausibility checks (angles inside the URDF limits
+    /// unless `allow_outside_limits`, magnitudes), as `StiffnessModel.predict` does.
+    #[pyo3(signature = (compliance, q, wrench, model, with_kc = false, allow_outside_limits = false))]
+    #[allow(clippy::too_many_arguments)]
     fn predict_deflection<'py>(
         &self,
         py: Python<'py>,
@@ -271,6 +275,7 @@ impl PyRobot {
         wrench: PyReadonlyArrayDyn<'py, f64>,
         model: &Bound<'py, PyAny>,
         with_kc: bool,
+        allow_outside_limits: bool,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let n = self.n();
         let model = parse_model(n, model)?;
@@ -279,6 +284,13 @@ impl PyRobot {
         let w = batch(&wrench, "wrench", &[6])?;
         check_rows(q.rows, &[("wrench", w.rows)])?;
         let chain = &self.chain;
+        crate::use_model::check_inputs(
+            py,
+            chain,
+            &q,
+            vjm::Load::Wrench(&w.data),
+            allow_outside_limits,
+        )?;
         let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
             let mut out = Vec::with_capacity(6 * q.rows);
             for (qi, wi) in q.data.chunks_exact(n).zip(w.data.chunks_exact(6)) {

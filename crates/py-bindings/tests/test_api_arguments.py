@@ -128,7 +128,7 @@ def test_arrays_of_the_wrong_kind_are_refused(panda, rng, make, words):
 
 
 def test_exact_integer_arrays_are_accepted(panda, rng):
-    q = np.zeros((2, 7), dtype=np.int32)
+    q = np.array([[0, 0, 0, -2, 0, 2, 1]] * 2, dtype=np.int32)  # inside the Panda's limits
     w = np.array([[0, 0, 10, 0, 0, 1]] * 2, dtype=np.int64)
     c = np.full(7, 1e-5)
     expected = panda.predict_deflection(c, q.astype(float), w.astype(float))

@@ -92,6 +92,24 @@ def test_python_predict_and_compensate_refuse_what_identify_refuses(setup, use):
     fn(outside, w, None, allow_outside_limits=True)
 
 
+def test_robot_predict_deflection_refuses_what_identify_refuses(setup):
+    """The kinematic primitive gets the same checks and opt-out (it has no payload)."""
+    robot, ident = setup["robot"], setup["ident"]
+    c = np.nan_to_num(ident.compliance)
+    for _case, q, w, p, message in _bad_inputs(setup["m"]):
+        if p is not None:
+            continue
+        with pytest.raises((rs.DataFileError, rs.InvalidValueError), match=message):
+            robot.predict_deflection(c, q, w)
+    q = np.array(setup["m"].q[:4])
+    w = np.array(setup["m"].wrench[:4])
+    outside = q.copy()
+    outside[1, 0] = 3.0
+    with pytest.raises(rs.DataFileError, match=r"line 3, column 'q1'.*outside the joint's limits"):
+        robot.predict_deflection(c, outside, w)
+    assert robot.predict_deflection(c, outside, w, allow_outside_limits=True).shape == (4, 6)
+
+
 def test_identify_refuses_the_same_values(setup):
     robot, m = setup["robot"], setup["m"]
     for _case, q, w, p, message in _bad_inputs(m):

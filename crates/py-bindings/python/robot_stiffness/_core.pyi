@@ -297,6 +297,7 @@ class Robot:
         wrench: _F64,
         model: _Model,
         with_kc: bool = False,
+        allow_outside_limits: bool = False,
     ) -> _F64: ...
 
 @final

@@ -681,13 +681,17 @@ class Robot:
         wrench: Any,
         model: ModelSpec = "traditional",
         with_kc: bool = False,
+        *,
+        allow_outside_limits: bool = False,
     ) -> Array:
         """Predicted tip deflection ``[dx, dy, dz, rx, ry, rz]`` (m, rad; base frame).
 
         ``compliance``: (m,) rad/(N·m) for the springs of ``model`` (NaN not allowed: use 0 for
         an unidentified spring only if that is what you mean). ``q``: (n,) or (N, n) rad;
         ``wrench``: (6,) or (N, 6) N and N·m at the tip point, base frame. ``with_kc`` includes
-        the complementary stiffness K_C (geometric non-linearity under load).
+        the complementary stiffness K_C (geometric non-linearity under load). The poses and
+        wrenches get identify's plausibility checks (joint limits unless
+        ``allow_outside_limits``; angles and loads of plausible magnitude).
         Returns (6,) or (N, 6).
         """
         arr, single = self._q(q)
@@ -695,7 +699,7 @@ class Robot:
         if w.ndim == 1:
             w = w.reshape(1, -1)
         out = self._inner.predict_deflection(
-            f64(compliance, "compliance"), arr, w, _model(model), bool(with_kc)
+            f64(compliance, "compliance"), arr, w, _model(model), bool(with_kc), bool(allow_outside_limits)
         )
         return out[0] if single else out
 
