@@ -24,7 +24,7 @@ const ROW_COLUMNS: [&str; 7] = [
 /// `rows` are `position_error, rotation_error, deflection, rotation_deflection,
 /// inverse_condition, iterations, limit_joint` (0-based joint, −1 when none).
 #[pyfunction]
-#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false))]
+#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_compensate<'py>(
     py: Python<'py>,
@@ -41,11 +41,16 @@ pub fn vjm_compensate<'py>(
     rotation_tol: f64,
     check_limits: bool,
     allow_outside_limits: bool,
+    gravity: Option<[f64; 3]>,
 ) -> PyResult<CompensationArrays<'py>> {
     let chain = &robot.chain;
     let n = chain.n_joints();
     let model = parse_model(n, model)?;
     let c = fixed(&compliance, "compliance", &[model.n_params()])?;
+    let gravity = gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
+    if gravity.is_some() {
+        chain.mass_model().py()?; // before the work: a URDF without masses is named at once
+    }
     let q = batch(&q, "q", &[n])?;
     let w = match &wrench {
         Some(w) => Some(batch(w, "wrench", &[6])?),
@@ -60,6 +65,7 @@ pub fn vjm_compensate<'py>(
     opts.position_tol = position_tol;
     opts.rotation_tol = rotation_tol;
     opts.check_limits = check_limits;
+    opts.gravity = gravity;
     let out = run(py, || {
         vjm::compensate(chain, &model, &c, &q.data, load, &opts)
     })?

@@ -187,3 +187,30 @@ def test_static_equilibrium_under_weight_and_load_is_mujocos(rel, base, tip):
         # And the weightless linear model is off by much more than that: gravity matters.
         lin = robot.predict_deflection(c, q, w, "extended", allow_outside_limits=True)[:3]
         assert np.linalg.norm(lin - (loaded - rest)) > 100 * np.linalg.norm(d[:3] - (loaded - rest))
+
+
+@pytest.mark.parametrize("rel,base,tip", [ARMS[0], ARMS[4], ARMS[6]], ids=["panda.urdf", "xarm7.urdf", "bundled"])
+def test_compensating_weight_and_payload_leaves_nothing_when_run_in_mujoco(rel, base, tip):
+    """Issue 22: a payload trajectory compensated with gravity, run in MuJoCo, reaches the
+    nominal (rigid) tip: what remains is far below 5 % of the uncompensated absolute error.
+    Compensating the payload's load alone (the weightless model) leaves most of it."""
+    from robot_stiffness import vjm
+
+    robot, arm, _ = _arm(rel, base, tip)
+    rng = np.random.default_rng(23)
+    c, laws = _springs(robot, arm, rng)
+    mass, centre = 3.0, (0.0, 0.0, 0.05)
+    arm.set_payload((mass, centre))
+    lo, hi = np.array(robot.limits).T
+    q = lo + (hi - lo) * rng.uniform(0.25, 0.75, (6, robot.n_joints))
+    with_weight = vjm.compensate(robot, q, c, model="extended", payload=(mass, *centre), gravity=(0.0, 0.0, -9.80665))
+    load_only = vjm.compensate(robot, q, c, model="extended", payload=(mass, *centre))
+    assert all(s == "converged" for s in with_weight.status), with_weight.status
+    for i in range(len(q)):
+        target, _ = arm.tip(q[i])
+        before = np.linalg.norm(arm.tip(q[i], arm.equilibrium(q[i], laws))[0] - target)
+        after = np.linalg.norm(arm.tip(with_weight.q[i], arm.equilibrium(with_weight.q[i], laws))[0] - target)
+        partial = np.linalg.norm(arm.tip(load_only.q[i], arm.equilibrium(load_only.q[i], laws))[0] - target)
+        assert before > 5e-4  # half a millimetre or more of sag to correct
+        assert after <= 1e-6 * before, (i, before, after)
+        assert partial >= 0.2 * before, (i, before, partial)

@@ -19,6 +19,7 @@ use stiffness_core::so3::{exp, log};
 
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
+use crate::gravity::{static_equilibrium, Loading};
 use crate::kinematics::{jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
 use crate::stiffness_model::Load;
@@ -57,6 +58,13 @@ pub struct CompensateOptions {
     pub length: f64,
     /// Report corrected targets outside the chain's joint limits. Default `true`.
     pub check_limits: bool,
+    /// Correct the tip's sag under the arm's own weight as well as the load's deflection:
+    /// the model's loaded tip is then the springs' static equilibrium under gravity, the
+    /// payload's weight and the wrench on the deflected chain
+    /// ([`crate::gravity::static_equilibrium`], no linearisation; `with_kc` does not apply),
+    /// against the rigid kinematics. The chain needs its masses
+    /// ([`SerialChain::mass_model`]). Default `None`: the load's deflection only (weightless).
+    pub gravity: Option<crate::gravity::Gravity>,
 }
 
 impl Default for CompensateOptions {
@@ -71,6 +79,7 @@ impl Default for CompensateOptions {
             min_inverse_condition: 1e-3,
             length: 0.5,
             check_limits: true,
+            gravity: None,
         }
     }
 }
@@ -265,12 +274,38 @@ fn loaded_tip(
     compliance: &[f64],
     q: &[f64],
     load: &RowLoad,
-    with_kc: bool,
+    opts: &CompensateOptions,
     ws: &mut CompensationWorkspace,
 ) -> Result<Option<LoadedTip>, VjmError> {
     jacobian_in_place(chain, model, q, &mut ws.springs, &mut ws.jac)?;
     let p = ws.springs.p;
     let r = ws.springs.tip_rotation(chain);
+    if let Some(g) = &opts.gravity {
+        // The weight's sag and the load's deflection together, on the deflected chain.
+        let loading = match load {
+            RowLoad::Wrench(w) => Loading {
+                gravity: Some(*g),
+                payload: None,
+                wrench: Some(*w),
+            },
+            RowLoad::Payload(pm) => Loading {
+                gravity: Some(*g),
+                payload: Some(pm),
+                wrench: None,
+            },
+        };
+        return match static_equilibrium(chain, model, compliance, q, &loading) {
+            Ok(eq) => {
+                let d = eq.tip.translation.vector - p;
+                let phi = (eq.tip.rotation.to_rotation_matrix()
+                    * Rotation3::from_matrix_unchecked(r.transpose()))
+                .scaled_axis();
+                Ok(Some(LoadedTip { p, r, d, phi }))
+            }
+            Err(VjmError::Numerical { .. }) => Ok(None), // beyond the springs' stability
+            Err(e) => Err(e),
+        };
+    }
     let wrench = match load {
         RowLoad::Wrench(w) => *w,
         RowLoad::Payload(pm) => pm.wrench_at(&r),
@@ -282,7 +317,7 @@ fn loaded_tip(
         ws.theta0[k] = compliance[k] * tau;
         ws.theta[k] = ws.theta0[k];
     }
-    if with_kc {
+    if opts.with_kc {
         let mut converged = false;
         for _ in 0..DEFLECTION_MAX_ITERATIONS {
             kc_times(&ws.springs, &wrench, &ws.theta, &mut ws.ktheta);
@@ -574,7 +609,7 @@ fn compensate_row(
         inverse_condition: f64::NAN,
         limit_joint: None,
     };
-    let Some(nominal) = loaded_tip(chain, model, compliance, q, load, opts.with_kc, ws)? else {
+    let Some(nominal) = loaded_tip(chain, model, compliance, q, load, opts, ws)? else {
         return Ok(report);
     };
     // Conditioning at the nominal targets (a row can start at a singularity and leave it).
@@ -631,7 +666,7 @@ fn compensate_row(
             norm_q += *x * *x;
         }
         report.iterations += 1;
-        match loaded_tip(chain, model, compliance, q, load, opts.with_kc, ws)? {
+        match loaded_tip(chain, model, compliance, q, load, opts, ws)? {
             Some(t) => tip = t,
             None => {
                 report.status = CompensationStatus::Unstable;

@@ -203,6 +203,7 @@ def vjm_compensate(
     rotation_tol: float = 1e-9,
     check_limits: bool = True,
     allow_outside_limits: bool = False,
+    gravity: Optional[Tuple[float, float, float]] = None,
 ) -> Tuple[_F64, _F64, List[str]]: ...
 def vjm_compensate_model_file(
     robot: Robot,

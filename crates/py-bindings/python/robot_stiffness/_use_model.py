@@ -17,7 +17,7 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import checked
 from ._arrays import f64
-from ._errors import ArgumentTypeError
+from ._errors import ArgumentTypeError, ShapeError
 
 Array = npt.NDArray[np.float64]
 ModelSpec = Union[str, Sequence[str]]
@@ -158,6 +158,7 @@ def compensate(
     match_orientation: bool = False,
     with_kc: bool = True,
     allow_outside_limits: bool = False,
+    gravity: Optional[Sequence[float]] = None,
 ) -> Compensation:
     """Corrected joint targets so that the loaded tip reaches the nominal unloaded tip.
 
@@ -169,12 +170,25 @@ def compensate(
     complementary stiffness K_C in the deflection. The inputs get the checks of
     :meth:`Robot.identify <robot_stiffness.vjm.Robot.identify>` (implausible angles or loads,
     joint angles outside the URDF limits — ``allow_outside_limits=True`` to accept those).
+
+    ``gravity`` (m/s², base frame, e.g. ``(0, 0, -9.80665)``) corrects the tip's sag under the
+    arm's own weight too: the nominal unloaded tip is then the rigid kinematics' pose, and the
+    loaded tip the springs' static equilibrium under the arm's weight, the payload's weight and
+    the wrench (docs/gravity.md; the URDF must give the masses). Default ``None``: the load's
+    deflection only, as before.
     """
     inner = _robot_inner(robot)
     arr, w = _q_and_wrench(q, wrench)
+    g = None
+    if gravity is not None:
+        gv = tuple(float(x) for x in gravity)
+        if len(gv) != 3:
+            raise ShapeError(f"gravity must have 3 components (gx, gy, gz) in m/s², got {len(gv)}")
+        g = (gv[0], gv[1], gv[2])
     out = _core.vjm_compensate(
         inner, _model(model), f64(compliance, "compliance"), arr, w, _payload(payload),
         bool(match_orientation), bool(with_kc), allow_outside_limits=bool(allow_outside_limits),
+        gravity=g,
     )
     return _compensation(*out)
 

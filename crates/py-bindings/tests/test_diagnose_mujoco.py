@@ -1,0 +1,86 @@
+"""Today's (weightless) ``diagnose`` on campaigns measured in MuJoCo with gravity on
+(mujoco_campaign.py): only what already holds with margin on every seed of
+scripts/diagnose_on_mujoco.py (docs/gravity.md, "Diagnose on MuJoCo campaigns"). What does not
+hold yet (false alarms on clean data under gravity, gears preloaded by gravity) is measured
+there, not asserted here. Skipped with a reason when mujoco or example-robot-data is absent.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco", reason="mujoco is not installed (pip install mujoco)")
+
+import mujoco_campaign as mc  # noqa: E402
+
+from robot_stiffness import vjm  # noqa: E402
+
+SEEDS = (22000, 22001, 22002)
+
+
+def _spec(name: str) -> mc.ArmSpec:
+    spec = mc.ArmSpec.example(name)
+    if spec is None:
+        pytest.skip(f"example-robot-data's {mc.ARMS[name][0]} not found (pip install example-robot-data)")
+    return spec
+
+
+def test_a_campaign_is_what_the_crate_predicts_under_gravity_and_reproducible():
+    """The generator records loaded − unloaded under gravity for the wrench the arm felt: with
+    no noise its rows are the crate's deflection_under_gravity (the same physics, checked
+    against MuJoCo in test_gravity_mujoco.py), and the same seed gives the same campaign."""
+    spec = _spec("xarm7")
+    camp = mc.measure(spec, 6, 2, seed=5, tracker_sigma=0.0, ft_sigma=(0.0, 0.0))
+    m = camp.measurements
+    assert m.q.shape == (12, 7) and m.wrench.shape == (12, 6) and m.displacement.shape == (12, 3)
+    assert list(m.pose) == [p for p in range(6) for _ in range(2)]
+    assert set(m.set) == {"train", "test"}
+    assert np.all((camp.torsion >= 2e3) & (camp.torsion <= 1e4))
+    c = 1.0 / camp.torsion
+    for q, w, d in zip(m.q, m.wrench, m.displacement):
+        ours = camp.robot.deflection_under_gravity(c, q, w, "traditional")[:3]
+        np.testing.assert_allclose(d, ours, rtol=0, atol=1e-8 * np.linalg.norm(ours))
+    again = mc.measure(spec, 6, 2, seed=5, tracker_sigma=0.0, ft_sigma=(0.0, 0.0))
+    np.testing.assert_array_equal(again.measurements.displacement, m.displacement)
+    noisy = mc.measure(spec, 6, 2, seed=5, tracker_sigma=1e-5)
+    assert 0 < np.abs(noisy.measurements.displacement - m.displacement).max() < 1e-4
+    np.testing.assert_array_equal(noisy.measurements.q, m.q)  # noise changes no pose
+
+
+@pytest.mark.parametrize("arm", ["xarm7", "ur10", "kinova"])
+def test_a_hidden_shoulder_tilt_is_named_at_its_joint_under_gravity(arm):
+    """A tilt at the shoulder (J2x, 50 kN·m/rad; J2y rigid) is named at its joint and axis
+    with the noise given or not, and the extended model predicts the held-out poses better
+    (50 of 50 seeds at 10 and 5 µm in the study; the baseline's held-out error drops by ~⅓)."""
+    spec = _spec(arm)
+    for seed in SEEDS:
+        camp = mc.measure(spec, 40, 4, seed=seed, tracker_sigma=10e-6, hidden=mc.tilt(1, kx=mc.TILT_K, ky=mc.STIFF))
+        for given in (False, True):
+            o = mc.judge(camp, given)
+            assert o.named, (seed, given, o.findings)
+            assert o.extended_test < 0.9 * o.baseline_test, (seed, given, o)
+
+
+def test_weightless_mujoco_data_alarm_on_nothing_but_the_real_geometric_nonlinearity():
+    """The control: with gravity off, springs only, the one thing diagnose names is the
+    geometric non-linearity that MuJoCo's equilibrium really has, nothing is unexplained."""
+    spec = _spec("kinova")
+    for seed in SEEDS:
+        camp = mc.measure(spec, 40, 4, seed=seed, tracker_sigma=10e-6, gravity=(0.0, 0.0, 0.0))
+        for given in (False, True):
+            o = mc.judge(camp, given)
+            assert not o.alarm_beyond_geometry, (seed, given, o.findings, o.unexplained)
+
+
+def test_the_hidden_effects_expected_finding():
+    assert mc.CLEAN.expected() is None
+    assert mc.tilt(1, kx=5e4, ky=mc.STIFF).expected() == ("joint_tilt", 2, ("x",))
+    assert mc.tilt(2, kx=5e4, ky=5e4).expected() == ("joint_tilt", 3, ("x", "y"))
+    assert mc.gear(3).expected() == ("joint_torsion_nonlinear", 4, (None,))
+    with pytest.raises(ValueError, match="kind"):
+        mc.Hidden("backlash", 1)
+    law = mc.hardening()
+    assert law(1e-3) == pytest.approx(-5.0)  # 5 kN·m/rad below the knee
+    assert law(-(3e-3 + 1e-3)) == pytest.approx(15.0 + 12.0)  # 12 kN·m/rad beyond 15 N·m
+    assert vjm.Measurements is type(mc.measure(_spec("kinova"), 2, 1, seed=0).measurements)
