@@ -36,7 +36,7 @@ from mujoco_testbed import STANDARD_GRAVITY, MujocoArm, SpringLaw
 from robot_stiffness import vjm
 
 #: (name, URDF below example-robot-data's robots/, base link, tip link). The bundled Panda is
-#: left out: its URDF carries no inertials (docs/gravity.md).
+#: left out: its kinematics and inertials are example-robot-data's Panda's (docs/gravity.md).
 ARMS: Dict[str, Tuple[str, str, str]] = {
     "panda": ("panda_description/urdf/panda.urdf", "panda_link0", "panda_link8"),
     "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_base", "link_eef"),

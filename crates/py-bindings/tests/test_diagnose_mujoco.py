@@ -48,18 +48,32 @@ def test_a_campaign_is_what_the_crate_predicts_under_gravity_and_reproducible():
     np.testing.assert_array_equal(noisy.measurements.q, m.q)  # noise changes no pose
 
 
-@pytest.mark.parametrize("arm", ["xarm7", "ur10", "kinova"])
-def test_a_hidden_shoulder_tilt_is_named_at_its_joint_under_gravity(arm):
-    """A tilt at the shoulder (J2x, 50 kN·m/rad; J2y rigid) is named at its joint and axis
-    with the noise given or not, and the extended model predicts the held-out poses better
-    (50 of 50 seeds at 10 and 5 µm in the study; the baseline's held-out error drops by ~⅓)."""
+#: arm → (named at its own joint: on 96–98 % of the study's seeds on UR10, all on Kinova;
+#: held-out error lower on every study seed).
+#: Panda and xArm7 intersect their J1 and J2 axes, so J2's tilt is J1's tilt about the same
+#: axis through the same point: diagnose names either, with the other among its aliases.
+#: UR10's held-out error drops on 92–94 % of the seeds only (0.97× at seed 22001).
+TILT_ARMS = {"panda": (False, True), "xarm7": (False, True), "ur10": (True, False), "kinova": (True, True)}
+
+
+@pytest.mark.parametrize("arm", sorted(TILT_ARMS))
+def test_a_hidden_shoulder_tilt_is_named_under_gravity(arm):
+    """A tilt at the shoulder (J2x, 50 kN·m/rad; J2y rigid), gravity on, noise given or not:
+    named at J2x or as J1x with J2x among its aliases on ≥ 96 % of the study's 50 seeds per
+    arm (docs/gravity.md), checked here at three of them; where the study shows it (almost)
+    always, at its own joint, and where it shows it always, with a held-out error at most 0.9×
+    the baseline's."""
     spec = _spec(arm)
+    own_joint, better = TILT_ARMS[arm]
     for seed in SEEDS:
         camp = mc.measure(spec, 40, 4, seed=seed, tracker_sigma=10e-6, hidden=mc.tilt(1, kx=mc.TILT_K, ky=mc.STIFF))
         for given in (False, True):
             o = mc.judge(camp, given)
-            assert o.named, (seed, given, o.findings)
-            assert o.extended_test < 0.9 * o.baseline_test, (seed, given, o)
+            assert o.named_or_alias, (seed, given, o.findings)
+            if own_joint:
+                assert o.named, (seed, given, o.findings)
+            if better:
+                assert o.extended_test < 0.9 * o.baseline_test, (seed, given, o)
 
 
 def test_weightless_mujoco_data_alarm_on_nothing_but_the_real_geometric_nonlinearity():
