@@ -16,7 +16,6 @@ example-robot-data (scripts/test.sh installs both).
 from __future__ import annotations
 
 import sys
-import sysconfig
 from pathlib import Path
 from typing import List
 
@@ -24,26 +23,18 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "crates" / "py-bindings" / "tests"))
 
-from mujoco_testbed import MujocoArm  # noqa: E402
+from mujoco_testbed import EXAMPLE_ARMS, MujocoArm, example_urdf  # noqa: E402
 
 from robot_stiffness.vjm import Robot  # noqa: E402
 
-ARMS = [
-    ("panda_description/urdf/panda.urdf", "panda_link0", "panda_link8"),
-    ("ur_description/urdf/ur10_robot.urdf", "base_link", "tool0"),
-    ("z1_description/urdf/z1.urdf", "link00", "link06"),
-    ("kinova_description/robots/kinova.urdf", "j2s6s200_link_base", "j2s6s200_end_effector"),
-    ("xarm_description/urdf/xarm7.urdf", "link_base", "link_eef"),
-    ("baxter_description/urdf/baxter.urdf", "left_arm_mount", "left_gripper"),
-]
+ARMS = list(EXAMPLE_ARMS.values())
 
 
 def _find(rel: str) -> Path:
-    for site in [sysconfig.get_paths()["purelib"], *sys.path]:
-        p = Path(site) / "cmeel.prefix/share/example-robot-data/robots" / rel
-        if p.is_file():
-            return p
-    raise SystemExit(f"example-robot-data's {rel} not found: pip install example-robot-data")
+    p = example_urdf(rel)
+    if p is None:
+        raise SystemExit(f"example-robot-data's {rel} not found: pip install example-robot-data")
+    return p
 
 
 def main() -> None:

@@ -23,28 +23,18 @@ Needs mujoco; the arms of :data:`ARMS` need example-robot-data.
 from __future__ import annotations
 
 import math
-import sys
-import sysconfig
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from mujoco_testbed import STANDARD_GRAVITY, MujocoArm, SpringLaw
+from mujoco_testbed import EXAMPLE_ARMS, STANDARD_GRAVITY, MujocoArm, SpringLaw, example_urdf
 
 from robot_stiffness import vjm
 
-#: (name, URDF below example-robot-data's robots/, base link, tip link). The bundled Panda is
-#: left out: its kinematics and inertials are example-robot-data's Panda's (docs/gravity.md).
-ARMS: Dict[str, Tuple[str, str, str]] = {
-    "panda": ("panda_description/urdf/panda.urdf", "panda_link0", "panda_link8"),
-    "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_base", "link_eef"),
-    "ur10": ("ur_description/urdf/ur10_robot.urdf", "base_link", "tool0"),
-    "kinova": ("kinova_description/robots/kinova.urdf", "j2s6s200_link_base", "j2s6s200_end_effector"),
-}
-
-_ROBOTS = "cmeel.prefix/share/example-robot-data/robots"
+#: The study's arms (names of :data:`mujoco_testbed.EXAMPLE_ARMS`). The bundled Panda is left
+#: out: its kinematics and inertials are example-robot-data's Panda's (docs/gravity.md).
+ARMS: Dict[str, Tuple[str, str, str]] = {k: EXAMPLE_ARMS[k] for k in ("panda", "xarm7", "ur10", "kinova")}
 
 #: A tilt spring "very stiff" about the other axis, N·m/rad: far beyond anything measurable.
 STIFF = 1e9
@@ -60,11 +50,8 @@ GEAR = (5e3, 12e3, 15.0)
 
 def urdf_text(rel: str) -> Optional[str]:
     """An example-robot-data URDF's text, or None when the package is not installed."""
-    for site in [sysconfig.get_paths()["purelib"], *sys.path]:
-        p = Path(site) / _ROBOTS / rel
-        if p.is_file():
-            return p.read_text()
-    return None
+    p = example_urdf(rel)
+    return None if p is None else p.read_text()
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,10 @@ point; the tip point is the origin of the tip link's frame.
 from __future__ import annotations
 
 import math
+import sys
+import sysconfig
 import xml.etree.ElementTree as ET
+from pathlib import Path
 from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -34,6 +37,27 @@ import mujoco  # type: ignore
 SpringLaw = Callable[[float], float]
 
 STANDARD_GRAVITY = 9.80665
+
+#: The arms of example-robot-data the gravity tests, studies and scripts use: name ->
+#: (URDF below the package's robots/ folder, base link, tip link).
+EXAMPLE_ARMS: Dict[str, Tuple[str, str, str]] = {
+    "panda": ("panda_description/urdf/panda.urdf", "panda_link0", "panda_link8"),
+    "ur10": ("ur_description/urdf/ur10_robot.urdf", "base_link", "tool0"),
+    "z1": ("z1_description/urdf/z1.urdf", "link00", "link06"),
+    "kinova": ("kinova_description/robots/kinova.urdf", "j2s6s200_link_base", "j2s6s200_end_effector"),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_base", "link_eef"),
+    "baxter": ("baxter_description/urdf/baxter.urdf", "left_arm_mount", "left_gripper"),
+}
+
+
+def example_urdf(rel: str) -> Optional[Path]:
+    """The path of an example-robot-data URDF (``rel`` below its robots/ folder, installed
+    under the cmeel prefix by the wheel), or None when the package is not installed."""
+    for site in [sysconfig.get_paths()["purelib"], *sys.path]:
+        p = Path(site) / "cmeel.prefix/share/example-robot-data/robots" / rel
+        if p.is_file():
+            return p
+    return None
 
 
 def linear(k: float) -> SpringLaw:

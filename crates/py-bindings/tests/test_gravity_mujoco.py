@@ -9,8 +9,6 @@ mujoco or example-robot-data is not installed (scripts/test.sh installs both).
 
 from __future__ import annotations
 
-import sys
-import sysconfig
 from pathlib import Path
 from typing import List, Optional, Tuple
 
@@ -21,32 +19,23 @@ from robot_stiffness.vjm import Robot
 
 mujoco = pytest.importorskip("mujoco", reason="mujoco is not installed (pip install mujoco)")
 
-from mujoco_testbed import MujocoArm  # noqa: E402
-
-_ROBOTS = "cmeel.prefix/share/example-robot-data/robots"
+from mujoco_testbed import EXAMPLE_ARMS, MujocoArm, example_urdf  # noqa: E402
 
 #: (URDF below example-robot-data's robots/, base link, tip link)
 ARMS: List[Tuple[str, str, str]] = [
-    ("panda_description/urdf/panda.urdf", "panda_link0", "panda_link8"),
-    ("ur_description/urdf/ur10_robot.urdf", "base_link", "tool0"),
-    ("z1_description/urdf/z1.urdf", "link00", "link06"),
-    ("kinova_description/robots/kinova.urdf", "j2s6s200_link_base", "j2s6s200_end_effector"),
-    ("xarm_description/urdf/xarm7.urdf", "link_base", "link_eef"),
-    ("baxter_description/urdf/baxter.urdf", "left_arm_mount", "left_gripper"),
+    *EXAMPLE_ARMS.values(),
     # The crate's bundled Panda (crates/vjm/data/panda_arm.urdf), to its tool centre point.
     ("bundled", "panda_link0", "panda_hand_tcp"),
 ]
 
 _BUNDLED = Path(__file__).resolve().parents[2] / "vjm" / "data" / "panda_arm.urdf"
 
+
 def _urdf_text(rel: str) -> Optional[str]:
     if rel == "bundled":
         return _BUNDLED.read_text()
-    for site in [sysconfig.get_paths()["purelib"], *sys.path]:
-        p = Path(site) / _ROBOTS / rel
-        if p.is_file():
-            return p.read_text()
-    return None
+    p = example_urdf(rel)
+    return None if p is None else p.read_text()
 
 
 def _arm(rel: str, base: str, tip: str) -> Tuple[Robot, MujocoArm, List[int]]:
