@@ -111,19 +111,7 @@ TEMPLATES: List[Tuple[str, List[str]]] = [
 ]
 # Two revolute joints (z at 0.3 m, y 0.4 m out) and a tool 0.3 m beyond: the `design` cases'
 # short chains.
-SHORT_ARM = b"""<?xml version="1.0"?>
-<robot name="arm2">
-  <link name="base"/><link name="l1"/><link name="l2"/><link name="tool"/>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
-    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-2.5" upper="2.5" effort="10" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-    <origin xyz="0.4 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>
-    <limit lower="-1.0" upper="1.0" effort="10" velocity="1"/></joint>
-  <joint name="tip" type="fixed"><parent link="l2"/><child link="tool"/>
-    <origin xyz="0.3 0 0.1" rpy="0 0 0"/></joint>
-</robot>
-"""
+SHORT_ARM = (ROOT / "crates" / "vjm" / "tests" / "data" / "arm2.urdf").read_bytes()
 FLAG_KIND = {
     "--poses": "int", "--wrenches-per-pose": "int", "--seed": "int", "--split-seed": "int",
     "--increments": "int", "--order": "int", "--force-max": "float", "--moment-max": "float",

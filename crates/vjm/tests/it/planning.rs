@@ -191,18 +191,8 @@ fn plan_errors_name_the_option() {
 
 /// A planar-ish arm: `j1` about z at 0.3 m height, `j2` about y 0.4 m out, tool 0.3 m beyond
 /// and 0.1 m up. `base`→`l1` is one joint with the tip on its axis (nothing moves it).
-const ARM2: &str = r#"<?xml version="1.0"?>
-<robot name="arm2">
-  <link name="base"/><link name="l1"/><link name="l2"/><link name="tool"/>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
-    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-2.5" upper="2.5" effort="10" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-    <origin xyz="0.4 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>
-    <limit lower="-1.0" upper="1.0" effort="10" velocity="1"/></joint>
-  <joint name="tip" type="fixed"><parent link="l2"/><child link="tool"/>
-    <origin xyz="0.3 0 0.1" rpy="0 0 0"/></joint>
-</robot>"#;
+/// The same file serves the Python short-chain tests and the CLI fuzzer's design cases.
+const ARM2: &str = include_str!("../data/arm2.urdf");
 
 fn arm2(base: &str, tip: &str) -> SerialChain {
     SerialChain::from_urdf_str(ARM2, base, tip).unwrap()
