@@ -1,7 +1,10 @@
-"""Today's (weightless) `diagnose` on campaigns measured in MuJoCo with gravity on: the table
-of docs/gravity.md, "Diagnose on MuJoCo campaigns".
+"""`diagnose` on campaigns measured in MuJoCo with gravity on: the tables of docs/gravity.md,
+"Diagnose on MuJoCo campaigns".
 
-    python3 scripts/diagnose_on_mujoco.py [--seeds 20] [--sigmas 10,5] [--arms panda,xarm7,ur10,kinova]
+    python3 scripts/diagnose_on_mujoco.py [--seeds 20] [--sigmas 10,5] [--arms panda,xarm7,ur10,kinova] [--weightless]
+
+Each campaign is diagnosed under the gravity it was measured with (``vjm.diagnose(gravity=)``);
+``--weightless`` diagnoses with a weightless model instead (the baseline issue 22 started from).
 
 Per arm, tracker noise and scenario, ``--seeds`` campaigns of 40 poses × 4 wrenches recorded in
 MuJoCo (crates/py-bindings/tests/mujoco_campaign.py: loaded − unloaded at static equilibrium
@@ -56,6 +59,7 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--sigmas", default="10,5", help="tracker noise per axis, µm, comma-separated")
     ap.add_argument("--arms", default="panda,xarm7,ur10,kinova")
+    ap.add_argument("--weightless", action="store_true", help="diagnose with a weightless model")
     args = ap.parse_args()
     if not 1 <= args.seeds <= 1000:
         raise SystemExit(f"--seeds must be in 1..1000, got {args.seeds}")
@@ -84,7 +88,7 @@ def main() -> None:
                                       gravity=(0.0, 0.0, -mc.STANDARD_GRAVITY if grav else 0.0))
                     crossings.append(camp.knee_crossings())
                     for given in (False, True):
-                        outcomes[given].append(mc.judge(camp, given))
+                        outcomes[given].append(mc.judge(camp, given, weightless=args.weightless))
                 for given in (False, True):
                     os_ = outcomes[given]
                     target = hidden.kind != "clean"

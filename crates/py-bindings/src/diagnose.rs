@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use vjm::diagnose::{diagnose_monitored, DiagnoseOptions};
 
-use crate::errors::IntoPyErr;
+use crate::errors::{IntoPyErr, PyResultExt};
 use crate::interrupt::run_interruptible;
 use crate::results::{summary, vjm_per_pose, vjm_rows};
 use crate::vjm::{parse_model, PyRobot};
@@ -18,7 +18,7 @@ use crate::vjm_data::dataset_from_arrays;
 /// `progress`, when given, is called as `progress(stage, done, total)` on the calling thread;
 /// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false, tracker_sigma = None, force_sigma = None, moment_sigma = None, per_row = true))]
+#[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false, tracker_sigma = None, force_sigma = None, moment_sigma = None, per_row = true, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_diagnose<'py>(
     py: Python<'py>,
@@ -40,6 +40,7 @@ pub fn vjm_diagnose<'py>(
     force_sigma: Option<f64>,
     moment_sigma: Option<f64>,
     per_row: bool,
+    gravity: Option<[f64; 3]>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let chain = &robot.chain;
     let n = chain.n_joints();
@@ -85,6 +86,9 @@ pub fn vjm_diagnose<'py>(
     }
     if let Some(v) = max_findings {
         opts.max_findings = v;
+    }
+    if let Some(g) = gravity {
+        opts.gravity = Some(vjm::gravity::Gravity::new(g).py()?);
     }
     let mut result = run_interruptible(py, progress.as_ref(), |monitor| {
         diagnose_monitored(chain, &data, &opts, monitor)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -142,6 +142,8 @@ class MujocoCampaign:
     ft_sigma: Tuple[float, float]
     gravity_torque: np.ndarray = field(repr=False)
     torque_loaded: np.ndarray = field(repr=False)
+    #: the gravity the campaign was measured under, m/s², base frame
+    gravity: Tuple[float, float, float] = (0.0, 0.0, -STANDARD_GRAVITY)
 
     def knee_crossings(self) -> float:
         """The share of rows whose load moves the hidden gear across its knee (±15 N·m): the
@@ -272,8 +274,9 @@ def measure(
         pose=np.array(pose_ids, dtype=np.int64),
         set=sets,
     )
+    g = tuple(float(x) for x in gravity)
     return MujocoCampaign(m, robot, kz, hidden, float(tracker_sigma), (float(ft_sigma[0]), float(ft_sigma[1])),
-                          np.array(tau_g), np.array(tau_w))
+                          np.array(tau_g), np.array(tau_w), (g[0], g[1], g[2]))
 
 
 @dataclass
@@ -301,10 +304,13 @@ def _label(effect: str, joint: Optional[int], axis: Optional[str]) -> str:
     return effect + ("" if joint is None else f" J{joint}") + ("" if axis is None else axis)
 
 
-def judge(camp: MujocoCampaign, noise_given: bool) -> Outcome:
-    """Diagnose ``camp`` (the noise levels given to diagnose or not) and count."""
-    kwargs = camp.noise_kwargs() if noise_given else {}
-    d = vjm.diagnose(camp.robot, camp.measurements, per_row=False, **kwargs)
+def judge(camp: MujocoCampaign, noise_given: bool, weightless: bool = False) -> Outcome:
+    """Diagnose ``camp`` (the noise levels given to diagnose or not) under the gravity it was
+    measured with (``weightless``: with today's weightless model, the baseline of issue 22),
+    and count."""
+    kwargs: Dict[str, Any] = camp.noise_kwargs() if noise_given else {}
+    gravity = None if weightless or not any(camp.gravity) else camp.gravity
+    d = vjm.diagnose(camp.robot, camp.measurements, per_row=False, gravity=gravity, **kwargs)
     want = camp.hidden.expected()
 
     def hit(effect: str, joint: Optional[int], axis: Optional[str]) -> bool:

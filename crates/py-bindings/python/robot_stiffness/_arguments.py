@@ -27,7 +27,7 @@ from typing import Any, Callable, Dict, List, Optional, Tuple, TypeVar, cast
 
 import numpy as np
 
-from ._errors import ArgumentTypeError, InvalidValueError, StiffnessError
+from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, StiffnessError
 
 __all__ = ["checked", "check_path", "integer", "real", "flag", "quote"]
 
@@ -77,6 +77,20 @@ def real(value: Any, name: str) -> float:
     if not math.isfinite(f):
         raise InvalidValueError(f"{name} must be finite, got {f}")
     return f
+
+
+#: Gravity in the base frame, m/s²: 9.80665 along −z (a floor-mounted arm).
+DEFAULT_GRAVITY: Tuple[float, float, float] = (0.0, 0.0, -9.80665)
+
+
+def gravity_vector(value: Any, name: str = "gravity") -> Tuple[float, float, float]:
+    """``value`` as a gravity vector ``(gx, gy, gz)``, m/s², base frame: three finite reals."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise ArgumentTypeError(f"{name} must be 3 numbers (gx, gy, gz) in m/s², got {_type_name(value)} {quote(value)}")
+    if len(value) != 3:
+        raise ShapeError(f"{name} must have 3 components (gx, gy, gz) in m/s², got {len(value)}")
+    gx, gy, gz = (real(v, f"{name}[{i}]") for i, v in enumerate(value))
+    return (gx, gy, gz)
 
 
 def flag(value: Any, name: str) -> bool:

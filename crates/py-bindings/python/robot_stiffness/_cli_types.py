@@ -26,6 +26,8 @@ __all__ = [
     "seed",
     "positive_float",
     "probability",
+    "gravity",
+    "MAX_GRAVITY",
 ]
 
 #: ``simulate vjm --poses``.
@@ -42,6 +44,8 @@ MAX_FORCE = 10_000.0
 MAX_MOMENT = 1_000.0
 #: ``simulate csjm --max-increment``, N·m (the prototype is loaded with ≤ 1 N·m steps).
 MAX_CSJM_INCREMENT = 100.0
+#: ``--gravity``, m/s² per component (ten times the Earth's: a typo such as cm/s² stops here).
+MAX_GRAVITY = 100.0
 #: Seeds are unsigned 64-bit integers.
 MAX_SEED = 2**64 - 1
 
@@ -124,3 +128,26 @@ def probability(text: str) -> float:
     if not 0 < value < 1:
         raise argparse.ArgumentTypeError(f"must be between 0 and 1 (exclusive), got {text!r}")
     return value
+
+
+def gravity(text: str) -> "tuple[float, float, float]":
+    """``GX,GY,GZ``: the gravity vector in the base frame, m/s², each component finite and at
+    most :data:`MAX_GRAVITY` in magnitude (``0,0,9.80665`` for a ceiling-mounted arm)."""
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(
+            f"expected GX,GY,GZ (three numbers, m/s², base frame, e.g. 0,0,-9.80665), got {text!r}"
+        )
+    values = []
+    for name, part in zip(("GX", "GY", "GZ"), parts):
+        try:
+            value = _real(part)
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(f"{name} must be a finite number (m/s²), got {part!r} in {text!r}") from None
+        if abs(value) > MAX_GRAVITY:
+            raise argparse.ArgumentTypeError(f"{name} must be at most {MAX_GRAVITY:g} m/s² in magnitude, got {text!r}")
+        values.append(value)
+    return (values[0], values[1], values[2])
+
+
+gravity.__name__ = "gravity vector"

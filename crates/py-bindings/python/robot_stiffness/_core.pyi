@@ -251,6 +251,7 @@ def vjm_diagnose(
     force_sigma: Optional[float] = None,
     moment_sigma: Optional[float] = None,
     per_row: bool = True,
+    gravity: Optional[Tuple[float, float, float]] = None,
 ) -> _CoreDiagnosis: ...
 
 @final

@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import check_path, checked
+from ._arguments import check_path, checked, gravity_vector
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
 from .results import Diagnosis
@@ -251,6 +251,7 @@ def diagnose(
     force_sigma: Optional[float] = None,
     moment_sigma: Optional[float] = None,
     per_row: bool = True,
+    gravity: Optional[Sequence[float]] = None,
 ) -> Diagnosis:
     """Show what the baseline model gets wrong on ``data``, name the cause, extend the model
     and measure the gain on held-out rows.
@@ -268,6 +269,9 @@ def diagnose(
     verdict adds a χ² goodness-of-fit test; not given, a default assumption sets only the relative
     weights and ``unexplained`` rests on the lack-of-fit test, which needs no noise level.
     ``per_row=False`` leaves out the per-row predictions (large campaigns).
+    ``gravity`` (m/s², base frame, e.g. ``DEFAULT_GRAVITY``): the measurements were taken under
+    the arm's weight (bodies from the URDF's inertials), so the springs respond about the
+    weight's equilibrium and the gear candidates see the total torque (docs/gravity.md).
 
     The arrays of ``data`` are read where they are, without a copy, while other Python threads
     run: do not write to them from another thread during the call.
@@ -279,7 +283,7 @@ def diagnose(
     with blame:
         summary, rows = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
                                        bool(allow_outside_limits), tracker_sigma, force_sigma, moment_sigma,
-                                       bool(per_row))
+                                       bool(per_row), gravity)
     return Diagnosis._from_core("vjm", summary, rows)
 
 
@@ -287,7 +291,7 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
                    split_seed: Optional[int], max_findings: Optional[int], progress: Optional[ProgressCallback],
                    allow_outside_limits: bool = False, tracker_sigma: Optional[float] = None,
                    force_sigma: Optional[float] = None, moment_sigma: Optional[float] = None,
-                   per_row: bool = True) -> "_core._CoreDiagnosis":
+                   per_row: bool = True, gravity: Optional[Sequence[float]] = None) -> "_core._CoreDiagnosis":
     return _core.vjm_diagnose(
         robot._inner,
         f64(m.q, "q"),
@@ -307,6 +311,7 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
         force_sigma=force_sigma,
         moment_sigma=moment_sigma,
         per_row=per_row,
+        gravity=None if gravity is None else gravity_vector(gravity),
     )
 
 

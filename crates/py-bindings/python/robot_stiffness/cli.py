@@ -117,6 +117,32 @@ def _add_robot_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--tip", metavar="LINK", help="tip link; the tip point is its origin (required with --urdf)")
 
 
+GRAVITY_HELP = (
+    "the gravity the arm was measured or is used under, m/s² in the base frame (default 0,0,-9.80665: "
+    "a floor-mounted arm whose base z points up; 0,0,9.80665 for a ceiling mount); the links' masses "
+    "come from the URDF's <inertial> elements"
+)
+
+
+def _add_gravity_args(p: argparse.ArgumentParser) -> None:
+    """``--gravity GX,GY,GZ`` / ``--no-gravity``: one pair of flags for every command that models
+    the arm's weight."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--gravity", type=T.gravity, default=None, metavar="GX,GY,GZ", help=GRAVITY_HELP)
+    g.add_argument("--no-gravity", action="store_true",
+                   help="a weightless model (no inertials needed): the measurements were not taken under gravity")
+
+
+def _gravity(args: argparse.Namespace) -> Optional[Tuple[float, float, float]]:
+    """The gravity of a command's flags: ``--gravity``, None for ``--no-gravity``, else the default."""
+    from ._arguments import DEFAULT_GRAVITY
+
+    if not hasattr(args, "no_gravity") or args.no_gravity:
+        return None
+    given = getattr(args, "gravity", None)
+    return DEFAULT_GRAVITY if given is None else given
+
+
 def _robot(args: argparse.Namespace) -> Any:
     from .vjm import Robot
 
@@ -407,6 +433,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             tracker_sigma=getattr(args, "tracker_sigma", None),
             force_sigma=getattr(args, "force_sigma", None),
             moment_sigma=getattr(args, "moment_sigma", None),
+            gravity=_gravity(args),
             # Per-row predictions only when something will use them.
             per_row=getattr(args, "rows", None) is not None or getattr(args, "report", None) is not None,
         )
@@ -713,6 +740,7 @@ effects (--effect NAME:key=value,...):
                     help="the force sensor's per-axis noise, N, at most 1000")
     dv.add_argument("--moment-sigma", type=T.nonnegative_float(1e2, "N·m"), default=None, metavar="NM",
                     help="the force sensor's per-axis moment noise, N·m, at most 100")
+    _add_gravity_args(dv)
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
         "csjm",

@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import checked
+from ._arguments import DEFAULT_GRAVITY, checked, gravity_vector
 from ._arrays import f64
 from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, SuspiciousDataWarning
 from ._vjm_data import (
@@ -331,16 +331,12 @@ class Identification:
         }
 
 
-#: Gravity in the base frame, m/s²: 9.80665 along −z (a floor-mounted arm).
-DEFAULT_GRAVITY: Tuple[float, float, float] = (0.0, 0.0, -9.80665)
 
 
 def _gravity_args(
     gravity: Sequence[float], payload: Optional[Tuple[float, Sequence[float]]]
 ) -> Tuple[Tuple[float, float, float], Optional[Tuple[float, Tuple[float, float, float]]]]:
-    g = tuple(float(x) for x in gravity)
-    if len(g) != 3:
-        raise ShapeError(f"gravity must have 3 components (gx, gy, gz) in m/s², got {len(g)}")
+    g = gravity_vector(gravity)
     p = None
     if payload is not None:
         mass, centre = payload

@@ -161,8 +161,18 @@ pub struct RowKinematics {
     pub q: Vec<f64>,
     /// 6×3n virtual-joint Jacobian at the tip point, base frame.
     pub jacobian: DMatrix<f64>,
-    /// Spring torques Jᵀ W under the recorded wrench, N·m (3n).
+    /// The recorded load's torque on each spring, N·m (3n): `Jᵀ W`, and under gravity
+    /// `Jᵀ W + K_G Δθ` at the pass's linearisation (gravity's stiffness acting on the
+    /// deflection the load causes, [`GravityWorkspace::effective_torques`](crate::gravity::GravityWorkspace::effective_torques)),
+    /// so that a spring's column `J_t[:, s] τ_s` is what a measurement under gravity records.
     pub tau: Vec<f64>,
+    /// `Jᵀ W` alone, N·m (3n): the load's torque without gravity's coupling (the geometric
+    /// non-linearity's linear part).
+    pub tau_load: Vec<f64>,
+    /// The weight's torque on each spring at the unloaded pose, τ_g(q), N·m (3n; zeros for a
+    /// weightless diagnosis): the preload on which the load's torque acts, where the gear
+    /// curves of the non-linear candidates are evaluated.
+    pub tau_gravity: Vec<f64>,
     /// Recorded wrench, base frame.
     pub wrench: [f64; 6],
     /// Measured displacement, base frame, m.
@@ -190,10 +200,16 @@ pub struct Linearisation {
     pub compliance: Vec<f64>,
 }
 
-/// `J_t C Jᵀ W` of a row for compliances `c` (3n), m: the spring-only prediction.
+/// `J_t C τ` of a row for compliances `c` (3n), m: the spring-only prediction, with the
+/// row's load torque τ ([`RowKinematics::tau`], gravity's coupling included).
 pub fn spring_prediction(row: &RowKinematics, c: &[f64]) -> [f64; 3] {
+    linear_prediction(row, c, &row.tau)
+}
+
+/// `J_t C t` of a row for compliances `c` and spring torques `t` (3n each), m.
+fn linear_prediction(row: &RowKinematics, c: &[f64], tau: &[f64]) -> [f64; 3] {
     let mut d = [0.0; 3];
-    for (s, (ci, t)) in c.iter().zip(&row.tau).enumerate() {
+    for (s, (ci, t)) in c.iter().zip(tau).enumerate() {
         let a = ci * t;
         if a != 0.0 {
             for (r, dr) in d.iter_mut().enumerate() {
@@ -246,11 +262,14 @@ pub fn spring_column(row: &RowKinematics, s: usize) -> [f64; 3] {
 /// Raw columns of `cand` for one row: one 3-vector per parameter.
 ///
 /// - `joint_tilt (j, a)`: `J_t[:, ja] · τ_ja`;
-/// - `joint_torsion_nonlinear (j)`: `J_t[:, jz] · sign(τ)·max(|τ| − t_k, 0)` for the knots
-///   `t_k = TORSION_KNOTS[k] · s_j`, `s_j` the RMS of τ_jz over the training rows (each parameter
-///   is the change of tangent compliance beyond its knot, rad/(N·m));
-/// - `joint_backlash (j)`: `J_t[:, jz] · ½ erf(τ_jz/(√2 σ_τ))`, the expected `½ sign(τ)` of the
-///   applied torque given the recorded one (the parameter is the lost motion b);
+/// - `joint_torsion_nonlinear (j)`: `J_t[:, jz] · (h_k(τ_g + τ) − h_k(τ_g))` with the hinge
+///   `h_k(t) = sign(t)·max(|t| − t_k, 0)` for the knots `t_k = TORSION_KNOTS[k] · s_j`, `s_j`
+///   the RMS of the total torque τ_g + τ_jz over the training rows, τ_g the weight's preload
+///   (0 when weightless); each parameter is the change of tangent compliance beyond its knot,
+///   rad/(N·m);
+/// - `joint_backlash (j)`: `J_t[:, jz] · ½ (erf((τ_g + τ_jz)/(√2 σ_τ)) − sign(τ_g))`, the
+///   expected change of `½ sign` of the applied total torque given the recorded one (the
+///   parameter is the lost motion b);
 /// - `wrench_bias`: `−J_t C Jᵀ e_k`, k = 1..6 (the parameter is the bias β, recorded = applied + β);
 /// - `frame_misalignment`: `−hat(d̂)` with d̂ the spring prediction (the parameter is φ,
 ///   recorded = exp(hat φ) d ≈ d + φ × d);
@@ -278,18 +297,24 @@ pub fn candidate_columns(
             // the linear spring they span piecewise-linear torque → deflection curves such as
             // the harmonic drive's K1/K2/K3 segments, and they are continuous at τ = 0, which
             // separates them from lost motion.
+            // Under gravity the gear works about its preload τ_g: the measured (loaded −
+            // unloaded) deflection is the curve's change from τ_g to τ_g + τ.
             let t = row.tau[3 * joint];
+            let tg = row.tau_gravity[3 * joint];
             let s = tau_scale[joint].max(1e-12);
             let a = col3(&row.jacobian, 3 * joint);
+            let hinge = |t: f64, knot: f64| (t.abs() - knot).max(0.0).copysign(t);
             for k in TORSION_KNOTS {
-                let h = (t.abs() - k * s).max(0.0).copysign(t);
-                out.push(scale3(a, h));
+                out.push(scale3(a, hinge(tg + t, k * s) - hinge(tg, k * s)));
             }
         }
         Candidate::JointBacklash { joint } => {
             // The sign of the applied torque is uncertain when |τ| is within the noise of the
             // recorded wrench: use its expectation E[sign τ | τ_rec] = erf(τ_rec/(√2 σ_τ)).
-            let t = row.tau[3 * joint];
+            // Under gravity the dead band is crossed only where the total torque τ_g + τ
+            // changes sign: the lost motion is ½ b (sign(τ_g + τ) − sign(τ_g)), with τ_g known.
+            let tg = row.tau_gravity[3 * joint];
+            let t = tg + row.tau[3 * joint];
             let st = row.tau_sigma.get(joint).copied().unwrap_or(0.0);
             let sg = if st > 0.0 {
                 erf(t / (std::f64::consts::SQRT_2 * st))
@@ -298,7 +323,8 @@ pub fn candidate_columns(
             } else {
                 t.signum()
             };
-            out.push(scale3(col3(&row.jacobian, 3 * joint), 0.5 * sg));
+            let preload = if tg == 0.0 { 0.0 } else { tg.signum() };
+            out.push(scale3(col3(&row.jacobian, 3 * joint), 0.5 * (sg - preload)));
         }
         Candidate::WrenchBias => {
             let g = compliance_map3x6(row, &lin.compliance);
@@ -317,7 +343,10 @@ pub fn candidate_columns(
                 let d = row
                     .deflected
                     .unwrap_or_else(|| builder.exact_displacement(row, &lin.compliance));
-                let l = spring_prediction(row, &lin.compliance);
+                // The load's linear response without gravity's coupling: the exact
+                // equilibrium above is the weightless one, so this column is the load's
+                // geometric non-linearity alone.
+                let l = linear_prediction(row, &lin.compliance, &row.tau_load);
                 out.push([d[0] - l[0], d[1] - l[1], d[2] - l[2]]);
             }
         }

@@ -60,6 +60,7 @@ use stiffness_core::{Cancel, Monitor};
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, DatasetError, SetLabel};
 use crate::error::VjmError;
+use crate::gravity::GravityWorkspace;
 use crate::model::{SpringAxis, VirtualJointModel};
 use candidates::{catalogue, Alternative, Candidate, Linearisation, RowKinematics};
 use problem::{Term, VjmProblem, Whitening};
@@ -156,6 +157,13 @@ pub struct DiagnoseOptions {
     /// Return the per-row measured and predicted displacements ([`Diagnosis::rows`];
     /// default `true`). Turn off for large campaigns: everything else is a summary.
     pub per_row: bool,
+    /// The gravity the measurements were taken under (base frame, m/s²), with the arm's
+    /// bodies from the chain's [`mass_model`](SerialChain::mass_model): the springs then
+    /// respond to the load about the weight's equilibrium (gravity's stiffness K_G couples
+    /// into every spring's torque) and the gear candidates evaluate their curves at the total
+    /// torque τ_g + τ ([`candidates::candidate_columns`]). Default `None` (weightless); the
+    /// Python package and the CLI default to standard gravity along −z.
+    pub gravity: Option<crate::gravity::Gravity>,
 }
 
 impl Default for DiagnoseOptions {
@@ -172,6 +180,7 @@ impl Default for DiagnoseOptions {
             alias_alpha: 0.05,
             allow_outside_limits: false,
             per_row: true,
+            gravity: None,
         }
     }
 }
@@ -358,6 +367,11 @@ fn prepare<'a>(
         }
     }
     let zeros = vec![0.0; m];
+    let gravity = opts
+        .gravity
+        .map(|g| GravityWorkspace::new(chain, &VirtualJointModel::extended(n), &g, None))
+        .transpose()
+        .map_err(DiagnoseError::Model)?;
     // Baseline: a first fit with tracker noise only gives the compliance that propagates the
     // force-sensor noise; then the weighted fit.
     let problem = VjmProblem::new(
@@ -376,7 +390,8 @@ fn prepare<'a>(
         opts.noise.wrench_sigma,
         cancel.clone(),
     )
-    .with_sink(sink);
+    .with_sink(sink)
+    .with_gravity(gravity);
     let pre_problem = problem.springs_only(Whitening {
         displacement_sigma: opts.noise.displacement_sigma,
         wrench_sigma: [0.0; 6],
@@ -390,8 +405,27 @@ fn prepare<'a>(
     let tau_scale = pre_problem.compress_with_torque_rms(&lin0)?;
     let pre = fit::fit(&pre_problem, &base_terms, &lin0)?;
     cancel.check()?;
-    let c_pre = stiffness_core::engine::Problem::relinearise(&pre_problem, &pre.terms, &pre.coef)
-        .compliance;
+    let mut c_pre =
+        stiffness_core::engine::Problem::relinearise(&pre_problem, &pre.terms, &pre.coef)
+            .compliance;
+    if pre_problem.gravity.is_some() {
+        // Gravity's coupling depends on the compliances (the springs' columns are
+        // J_t[:, s]·(τ + K_G Δθ(c))_s): the weightless pre-fit is off by ‖C K_G‖ ≈ 1e-2, and
+        // two refits at the previous estimate bring that to ≈ 1e-6 of the deflection.
+        for _ in 0..2 {
+            let at = Linearisation {
+                compliance: c_pre.clone(),
+            };
+            let again = fit::fit(&pre_problem, &base_terms, &at)?;
+            cancel.check()?;
+            c_pre = stiffness_core::engine::Problem::relinearise(
+                &pre_problem,
+                &again.terms,
+                &again.coef,
+            )
+            .compliance;
+        }
+    }
     let mut problem = problem.with_whitening(Whitening {
         displacement_sigma: opts.noise.displacement_sigma,
         wrench_sigma: opts.noise.wrench_sigma,

@@ -17,6 +17,7 @@ use super::candidates::{
 use super::rows::{RowBuilder, ROW_BATCH};
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, SetLabel};
+use crate::gravity::GravityWorkspace;
 
 /// One term of a model: a linear spring (index into the 3n springs, joint-major `[z, x, y]`),
 /// a catalogue candidate, or a block of the lack-of-fit alternative.
@@ -115,6 +116,9 @@ pub struct VjmProblem<'a> {
     pub(super) whitening: Whitening,
     /// Wrench noise of the backlash candidate's torque expectation (the options' value).
     pub(super) torque_noise: [f64; 6],
+    /// The weight the measurements were taken under (a workspace every pass's row builder
+    /// clones); `None` for a weightless diagnosis.
+    pub(super) gravity: Option<GravityWorkspace>,
     /// Candidates with columns of their own (not tilts) and their column ranges.
     layout: Vec<(Candidate, Range<usize>)>,
     alternatives: Vec<(Alternative, Range<usize>)>,
@@ -187,6 +191,7 @@ impl<'a> VjmProblem<'a> {
             tau_scale,
             whitening,
             torque_noise,
+            gravity: None,
             layout,
             alternatives,
             m,
@@ -197,6 +202,13 @@ impl<'a> VjmProblem<'a> {
             sink: None,
             rows_done: AtomicUsize::new(0),
         }
+    }
+
+    /// The same problem for measurements taken under gravity (`gravity`: a workspace for the
+    /// chain's extended model).
+    pub fn with_gravity(mut self, gravity: Option<GravityWorkspace>) -> Self {
+        self.gravity = gravity;
+        self
     }
 
     /// The same problem reporting the progress of its passes to `sink`.
@@ -220,6 +232,7 @@ impl<'a> VjmProblem<'a> {
             tau_scale: self.tau_scale.clone(),
             whitening,
             torque_noise: self.torque_noise,
+            gravity: self.gravity.clone(),
             layout: self.layout.clone(),
             alternatives: self.alternatives.clone(),
             m: self.m,
@@ -246,7 +259,11 @@ impl<'a> VjmProblem<'a> {
 
     /// A row builder for this problem.
     pub fn builder(&self) -> RowBuilder<'a> {
-        RowBuilder::new(self.chain, self.torque_noise)
+        let builder = RowBuilder::new(self.chain, self.torque_noise);
+        match &self.gravity {
+            Some(g) => builder.with_gravity(g.clone()),
+            None => builder,
+        }
     }
 
     /// Raw (unwhitened) columns of one row ([`Self::nraw`]), in layout order: springs,
@@ -371,6 +388,7 @@ impl<'a> VjmProblem<'a> {
         mut visit: impl FnMut(usize, &RowKinematics, &Matrix3<f64>, &[f64; 3], &[[f64; 3]]),
     ) -> Result<(), Cancelled> {
         let mut builder = self.builder();
+        builder.set_linearisation(&lin.compliance);
         let mut rows: Vec<RowKinematics> = (0..ROW_BATCH).map(|_| builder.empty_row()).collect();
         let mut batch = Vec::with_capacity(ROW_BATCH);
         let mut cols = Vec::with_capacity(self.nraw());
@@ -453,7 +471,8 @@ impl<'a> VjmProblem<'a> {
                     runs.push(self.groups[i], w, sel.iter().map(|&c| z[c]));
                 }
                 for (j, sq) in torque_sq.iter_mut().enumerate() {
-                    *sq += row.tau[3 * j].powi(2);
+                    // The gear's knots sit in the range of the total torque, preload included.
+                    *sq += (row.tau_gravity[3 * j] + row.tau[3 * j]).powi(2);
                 }
             }
         })?;

@@ -12,6 +12,7 @@ use nalgebra::{DMatrix, Vector3};
 use super::candidates::{torque_sigma_into, RowKinematics};
 use crate::chain::SerialChain;
 use crate::dataset::Dataset;
+use crate::gravity::GravityWorkspace;
 use crate::kinematics::Workspace;
 use crate::model::VirtualJointModel;
 
@@ -29,6 +30,11 @@ pub struct RowBuilder<'a> {
     tip_offset: nalgebra::Matrix3<f64>,
     /// Scratch of [`Self::rows_into`].
     batch: BatchScratch,
+    /// The weight's torques and stiffness per row, for a diagnosis under gravity.
+    gravity: Option<GravityWorkspace>,
+    /// The compliances (3n, rad/(N·m)) at which gravity's stiffness couples into the load's
+    /// torque ([`RowKinematics::tau`]); zeros until [`Self::set_linearisation`].
+    coupling: Vec<f64>,
 }
 
 /// Rows evaluated together by [`RowBuilder::rows_into`]: the most lanes a dispatched
@@ -96,6 +102,71 @@ impl<'a> RowBuilder<'a> {
                 wrench: Vec::new(),
                 deflected: vec![[0.0; 3]; ROW_BATCH],
             },
+            gravity: None,
+            coupling: vec![0.0; m],
+        }
+    }
+
+    /// The same builder for measurements taken under the weight `gravity` describes (a
+    /// workspace for the extended model of this chain, [`GravityWorkspace::new`]): each row
+    /// then carries τ_g(q) and its load torque includes gravity's coupling.
+    pub fn with_gravity(mut self, gravity: GravityWorkspace) -> Self {
+        assert_eq!(
+            gravity.model(),
+            &self.model,
+            "the gravity workspace is made for the chain's extended model"
+        );
+        self.gravity = Some(gravity);
+        self
+    }
+
+    /// The compliances (3n, rad/(N·m)) of the pass's linearisation, at which gravity's
+    /// stiffness couples into the rows' load torques (no effect on a weightless builder).
+    pub fn set_linearisation(&mut self, compliance: &[f64]) {
+        self.coupling.copy_from_slice(compliance);
+    }
+
+    /// Gravity's part of a row whose Jacobian and load torque are in place, at the pass's
+    /// linearisation C: the row is moved to the unloaded equilibrium under the weight (the
+    /// sagged pose θ₀ = C τ₀, τ₀ = τ_g + K_G θ₀, where the measurement's reference was taken),
+    /// its Jacobian, tip and load torque are those of that pose, `tau_gravity` is τ₀ (the
+    /// preload of each spring) and `tau` the load torque with gravity's coupling. The sag
+    /// (≈ 3 mrad on a Panda-class arm) turns the Jacobian by as much, which changes a
+    /// millimetre-size deflection by micrometres: the size of the tracker's noise.
+    ///
+    /// A pose where the springs at the linearisation cannot hold the arm (K_θ − K_G singular,
+    /// only at absurd compliances) keeps the weightless row.
+    fn add_gravity(&mut self, row: &mut RowKinematics) {
+        let Some(g) = self.gravity.as_mut() else {
+            return;
+        };
+        if g.evaluate(self.chain, &row.q).is_err() {
+            return;
+        }
+        let tau_g = g.torques().to_vec();
+        if g.effective_torques(&self.coupling, &tau_g, &mut row.tau_gravity)
+            .is_err()
+        {
+            row.tau_gravity.fill(0.0);
+            return;
+        }
+        let sag: Vec<f64> = self
+            .coupling
+            .iter()
+            .zip(&row.tau_gravity)
+            .map(|(c, t)| c * t)
+            .collect();
+        if sag.iter().any(|t| *t != 0.0) {
+            deflect_row(row, &sag);
+            for (s, t) in row.tau_load.iter_mut().enumerate() {
+                let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
+                *t = col.iter().zip(&row.wrench).map(|(j, w)| j * w).sum();
+            }
+        }
+        if g.effective_torques(&self.coupling, &row.tau_load, &mut row.tau)
+            .is_err()
+        {
+            row.tau.copy_from_slice(&row.tau_load);
         }
     }
 
@@ -106,6 +177,8 @@ impl<'a> RowBuilder<'a> {
             q: vec![0.0; self.chain.n_joints()],
             jacobian: DMatrix::zeros(6, m),
             tau: vec![0.0; m],
+            tau_load: vec![0.0; m],
+            tau_gravity: vec![0.0; m],
             wrench: [0.0; 6],
             displacement: [0.0; 3],
             tip: [0.0; 3],
@@ -157,6 +230,12 @@ impl<'a> RowBuilder<'a> {
             row.tip_rotation = last * self.tip_offset;
             fill_from_jacobian(data, i, &self.wrench_sigma, row);
         }
+        if self.gravity.is_some() {
+            for row in &mut out[..n] {
+                self.add_gravity(row);
+            }
+        }
+        let b = &mut self.batch;
         let Some(c) = deflect.filter(|c| c.iter().any(|v| *v != 0.0)) else {
             return;
         };
@@ -172,7 +251,7 @@ impl<'a> RowBuilder<'a> {
             for &s in &b.springs {
                 b.columns
                     .extend_from_slice(&row.jacobian.as_slice()[6 * s..6 * s + 6]);
-                b.torque.push(row.tau[s]);
+                b.torque.push(row.tau_load[s]);
             }
             b.wrench.extend_from_slice(&row.wrench);
         }
@@ -202,6 +281,7 @@ impl<'a> RowBuilder<'a> {
         out.tip = [t.x, t.y, t.z];
         out.tip_rotation = self.ws.tip_rotation(self.chain);
         fill_from_jacobian(data, i, &self.wrench_sigma, out);
+        self.add_gravity(out);
     }
 
     /// The exact tip displacement (m, base frame) of linear springs of compliances `c` (3n,
@@ -235,7 +315,7 @@ impl<'a> RowBuilder<'a> {
                 c: c[s],
                 a,
                 x: u.cross(&a),
-                theta: c[s] * row.tau[s],
+                theta: c[s] * row.tau_load[s],
                 next: 0.0,
                 sin: 0.0,
                 versine: 0.0,
@@ -293,14 +373,67 @@ fn fill_from_jacobian(
     row: &mut RowKinematics,
 ) {
     let wrench = data.wrench(i);
-    for (s, t) in row.tau.iter_mut().enumerate() {
+    for (s, t) in row.tau_load.iter_mut().enumerate() {
         let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
         *t = col.iter().zip(&wrench).map(|(j, w)| j * w).sum();
     }
+    // Weightless until the builder's gravity step (if any) adds its part.
+    row.tau.copy_from_slice(&row.tau_load);
+    row.tau_gravity.fill(0.0);
     torque_sigma_into(&row.jacobian, wrench_sigma, &mut row.tau_sigma);
     row.wrench = wrench;
     row.displacement = data.displacement(i);
     row.deflected = None;
+}
+
+/// Moves a row's kinematics (Jacobian, tip point, tip rotation) to the deflected state
+/// `theta` (rad, 3n springs in the Jacobian's order), exactly: the deflected frame of spring k
+/// is `E_1 ⋯ E_{k−1} N_k` with `E_k` the rotation by θ_k about spring k's undeflected axis
+/// `a_k` through its centre (the composition of [`RowBuilder::exact_displacement`]), so its
+/// column is `[G_k (a_k × (v_k − c_k)); G_k a_k]` with `G_k = R_1 ⋯ R_{k−1}` (R_k the rotation of E_k) and
+/// `v_k = E_k(⋯E_K(p))`, and the tip moves to `E_1(⋯E_K(p))`. Both sweeps are O(3n); the
+/// result equals `vjm::kinematics::jacobian_deflected` to rounding
+/// (`tests/it/diagnose.rs`, `a_row_deflected_in_place_equals_the_deflected_chain`).
+pub fn deflect_row(row: &mut RowKinematics, theta: &[f64]) {
+    if theta.iter().all(|t| *t == 0.0) {
+        return;
+    }
+    let m = theta.len();
+    let j = &mut row.jacobian;
+    // Sweep from the tip: v_k − c_k across a_k, and the tip's displacement.
+    let mut after = vec![Vector3::zeros(); m];
+    let mut d = Vector3::zeros();
+    let mut rot = vec![(0.0, 0.0); m];
+    for k in (0..m).rev() {
+        let u = Vector3::new(j[(0, k)], j[(1, k)], j[(2, k)]);
+        let a = Vector3::new(j[(3, k)], j[(4, k)], j[(5, k)]);
+        let x = u.cross(&a);
+        after[k] = d + x;
+        if theta[k] != 0.0 {
+            rot[k] = sin_and_versine(theta[k]);
+            d += rotation_minus_identity(&a, rot[k].0, rot[k].1, &(d + x));
+        }
+    }
+    // Sweep from the base: the rotation of springs 1..=k, G_k R_k, applied to each column
+    // (a_k × (v_k − c_k) = R_k (a_k × (w − c_k)) with w = E_{k+1}(⋯(p)), and R_k a_k = a_k).
+    let mut g = nalgebra::Matrix3::<f64>::identity();
+    for k in 0..m {
+        let a = Vector3::new(j[(3, k)], j[(4, k)], j[(5, k)]);
+        if theta[k] != 0.0 {
+            let (sin, versine) = rot[k];
+            let hat = a.cross_matrix();
+            let r = nalgebra::Matrix3::identity() + hat * sin + hat * hat * versine;
+            g *= r;
+        }
+        let u = g * a.cross(&after[k]);
+        let w = g * a;
+        for r in 0..3 {
+            j[(r, k)] = u[r];
+            j[(r + 3, k)] = w[r];
+        }
+    }
+    row.tip = [row.tip[0] + d.x, row.tip[1] + d.y, row.tip[2] + d.z];
+    row.tip_rotation = g * row.tip_rotation;
 }
 
 /// `(sin θ, 1 − cos θ)` for a spring deflection θ (rad). Deflections are of order 1e-4 rad,

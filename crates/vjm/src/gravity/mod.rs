@@ -19,18 +19,20 @@
 
 mod equilibrium;
 pub(crate) mod mass;
+mod workspace;
 
 pub use equilibrium::{
     deflection_under_gravity, gravity_sag, static_equilibrium, Equilibrium, Loading,
     MAX_EQUILIBRIUM_ITERATIONS,
 };
 pub use mass::{Body, MassModel};
+pub use workspace::{GravityWorkspace, MAX_COUPLING_ITERATIONS};
 
 use nalgebra::{DMatrix, Isometry3, Point3, Vector3};
 
 use crate::chain::SerialChain;
 use crate::error::VjmError;
-use crate::kinematics::{deflected_state, Workspace};
+use crate::kinematics::deflected_state;
 use crate::model::VirtualJointModel;
 use crate::stiffness_model::{PointMass, GRAVITY};
 
@@ -112,28 +114,6 @@ impl BodySums {
     }
 }
 
-/// Per spring k the weights' lever `R_k = Σ_{b ≥ j} m_b (x_b − c_k)` (kg·m, base frame) at θ = 0;
-/// leaves the spring axes in `ws`.
-fn levers(
-    chain: &SerialChain,
-    model: &VirtualJointModel,
-    q: &[f64],
-    payload: Option<&PointMass>,
-    ws: &mut Workspace,
-) -> Result<Vec<Vector3<f64>>, VjmError> {
-    let masses = chain.mass_model()?;
-    let frames = chain.joint_frames(q)?;
-    let tip = frames[frames.len() - 1] * chain.tip_offset();
-    let sums = BodySums::new(masses, &frames, &tip, payload);
-    ws.evaluate(chain, q);
-    Ok(model
-        .springs()
-        .iter()
-        .enumerate()
-        .map(|(k, s)| sums.lever(s.joint, &ws.c[k]))
-        .collect())
-}
-
 /// The torques of gravity on the virtual springs at joint positions `q` (rad) and θ = 0:
 /// `τ_g = −∂U_g/∂θ`, one per spring of `model`, N·m, positive in the spring's rotation sense
 /// (see the [module docs](self)). The bodies are the chain's [`mass_model`](SerialChain::mass_model);
@@ -159,13 +139,9 @@ pub fn gravity_torques(
     gravity: &Gravity,
     payload: Option<&PointMass>,
 ) -> Result<Vec<f64>, VjmError> {
-    let mut ws = Workspace::new(chain, model)?;
-    let r = levers(chain, model, q, payload, &mut ws)?;
-    let g = gravity.vector();
-    Ok(r.iter()
-        .zip(&ws.w)
-        .map(|(rk, wk)| wk.dot(&rk.cross(&g)))
-        .collect())
+    let mut ws = GravityWorkspace::new(chain, model, gravity, payload)?;
+    ws.evaluate(chain, q)?;
+    Ok(ws.torques().to_vec())
 }
 
 /// The stiffness of gravity `K_G = ∂τ_g/∂θ` (m×m, N·m/rad, symmetric) at joint positions `q`
@@ -182,22 +158,9 @@ pub fn gravity_stiffness(
     gravity: &Gravity,
     payload: Option<&PointMass>,
 ) -> Result<DMatrix<f64>, VjmError> {
-    let mut ws = Workspace::new(chain, model)?;
-    let r = levers(chain, model, q, payload, &mut ws)?;
-    let g = gravity.vector();
-    let m = model.n_params();
-    let mut out = DMatrix::zeros(m, m);
-    for k in 0..m {
-        let (wk, rk) = (ws.w[k], r[k]);
-        let (wk_g, rk_g) = (wk.dot(&g), rk.dot(&g));
-        for i in 0..=k {
-            let wi = ws.w[i];
-            let v = wi.dot(&rk) * wk_g - wi.dot(&wk) * rk_g;
-            out[(i, k)] = v;
-            out[(k, i)] = v;
-        }
-    }
-    Ok(out)
+    let mut ws = GravityWorkspace::new(chain, model, gravity, payload)?;
+    ws.evaluate(chain, q)?;
+    Ok(ws.stiffness().clone())
 }
 
 /// The gravitational potential `U_g(θ) = −Σ_b m_b gᵀ x_b(θ)` (J) at joint positions `q` and

@@ -378,13 +378,16 @@ pub fn seed_study(
             let qi = data.q(i).to_vec();
             let pose = deflected_pose(chain, &qi, &zeros);
             let w = data.wrench(i);
-            let tau = (pose.jacobian.transpose() * nalgebra::DVector::from_column_slice(&w))
-                .iter()
-                .cloned()
-                .collect();
+            let tau: Vec<f64> = (pose.jacobian.transpose()
+                * nalgebra::DVector::from_column_slice(&w))
+            .iter()
+            .cloned()
+            .collect();
             RowKinematics {
                 q: qi,
                 jacobian: pose.jacobian,
+                tau_load: tau.clone(),
+                tau_gravity: vec![0.0; tau.len()],
                 tau,
                 wrench: w,
                 displacement: data.displacement(i),

@@ -1,0 +1,197 @@
+//! Gravity at one configuration after another without allocating: the torques τ_g and the
+//! stiffness K_G of every spring of a model, and the load torque once gravity's stiffness has
+//! acted on the deflection it causes. The per-row evaluator of identify and diagnose; the
+//! allocating [`gravity_torques`](super::gravity_torques) and
+//! [`gravity_stiffness`](super::gravity_stiffness) are this, once.
+
+use nalgebra::{DMatrix, Isometry3, Vector3};
+
+use super::{BodySums, Gravity};
+use crate::chain::SerialChain;
+use crate::error::VjmError;
+use crate::kinematics::Workspace;
+use crate::model::VirtualJointModel;
+use crate::stiffness_model::PointMass;
+
+/// Iteration cap of [`GravityWorkspace::effective_torques`]'s fixed point; beyond it (a
+/// contraction ratio near 1: springs barely able to hold the arm up) the linear system is
+/// solved directly.
+pub const MAX_COUPLING_ITERATIONS: usize = 60;
+
+/// Reusable scratch for τ_g(q) and K_G(q) of a model's springs (base frame, N·m and
+/// N·m/rad, the conventions of the [module](super)), one configuration at a time.
+#[derive(Debug, Clone)]
+pub struct GravityWorkspace {
+    model: VirtualJointModel,
+    gravity: Vector3<f64>,
+    payload: Option<PointMass>,
+    ws: Workspace,
+    frames: Vec<Isometry3<f64>>,
+    levers: Vec<Vector3<f64>>,
+    torques: Vec<f64>,
+    stiffness: DMatrix<f64>,
+    theta: Vec<f64>,
+    next: Vec<f64>,
+    active: Vec<usize>,
+}
+
+impl GravityWorkspace {
+    /// Scratch for `model` on `chain` under `gravity` with an optional `payload` (a point mass
+    /// in the tip frame). Errors when the chain has no mass model (a link without
+    /// `<inertial>`) or the model does not fit the chain.
+    pub fn new(
+        chain: &SerialChain,
+        model: &VirtualJointModel,
+        gravity: &Gravity,
+        payload: Option<&PointMass>,
+    ) -> Result<Self, VjmError> {
+        chain.mass_model()?;
+        let ws = Workspace::new(chain, model)?;
+        let m = model.n_params();
+        Ok(Self {
+            model: model.clone(),
+            gravity: gravity.vector(),
+            payload: payload.cloned(),
+            ws,
+            frames: Vec::with_capacity(chain.n_joints()),
+            levers: vec![Vector3::zeros(); m],
+            torques: vec![0.0; m],
+            stiffness: DMatrix::zeros(m, m),
+            theta: vec![0.0; m],
+            next: vec![0.0; m],
+            active: Vec::with_capacity(m),
+        })
+    }
+
+    /// The springs' model.
+    pub fn model(&self) -> &VirtualJointModel {
+        &self.model
+    }
+
+    /// Evaluates τ_g and K_G at joint positions `q` (rad, checked: n finite values); read them
+    /// with [`Self::torques`] and [`Self::stiffness`].
+    pub fn evaluate(&mut self, chain: &SerialChain, q: &[f64]) -> Result<(), VjmError> {
+        chain.check_q(q, 0)?;
+        let masses = chain.mass_model()?;
+        self.frames.clear();
+        let mut t = Isometry3::identity();
+        for (j, &qj) in chain.joints().iter().zip(q) {
+            t = t * j.origin * crate::chain::rotation_about(&j.axis, qj);
+            self.frames.push(t);
+        }
+        let tip = t * chain.tip_offset();
+        let sums = BodySums::new(masses, &self.frames, &tip, self.payload.as_ref());
+        self.ws.evaluate(chain, q);
+        for (k, s) in self.model.springs().iter().enumerate() {
+            self.levers[k] = sums.lever(s.joint, &self.ws.c[k]);
+        }
+        let g = self.gravity;
+        let m = self.model.n_params();
+        for k in 0..m {
+            let (wk, rk) = (self.ws.w[k], self.levers[k]);
+            self.torques[k] = wk.dot(&rk.cross(&g));
+            let (wk_g, rk_g) = (wk.dot(&g), rk.dot(&g));
+            for i in 0..=k {
+                let wi = self.ws.w[i];
+                let v = wi.dot(&rk) * wk_g - wi.dot(&wk) * rk_g;
+                self.stiffness[(i, k)] = v;
+                self.stiffness[(k, i)] = v;
+            }
+        }
+        Ok(())
+    }
+
+    /// τ_g of every spring at the last evaluation, N·m.
+    pub fn torques(&self) -> &[f64] {
+        &self.torques
+    }
+
+    /// K_G at the last evaluation (m×m, N·m/rad, symmetric).
+    pub fn stiffness(&self) -> &DMatrix<f64> {
+        &self.stiffness
+    }
+
+    /// The torque on each spring of a load whose own torque is `load` (N·m, m values) once
+    /// the weight's stiffness has acted on the deflection it causes, at the last evaluation:
+    /// `τ + K_G Δθ` with `Δθ = (K_θ − K_G)⁻¹ τ` for the springs of compliance `compliance`
+    /// (rad/(N·m), m values; 0 = rigid). Written to `out`.
+    ///
+    /// This is what a measurement under gravity records as (loaded − unloaded): the springs
+    /// deflect by `Δθ = C (τ + K_G Δθ)`, linear in C for the torque returned. The fixed point
+    /// contracts with the ratio ‖C K_G‖ (≈ 1e-2 on an arm) and is capped at
+    /// [`MAX_COUPLING_ITERATIONS`]; then `(I − C K_G) Δθ = C τ` is solved directly, and an
+    /// error says the springs cannot hold the arm when that system is singular.
+    pub fn effective_torques(
+        &mut self,
+        compliance: &[f64],
+        load: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), VjmError> {
+        let m = self.model.n_params();
+        for (what, len) in [
+            ("compliance", compliance.len()),
+            ("load torques", load.len()),
+            ("output", out.len()),
+        ] {
+            if len != m {
+                return Err(VjmError::ShapeMismatch {
+                    what,
+                    expected: m,
+                    got: len,
+                });
+            }
+        }
+        // Only springs of non-zero compliance deflect: the coupling sums run over them alone
+        // (7 of 21 for a traditional model), which is most of the cost per row.
+        self.active.clear();
+        self.active.extend((0..m).filter(|&k| compliance[k] != 0.0));
+        for ((t, c), l) in self.theta.iter_mut().zip(compliance).zip(load) {
+            *t = c * l;
+        }
+        let kg = &self.stiffness;
+        let mut converged = false;
+        for _ in 0..MAX_COUPLING_ITERATIONS {
+            let mut change: f64 = 0.0;
+            let mut scale: f64 = 1e-300;
+            for &k in &self.active {
+                let coupling: f64 = self
+                    .active
+                    .iter()
+                    .map(|&i| kg[(k, i)] * self.theta[i])
+                    .sum();
+                let next = compliance[k] * (load[k] + coupling);
+                change = change.max((next - self.theta[k]).abs());
+                scale = scale.max(next.abs());
+                self.next[k] = next;
+            }
+            for &k in &self.active {
+                self.theta[k] = self.next[k];
+            }
+            if change <= 1e-15 * scale {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            let c = nalgebra::DVector::from_column_slice(compliance);
+            let a = crate::predict::identity_minus_c_times(&c, kg);
+            let b = nalgebra::DVector::from_iterator(
+                m,
+                compliance.iter().zip(load).map(|(c, l)| c * l),
+            );
+            let x = a.lu().solve(&b).ok_or_else(|| VjmError::Numerical {
+                message: "the springs cannot hold the arm under its weight: K_θ − K_G is singular at this pose".into(),
+            })?;
+            self.theta.copy_from_slice(x.as_slice());
+        }
+        for (k, o) in out.iter_mut().enumerate() {
+            let coupling: f64 = self
+                .active
+                .iter()
+                .map(|&i| kg[(k, i)] * self.theta[i])
+                .sum();
+            *o = load[k] + coupling;
+        }
+        Ok(())
+    }
+}
