@@ -807,14 +807,20 @@ impl Problem for VjmProblem<'_> {
         Ok(((0..cols.len()).map(col).collect(), col(cols.len())))
     }
 
+    /// The compliances of every spring term of the fit: the model's springs and the tilt
+    /// findings (a tilt is a spring's column, so its compliance belongs in the point where the
+    /// bilinear findings — a wrench bias `−J C Jᵀ β`, a frame misalignment, the geometric
+    /// non-linearity — and gravity's coupling are evaluated; leaving it out left a per-pose
+    /// offset `J ΔC Jᵀ β` of a bias found together with a tilt).
     fn relinearise(&self, terms: &[Term], coef: &[f64]) -> Linearisation {
         let mut c = vec![0.0; self.m];
         let mut k = 0;
         for t in terms {
-            if let Term::Spring(s) = t {
-                c[*s] = coef[k];
+            let cols = self.columns(*t);
+            if matches!(t, Term::Spring(_) | Term::Cand(Candidate::JointTilt { .. })) {
+                c[cols.start] = coef[k];
             }
-            k += self.columns(*t).len();
+            k += cols.len();
         }
         Linearisation { compliance: c }
     }
