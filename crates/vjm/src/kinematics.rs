@@ -417,3 +417,89 @@ pub fn complementary_stiffness_in_place(
     }
     Ok(())
 }
+
+/// Moves a chain's kinematics at joint positions q — its 6×m virtual-joint Jacobian `jac`
+/// (column-major, springs at the joint origins in model order), tip point and tip rotation —
+/// to the deflected state `theta` (rad, one per column), exactly: the deflected frame of spring k
+/// is `E_1 ⋯ E_{k−1} N_k` with `E_k` the rotation by θ_k about spring k's undeflected axis
+/// `a_k` through its centre (the composition of [`RowBuilder::exact_displacement`]), so its
+/// column is `[G_k (a_k × (v_k − c_k)); G_k a_k]` with `G_k = R_1 ⋯ R_{k−1}` (R_k the rotation of E_k) and
+/// `v_k = E_k(⋯E_K(p))`, and the tip moves to `E_1(⋯E_K(p))`. Both sweeps are O(3n); the
+/// result equals `vjm::kinematics::jacobian_deflected` to rounding
+/// (`tests/it/diagnose.rs`, `a_row_deflected_in_place_equals_the_deflected_chain`). The
+/// sag of an arm under its weight moves a measurement's reference there.
+pub(crate) fn deflect_in_place(
+    jac: &mut [f64],
+    tip: &mut Vector3<f64>,
+    tip_rotation: &mut Matrix3<f64>,
+    theta: &[f64],
+) {
+    if theta.iter().all(|t| *t == 0.0) {
+        return;
+    }
+    let m = theta.len();
+    assert_eq!(jac.len(), 6 * m, "a 6×m Jacobian for m deflections");
+    // Sweep from the tip: v_k − c_k across a_k, and the tip's displacement.
+    let mut after = vec![Vector3::zeros(); m];
+    let mut d = Vector3::zeros();
+    let mut rot = vec![(0.0, 0.0); m];
+    for k in (0..m).rev() {
+        let col = &jac[6 * k..6 * k + 6];
+        let u = Vector3::new(col[0], col[1], col[2]);
+        let a = Vector3::new(col[3], col[4], col[5]);
+        let x = u.cross(&a);
+        after[k] = d + x;
+        if theta[k] != 0.0 {
+            rot[k] = sin_and_versine(theta[k]);
+            d += rotation_minus_identity(&a, rot[k].0, rot[k].1, &(d + x));
+        }
+    }
+    // Sweep from the base: the rotation of springs 1..=k, G_k R_k, applied to each column
+    // (a_k × (v_k − c_k) = R_k (a_k × (w − c_k)) with w = E_{k+1}(⋯(p)), and R_k a_k = a_k).
+    let mut g = Matrix3::<f64>::identity();
+    for k in 0..m {
+        let a = Vector3::new(jac[6 * k + 3], jac[6 * k + 4], jac[6 * k + 5]);
+        if theta[k] != 0.0 {
+            let (sin, versine) = rot[k];
+            let hat = a.cross_matrix();
+            let r = Matrix3::identity() + hat * sin + hat * hat * versine;
+            g *= r;
+        }
+        let u = g * a.cross(&after[k]);
+        let w = g * a;
+        for r in 0..3 {
+            jac[6 * k + r] = u[r];
+            jac[6 * k + r + 3] = w[r];
+        }
+    }
+    *tip += d;
+    *tip_rotation = g * *tip_rotation;
+}
+
+/// `(sin θ, 1 − cos θ)` for a spring deflection θ (rad). Deflections are of order 1e-4 rad,
+/// where the Taylor series to the terms kept is exact in double precision (the first term
+/// left out is below 1e-25 relative for |θ| < 1e-3); the diagnosis evaluates them for every
+/// deflecting spring in every step of every row's equilibrium, so they skip the library's
+/// `sin_cos`. `1 − cos θ` is formed without the cancellation of `1.0 - cos`.
+pub(crate) fn sin_and_versine(theta: f64) -> (f64, f64) {
+    if theta.abs() >= 1e-3 {
+        let h = (0.5 * theta).sin();
+        return (theta.sin(), 2.0 * h * h);
+    }
+    let t2 = theta * theta;
+    let sin = theta * (1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0)));
+    let versine = 0.5 * t2 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0)));
+    (sin, versine)
+}
+
+/// `(R − I) y` for the rotation R about the unit axis `a` with `sin θ = sin` and
+/// `1 − cos θ = versine` (Rodrigues: `R = I + sin θ [a]× + (1 − cos θ) [a]×²`).
+pub(crate) fn rotation_minus_identity(
+    a: &Vector3<f64>,
+    sin: f64,
+    versine: f64,
+    y: &Vector3<f64>,
+) -> Vector3<f64> {
+    let ay = a.cross(y);
+    ay * sin + a.cross(&ay) * versine
+}

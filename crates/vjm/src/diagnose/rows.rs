@@ -12,8 +12,8 @@ use nalgebra::{DMatrix, Vector3};
 use super::candidates::{torque_sigma_into, RowKinematics};
 use crate::chain::SerialChain;
 use crate::dataset::Dataset;
-use crate::gravity::GravityWorkspace;
-use crate::kinematics::Workspace;
+use crate::gravity::{GravityWorkspace, RowFrame};
+use crate::kinematics::{rotation_minus_identity, sin_and_versine, Workspace};
 use crate::model::VirtualJointModel;
 
 /// Reusable scratch that turns a dataset row into [`RowKinematics`].
@@ -143,25 +143,20 @@ impl<'a> RowBuilder<'a> {
         if g.evaluate(self.chain, &row.q).is_err() {
             return;
         }
-        let tau_g = g.torques().to_vec();
-        if g.effective_torques(&self.coupling, &tau_g, &mut row.tau_gravity)
-            .is_err()
-        {
+        let mut tip = Vector3::from(row.tip);
+        let frame = RowFrame {
+            jacobian: row.jacobian.as_mut_slice(),
+            tip: &mut tip,
+            tip_rotation: &mut row.tip_rotation,
+        };
+        if g.sag(&self.coupling, frame, &mut row.tau_gravity).is_err() {
             row.tau_gravity.fill(0.0);
             return;
         }
-        let sag: Vec<f64> = self
-            .coupling
-            .iter()
-            .zip(&row.tau_gravity)
-            .map(|(c, t)| c * t)
-            .collect();
-        if sag.iter().any(|t| *t != 0.0) {
-            deflect_row(row, &sag);
-            for (s, t) in row.tau_load.iter_mut().enumerate() {
-                let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
-                *t = col.iter().zip(&row.wrench).map(|(j, w)| j * w).sum();
-            }
+        row.tip = [tip.x, tip.y, tip.z];
+        for (s, t) in row.tau_load.iter_mut().enumerate() {
+            let col = &row.jacobian.as_slice()[6 * s..6 * s + 6];
+            *t = col.iter().zip(&row.wrench).map(|(j, w)| j * w).sum();
         }
         if g.effective_torques(&self.coupling, &row.tau_load, &mut row.tau)
             .is_err()
@@ -387,81 +382,18 @@ fn fill_from_jacobian(
 }
 
 /// Moves a row's kinematics (Jacobian, tip point, tip rotation) to the deflected state
-/// `theta` (rad, 3n springs in the Jacobian's order), exactly: the deflected frame of spring k
-/// is `E_1 ⋯ E_{k−1} N_k` with `E_k` the rotation by θ_k about spring k's undeflected axis
-/// `a_k` through its centre (the composition of [`RowBuilder::exact_displacement`]), so its
-/// column is `[G_k (a_k × (v_k − c_k)); G_k a_k]` with `G_k = R_1 ⋯ R_{k−1}` (R_k the rotation of E_k) and
-/// `v_k = E_k(⋯E_K(p))`, and the tip moves to `E_1(⋯E_K(p))`. Both sweeps are O(3n); the
-/// result equals `vjm::kinematics::jacobian_deflected` to rounding
-/// (`tests/it/diagnose.rs`, `a_row_deflected_in_place_equals_the_deflected_chain`).
+/// `theta` (rad, 3n springs in the Jacobian's order), exactly
+/// ([`crate::kinematics::deflect_in_place`]; equal to `vjm::jacobian_deflected` to rounding,
+/// `tests/it/diagnose.rs`, `a_row_deflected_in_place_equals_the_deflected_chain`).
 pub fn deflect_row(row: &mut RowKinematics, theta: &[f64]) {
-    if theta.iter().all(|t| *t == 0.0) {
-        return;
-    }
-    let m = theta.len();
-    let j = &mut row.jacobian;
-    // Sweep from the tip: v_k − c_k across a_k, and the tip's displacement.
-    let mut after = vec![Vector3::zeros(); m];
-    let mut d = Vector3::zeros();
-    let mut rot = vec![(0.0, 0.0); m];
-    for k in (0..m).rev() {
-        let u = Vector3::new(j[(0, k)], j[(1, k)], j[(2, k)]);
-        let a = Vector3::new(j[(3, k)], j[(4, k)], j[(5, k)]);
-        let x = u.cross(&a);
-        after[k] = d + x;
-        if theta[k] != 0.0 {
-            rot[k] = sin_and_versine(theta[k]);
-            d += rotation_minus_identity(&a, rot[k].0, rot[k].1, &(d + x));
-        }
-    }
-    // Sweep from the base: the rotation of springs 1..=k, G_k R_k, applied to each column
-    // (a_k × (v_k − c_k) = R_k (a_k × (w − c_k)) with w = E_{k+1}(⋯(p)), and R_k a_k = a_k).
-    let mut g = nalgebra::Matrix3::<f64>::identity();
-    for k in 0..m {
-        let a = Vector3::new(j[(3, k)], j[(4, k)], j[(5, k)]);
-        if theta[k] != 0.0 {
-            let (sin, versine) = rot[k];
-            let hat = a.cross_matrix();
-            let r = nalgebra::Matrix3::identity() + hat * sin + hat * hat * versine;
-            g *= r;
-        }
-        let u = g * a.cross(&after[k]);
-        let w = g * a;
-        for r in 0..3 {
-            j[(r, k)] = u[r];
-            j[(r + 3, k)] = w[r];
-        }
-    }
-    row.tip = [row.tip[0] + d.x, row.tip[1] + d.y, row.tip[2] + d.z];
-    row.tip_rotation = g * row.tip_rotation;
-}
-
-/// `(sin θ, 1 − cos θ)` for a spring deflection θ (rad). Deflections are of order 1e-4 rad,
-/// where the Taylor series to the terms kept is exact in double precision (the first term
-/// left out is below 1e-25 relative for |θ| < 1e-3); the diagnosis evaluates them for every
-/// deflecting spring in every step of every row's equilibrium, so they skip the library's
-/// `sin_cos`. `1 − cos θ` is formed without the cancellation of `1.0 - cos`.
-fn sin_and_versine(theta: f64) -> (f64, f64) {
-    if theta.abs() >= 1e-3 {
-        let h = (0.5 * theta).sin();
-        return (theta.sin(), 2.0 * h * h);
-    }
-    let t2 = theta * theta;
-    let sin = theta * (1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0)));
-    let versine = 0.5 * t2 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0)));
-    (sin, versine)
-}
-
-/// `(R − I) y` for the rotation R about the unit axis `a` with `sin θ = sin` and
-/// `1 − cos θ = versine` (Rodrigues: `R = I + sin θ [a]× + (1 − cos θ) [a]×²`).
-fn rotation_minus_identity(
-    a: &Vector3<f64>,
-    sin: f64,
-    versine: f64,
-    y: &Vector3<f64>,
-) -> Vector3<f64> {
-    let ay = a.cross(y);
-    ay * sin + a.cross(&ay) * versine
+    let mut tip = Vector3::from(row.tip);
+    crate::kinematics::deflect_in_place(
+        row.jacobian.as_mut_slice(),
+        &mut tip,
+        &mut row.tip_rotation,
+        theta,
+    );
+    row.tip = [tip.x, tip.y, tip.z];
 }
 
 #[cfg(test)]

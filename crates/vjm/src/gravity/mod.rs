@@ -26,7 +26,7 @@ pub use equilibrium::{
     MAX_EQUILIBRIUM_ITERATIONS,
 };
 pub use mass::{Body, MassModel};
-pub use workspace::{GravityWorkspace, MAX_COUPLING_ITERATIONS};
+pub use workspace::{GravityWorkspace, RowFrame, MAX_COUPLING_ITERATIONS};
 
 use nalgebra::{DMatrix, Isometry3, Point3, Vector3};
 

@@ -33,6 +33,8 @@ pub struct GravityWorkspace {
     theta: Vec<f64>,
     next: Vec<f64>,
     active: Vec<usize>,
+    scratch: Vec<f64>,
+    sag: Vec<f64>,
 }
 
 impl GravityWorkspace {
@@ -60,6 +62,8 @@ impl GravityWorkspace {
             theta: vec![0.0; m],
             next: vec![0.0; m],
             active: Vec::with_capacity(m),
+            scratch: Vec::with_capacity(m),
+            sag: Vec::with_capacity(m),
         })
     }
 
@@ -194,4 +198,48 @@ impl GravityWorkspace {
         }
         Ok(())
     }
+
+    /// Moves a measurement's kinematics to where its reference was taken: the unloaded
+    /// equilibrium under the weight at the last evaluation, the sag θ₀ = C τ₀ with
+    /// τ₀ = τ_g + K_G θ₀ (springs of compliance `compliance`, rad/(N·m); 0 = rigid). `frame`
+    /// holds the row's Jacobian (6×m column-major, this workspace's springs), tip point and
+    /// tip rotation at θ = 0 and receives them at θ₀
+    /// ([`deflect_in_place`](crate::kinematics::deflect_in_place), exact); `preload` (m)
+    /// receives τ₀, the torque each spring carries there (N·m).
+    pub fn sag(
+        &mut self,
+        compliance: &[f64],
+        frame: RowFrame<'_>,
+        preload: &mut [f64],
+    ) -> Result<(), VjmError> {
+        // τ_g is copied out: `effective_torques` borrows the workspace mutably.
+        let mut tau_g = std::mem::take(&mut self.scratch);
+        tau_g.clear();
+        tau_g.extend_from_slice(&self.torques);
+        let result = self.effective_torques(compliance, &tau_g, preload);
+        self.scratch = tau_g;
+        result?;
+        self.sag.clear();
+        self.sag
+            .extend(compliance.iter().zip(preload.iter()).map(|(c, t)| c * t));
+        crate::kinematics::deflect_in_place(
+            frame.jacobian,
+            frame.tip,
+            frame.tip_rotation,
+            &self.sag,
+        );
+        Ok(())
+    }
+}
+
+/// A measurement row's kinematics for [`GravityWorkspace::sag`]: the 6×m virtual-joint
+/// Jacobian (column-major, base frame), the tip point and the tip rotation (base ← tip).
+#[derive(Debug)]
+pub struct RowFrame<'a> {
+    /// 6×m Jacobian, column-major.
+    pub jacobian: &'a mut [f64],
+    /// Tip point, m.
+    pub tip: &'a mut Vector3<f64>,
+    /// Tip rotation.
+    pub tip_rotation: &'a mut nalgebra::Matrix3<f64>,
 }
