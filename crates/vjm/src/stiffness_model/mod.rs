@@ -42,6 +42,7 @@ mod file;
 mod pose_table;
 mod predict;
 mod robust;
+mod sag;
 
 use serde::{Deserialize, Serialize};
 use stiffness_core::num::Short;

@@ -203,7 +203,7 @@ impl StiffnessModel {
     }
 
     /// One row from its 6×m regressor `a` (row-major).
-    fn predict_row(&self, a: &[f64], wrench: [f64; 6]) -> Prediction {
+    pub(super) fn predict_row(&self, a: &[f64], wrench: [f64; 6]) -> Prediction {
         let e = &self.estimate;
         let m = e.compliance.len();
         let axes = if self.noise.use_rotations { 6 } else { 3 };

@@ -1,0 +1,76 @@
+//! The tip's static sag under the arm's own weight (and a payload), predicted from a
+//! [`StiffnessModel`]: what arm makers' absolute-accuracy options correct.
+
+use super::{ModelError, PointMass, Prediction, StiffnessModel};
+use crate::chain::{check_finite, SerialChain};
+use crate::gravity::{gravity_sag, Gravity, GravityWorkspace};
+use crate::kinematics::Workspace;
+
+impl StiffnessModel {
+    /// The tip's static sag relative to the rigid forward kinematics at each of N
+    /// configurations `q` (N×n row-major, rad) under `gravity` (base frame, m/s²), with the
+    /// model's springs and the chain's link masses (plus `payload`, a point mass in the tip
+    /// frame): `deflection` is `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame) of the exact
+    /// static equilibrium on the deflected chain ([`gravity_sag`]) — or, when the stored
+    /// compliances are not all ≥ 0 (a model with aliased springs stores the minimum-norm member
+    /// of its family, not a spring set), its first-order part `J C τ_g`, which differs from the
+    /// exact sag by ‖C K_G‖ ≈ 1e-2 of it.
+    ///
+    /// `stddev`, `identified` and `excitation` are those of the sag's first-order part,
+    /// `J C τ_g` — the regressor the weight's torque τ_g would give as a load — so a pose
+    /// whose weight loads a direction the identification did not see is flagged exactly as
+    /// [`predict`](Self::predict) flags such a load; `wrench` is zero (the weight is not a
+    /// tip wrench). Errors name the row (0-based) of a bad configuration and the link of a
+    /// missing inertial.
+    pub fn predict_sag(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        gravity: &Gravity,
+        payload: Option<&PointMass>,
+    ) -> Result<Vec<Prediction>, ModelError> {
+        self.check_robot(chain, "<model>")?;
+        let n = chain.n_joints();
+        let rows = q.len() / n;
+        if q.len() != rows * n {
+            return Err(crate::error::VjmError::ShapeMismatch {
+                what: "q (N rows of n joint positions)",
+                expected: rows * n + n,
+                got: q.len(),
+            }
+            .into());
+        }
+        let model = self.spring_model()?;
+        let m = model.n_params();
+        let mut ws = Workspace::new(chain, &model)?;
+        let mut g = GravityWorkspace::new(chain, &model, gravity, payload)?;
+        let mut jac = vec![0.0; 6 * m];
+        let mut a = vec![0.0; 6 * m];
+        // The exact equilibrium needs springs (compliances ≥ 0). The stored vector of a model
+        // with aliased springs is the minimum-norm member of its family and may have negative
+        // entries: then the sag is its first-order part, which is what the data determine.
+        let physical = self.estimate.compliance.iter().all(|c| *c >= 0.0);
+        let mut out = Vec::with_capacity(rows);
+        for i in 0..rows {
+            let qi = &q[i * n..(i + 1) * n];
+            check_finite("q", qi, i, 0)?;
+            crate::kinematics::jacobian_in_place(chain, &model, qi, &mut ws, &mut jac)?;
+            g.evaluate(chain, qi)?;
+            // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
+            for (k, t) in g.torques().iter().enumerate() {
+                for r in 0..6 {
+                    a[r * m + k] = jac[6 * k + r] * t;
+                }
+            }
+            let mut p = self.predict_row(&a, [0.0; 6]);
+            if physical {
+                let c = &self.estimate.compliance;
+                let exact = gravity_sag(chain, &model, c, qi, gravity, payload)?;
+                let axes = if self.noise.use_rotations { 6 } else { 3 };
+                p.deflection[..axes].copy_from_slice(&exact[..axes]);
+            }
+            out.push(p);
+        }
+        Ok(out)
+    }
+}
