@@ -163,26 +163,42 @@ impl PyStiffnessModel {
         crate::use_model::check_inputs(py, &self.chain, &q, load, allow_outside_limits)?;
         let (model, chain) = (&self.model, &self.chain);
         let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
-        let rows = pred.len();
-        let flat = |f: &dyn Fn(&vjm::Prediction) -> [f64; 6]| -> Vec<f64> {
-            pred.iter().flat_map(f).collect()
-        };
-        let out = PyDict::new(py);
-        out.set_item(
-            "deflection",
-            to_numpy(py, flat(&|p| p.deflection), &[rows, 6])?,
+        predictions_dict(py, &pred)
+    }
+
+    /// The tip's static sag under the arm's weight at q (N, n) under `gravity` (m/s², base
+    /// frame), with an optional payload `(mass, cx, cy, cz)`: the same dict as `predict`
+    /// (`wrench` zeros). The configurations get identify's checks.
+    #[pyo3(signature = (q, gravity, payload = None, allow_outside_limits = false))]
+    fn predict_sag<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArrayDyn<'py, f64>,
+        gravity: [f64; 3],
+        payload: Option<(f64, f64, f64, f64)>,
+        allow_outside_limits: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.chain.n_joints();
+        let q = batch(&q, "q", &[n])?;
+        let g = vjm::gravity::Gravity::new(gravity).py()?;
+        let payload = payload
+            .map(|(mass, cx, cy, cz)| vjm::PointMass::new(mass, [cx, cy, cz]))
+            .transpose()
+            .py()?;
+        let zeros = vec![0.0; 6 * q.rows];
+        crate::use_model::check_inputs(
+            py,
+            &self.chain,
+            &q,
+            vjm::Load::Wrench(&zeros),
+            allow_outside_limits,
         )?;
-        out.set_item("stddev", to_numpy(py, flat(&|p| p.stddev), &[rows, 6])?)?;
-        out.set_item("wrench", to_numpy(py, flat(&|p| p.wrench), &[rows, 6])?)?;
-        out.set_item(
-            "identified",
-            to_numpy_bool(py, pred.iter().map(|p| p.identified).collect(), &[rows])?,
-        )?;
-        out.set_item(
-            "excitation",
-            to_numpy(py, pred.iter().map(|p| p.excitation).collect(), &[rows])?,
-        )?;
-        Ok(out)
+        let (model, chain) = (&self.model, &self.chain);
+        let pred = run(py, || {
+            model.predict_sag(chain, &q.data, &g, payload.as_ref())
+        })?
+        .py()?;
+        predictions_dict(py, &pred)
     }
 
     fn __repr__(&self) -> String {
@@ -290,4 +306,32 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vjm_read_poses, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_model_file_robot, m)?)?;
     Ok(())
+}
+
+/// Predictions as a dict of numpy arrays: deflection (N, 6), stddev (N, 6), wrench (N, 6),
+/// identified (N,), excitation (N,).
+fn predictions_dict<'py>(
+    py: Python<'py>,
+    pred: &[vjm::Prediction],
+) -> PyResult<Bound<'py, PyDict>> {
+    let rows = pred.len();
+    let flat = |f: &dyn Fn(&vjm::Prediction) -> [f64; 6]| -> Vec<f64> {
+        pred.iter().flat_map(f).collect()
+    };
+    let out = PyDict::new(py);
+    out.set_item(
+        "deflection",
+        to_numpy(py, flat(&|p| p.deflection), &[rows, 6])?,
+    )?;
+    out.set_item("stddev", to_numpy(py, flat(&|p| p.stddev), &[rows, 6])?)?;
+    out.set_item("wrench", to_numpy(py, flat(&|p| p.wrench), &[rows, 6])?)?;
+    out.set_item(
+        "identified",
+        to_numpy_bool(py, pred.iter().map(|p| p.identified).collect(), &[rows])?,
+    )?;
+    out.set_item(
+        "excitation",
+        to_numpy(py, pred.iter().map(|p| p.excitation).collect(), &[rows])?,
+    )?;
+    Ok(out)
 }

@@ -203,3 +203,39 @@ def test_compensating_weight_and_payload_leaves_nothing_when_run_in_mujoco(rel, 
         assert before > 5e-4  # half a millimetre or more of sag to correct
         assert after <= 1e-6 * before, (i, before, after)
         assert partial >= 0.2 * before, (i, before, partial)
+
+
+@pytest.mark.parametrize("rel,base,tip", [ARMS[-1], EXAMPLE_ARMS["kinova"], EXAMPLE_ARMS["xarm7"]],
+                         ids=["bundled", "kinova", "xarm7"])
+def test_a_saved_model_predicts_the_sag_mujoco_finds(rel, base, tip):
+    """A traditional model identified from a noise-free campaign (the testbed's, with the
+    torsions of the MuJoCo arm): ``StiffnessModel.predict_sag`` — with and
+    without a 2 kg payload — is the tip's static sag MuJoCo finds for those springs, to 1e-5 of
+    it (the identification's and the equilibrium's accuracy), and every pose is identified."""
+    text = _urdf_text(rel)
+    if text is None:
+        pytest.skip(f"example-robot-data's {rel} not found")
+    robot = Robot.bundled(tip) if rel == "bundled" else Robot.from_urdf_string(text, base, tip)
+    arm = MujocoArm(text, base, tip)
+    rng = np.random.default_rng(9)
+    kz = rng.uniform(2e3, 1e4, robot.n_joints)
+    from robot_stiffness import vjm
+
+    camp = vjm.simulate(robot, [], n_poses=30, noise=False, torsion=1.0 / kz, seed=4)
+    m = camp.measurements
+    model = robot.identify(m.q, m.wrench, m.displacement, "traditional").stiffness_model
+    laws = arm.springs_for(kz, {})
+    payload = (2.0, (0.0, 0.0, 0.05))
+    for _ in range(3):
+        q = rng.uniform(-1.2, 1.2, robot.n_joints)
+        lo, hi = np.array(robot.limits).T
+        q = np.clip(q, lo + 0.1, hi - 0.1)
+        rigid, _ = arm.tip(q)
+        for pl in (None, payload):
+            arm.set_payload(pl)
+            truth = arm.tip(q, arm.equilibrium(q, laws))[0] - rigid
+            p = model.predict_sag(q, payload=None if pl is None else (pl[0], *pl[1]))
+            assert bool(p.identified[0])
+            assert np.linalg.norm(truth) > 1e-4
+            np.testing.assert_allclose(p.deflection[0, :3], truth, rtol=0, atol=1e-5 * np.linalg.norm(truth))
+        arm.set_payload(None)

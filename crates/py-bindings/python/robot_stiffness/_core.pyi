@@ -365,6 +365,13 @@ class StiffnessModel:
         payload: Optional[Tuple[float, float, float, float]] = None,
         allow_outside_limits: bool = False,
     ) -> Dict[str, Any]: ...
+    def predict_sag(
+        self,
+        q: _F64,
+        gravity: Tuple[float, float, float],
+        payload: Optional[Tuple[float, float, float, float]] = None,
+        allow_outside_limits: bool = False,
+    ) -> Dict[str, Any]: ...
     def compensate(
         self,
         q: _F64,

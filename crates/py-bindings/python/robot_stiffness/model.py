@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import checked, real
+from ._arguments import DEFAULT_GRAVITY, checked, gravity_vector, real
 from ._arrays import f64
 from ._errors import InvalidValueError
 from ._outputs import Outputs
@@ -229,6 +229,40 @@ class StiffnessModel:
                 w = np.broadcast_to(w.reshape(1, -1), (arr.shape[0], w.shape[0])).copy()
         p = None if payload is None else _payload(payload)
         d = self._inner.predict(arr, wrench=w, payload=p, allow_outside_limits=bool(allow_outside_limits))
+        return Prediction(
+            deflection=d["deflection"],
+            stddev=d["stddev"],
+            wrench=d["wrench"],
+            identified=d["identified"],
+            excitation=d["excitation"],
+        )
+
+    @checked
+    def predict_sag(
+        self,
+        q: Any,
+        gravity: Sequence[float] = DEFAULT_GRAVITY,
+        payload: Optional[Payload] = None,
+        allow_outside_limits: bool = False,
+    ) -> Prediction:
+        """The tip's static sag under the arm's own weight (and ``payload``), relative to the
+        rigid forward kinematics, m and rad, base frame: what an absolute-accuracy correction
+        removes (docs/gravity.md).
+
+        ``q``: joint angles in rad, (n,) or (N, n); ``gravity`` in m/s², base frame (default
+        9.80665 along −z); ``payload`` as for :meth:`predict`. The link masses come from the
+        robot's URDF inertials. ``deflection`` is the exact static equilibrium with the model's
+        springs (its first-order part ``J C τ_g`` when the stored compliances are not all ≥ 0,
+        as for a model with aliased springs); ``stddev``, ``identified`` and ``excitation`` are
+        those of ``J C τ_g``: a pose whose weight loads a direction the identification did not
+        see is flagged. ``wrench`` is zero.
+        """
+        arr = f64(q, "q")
+        if arr.ndim == 1:
+            arr = arr.reshape(1, -1)
+        p = None if payload is None else _payload(payload)
+        d = self._inner.predict_sag(arr, gravity_vector(gravity), payload=p,
+                                    allow_outside_limits=bool(allow_outside_limits))
         return Prediction(
             deflection=d["deflection"],
             stddev=d["stddev"],

@@ -9,16 +9,21 @@ use serde::Serialize;
 
 use super::effects::{ForceSensorNoise, TrackerNoise};
 use super::kinematics::deflected_pose;
-use super::truth::{Effect, TrueModel};
+use super::truth::{Effect, RestUnderGravity, TrueModel};
 use super::TestbedError;
 use stiffness_core::{Monitor, Progress};
 
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, DatasetError, MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
+use crate::gravity::Gravity;
 use crate::model::SpringAxis;
 
 /// How to generate a campaign. Defaults: 40 poses × 4 wrenches, forces 10–80 N, moments up to
-/// 3 N·m, a quarter of the poses held out, nominal instrument noise.
+/// 3 N·m, a quarter of the poses held out, nominal instrument noise, a weightless arm.
+///
+/// Serialised (the `spec` of `truth.json`) with its fields by name; `gravity` is written as
+/// `[gx, gy, gz]` (m/s², base frame) when set and left out for a weightless campaign, whose
+/// serialised form is unchanged.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CampaignSpec {
     /// Number of configurations.
@@ -46,6 +51,30 @@ pub struct CampaignSpec {
     pub min_tip_height: f64,
     /// Seed of everything random; the same seed gives the same file.
     pub seed: u64,
+    /// Gravity the campaign is measured under (base frame); `None` (the default): a weightless
+    /// arm, unloaded = the rigid forward kinematics. With `Some(g)` every recorded displacement
+    /// is the tip under load minus the tip unloaded, both under the arm's own weight (the
+    /// chain's [`mass_model`](SerialChain::mass_model)): "unloaded" is the arm at rest under
+    /// its weight, computed once per configuration, and the springs respond to the total
+    /// torque, gravity's and the load's ([`TrueModel::rest_under_gravity`],
+    /// [`TrueModel::displacement_under_gravity`]). Poses are drawn as without gravity (the
+    /// same seed gives the same poses and wrenches).
+    #[serde(
+        serialize_with = "gravity_vector",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub gravity: Option<Gravity>,
+}
+
+/// Writes gravity as its base-frame vector `[gx, gy, gz]`, m/s².
+fn gravity_vector<S: serde::Serializer>(g: &Option<Gravity>, s: S) -> Result<S::Ok, S::Error> {
+    match g {
+        Some(g) => {
+            let v = g.vector();
+            [v.x, v.y, v.z].serialize(s)
+        }
+        None => s.serialize_none(),
+    }
 }
 
 impl Default for CampaignSpec {
@@ -63,6 +92,7 @@ impl Default for CampaignSpec {
             min_inverse_condition: 0.05,
             min_tip_height: 0.1,
             seed: 0,
+            gravity: None,
         }
     }
 }
@@ -76,7 +106,8 @@ pub struct Campaign {
     pub applied_wrench: Vec<[f64; 6]>,
     /// The true displacement before measurement effects and noise, base frame (m), per row.
     pub true_displacement: Vec<[f64; 3]>,
-    /// Unloaded tip point, base frame (m), per row.
+    /// Unloaded tip point, base frame (m), per row (under gravity: at rest under the arm's
+    /// weight, see [`CampaignSpec::gravity`]).
     pub tip: Vec<[f64; 3]>,
 }
 
@@ -464,6 +495,14 @@ pub fn simulate_at_monitored(
     let mut applied = Vec::with_capacity(rows);
     let mut true_d = Vec::with_capacity(rows);
     let mut tips = Vec::with_capacity(rows);
+    if spec.gravity.is_some() {
+        // A chain without masses fails here, once, naming the link without `<inertial>`.
+        chain.mass_model().map_err(|e| TestbedError::Gravity {
+            message: e.to_string(),
+        })?;
+    }
+    // The rest under gravity of the last configuration: rows of one pose follow each other.
+    let mut rest: Option<RestUnderGravity> = None;
     for i in 0..rows {
         if i % CHECK_EVERY_ROWS == 0 {
             monitor.report(Progress {
@@ -473,7 +512,26 @@ pub fn simulate_at_monitored(
             })?;
         }
         let qi = &q[i * n..(i + 1) * n];
-        let (d, tip) = truth.displacement(chain, qi, &wrenches[i]);
+        let (d, tip) = match &spec.gravity {
+            None => truth.displacement(chain, qi, &wrenches[i]),
+            Some(g) => {
+                let at_row = |e: TestbedError| match e {
+                    TestbedError::Gravity { message } => TestbedError::Gravity {
+                        message: format!("row {} (pose {}): {message}", i + 1, poses[i]),
+                    },
+                    other => other,
+                };
+                let r = match rest.take() {
+                    Some(r) if r.q() == qi => r,
+                    _ => truth.rest_under_gravity(chain, qi, g).map_err(at_row)?,
+                };
+                let out = truth
+                    .displacement_under_gravity(chain, qi, &wrenches[i], &r)
+                    .map_err(at_row)?;
+                rest = Some(r);
+                out
+            }
+        };
         let (mut dm, mut wm) = truth.measured(d, wrenches[i]);
         if drift_sigma > 0.0 {
             let off = *drift.entry(poses[i]).or_insert_with(|| {

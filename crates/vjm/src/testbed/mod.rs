@@ -7,7 +7,9 @@
 //!   compliant mount, a tool compliant along its axis.
 //! - [`simulate`]: seeded poses within the joint limits and away from singularities, several
 //!   wrenches per pose, the true response, instrument noise; returns a [`Campaign`] whose
-//!   [`Dataset`](crate::dataset::Dataset) can be written as the measurement file.
+//!   [`Dataset`](crate::dataset::Dataset) can be written as the measurement file. Weightless by
+//!   default; with [`CampaignSpec::gravity`] the arm is measured under its own weight
+//!   (see [`TrueModel::displacement_under_gravity`]).
 //! - [`seed_study`]: the seed paper's Table I study on the bundled arm.
 //!
 //! Magnitudes and the noise model are stated in `docs/diagnose.md`.
@@ -29,7 +31,7 @@ pub use seed_study::{
     ClippedAngle, ErrorSummary, ModelErrors, SeedPaperFigures, SeedStudy, SeedStudyRow, SEED_PAPER,
     SEED_TABLE_I_DEG, SEED_TORSION_SHARE, SEED_WRENCHES,
 };
-pub use truth::{Effect, TrueModel, NOMINAL_TORSION};
+pub use truth::{Effect, RestUnderGravity, TrueModel, MAX_GRAVITY_ITERATIONS, NOMINAL_TORSION};
 
 use crate::dataset::DatasetError;
 
@@ -68,6 +70,14 @@ pub enum TestbedError {
     /// Building the dataset failed (e.g. a displacement larger than plausible).
     #[error("simulated data rejected: {0}")]
     Dataset(DatasetError),
+    /// The campaign cannot be simulated under gravity: the chain has no masses (the message
+    /// names the link without `<inertial>`), or an equilibrium under the arm's weight did not
+    /// settle (the message names the row and the configuration).
+    #[error("cannot simulate under gravity: {message}")]
+    Gravity {
+        /// What is wrong.
+        message: String,
+    },
     /// The simulation was cancelled through its token.
     #[error("simulation cancelled")]
     Cancelled(#[from] stiffness_core::Cancelled),

@@ -1,14 +1,16 @@
 //! The testbed's true model: linear virtual springs plus any of the effects the diagnosis looks
 //! for, and the exact (noise-free) response of the robot to a wrench.
 
-use nalgebra::{DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
 use super::effects::{backlash_deflection, rotate, HarmonicDriveSpring};
-use super::kinematics::{deflected_pose, deflected_tip_frame};
+use super::kinematics::{deflected_pose, deflected_tip, deflected_tip_frame};
 use super::outside::{mount_motion, moved_by_mount, tool_axial_displacement};
+use super::TestbedError;
 use crate::chain::SerialChain;
-use crate::model::SpringAxis;
+use crate::gravity::{Gravity, GravityWorkspace};
+use crate::model::{SpringAxis, VirtualJointModel};
 
 /// One effect carried by a [`TrueModel`]. Joints are 0-based (base → tip) in Rust, as in
 /// [`crate::model::Spring`], and 1-based in the serialised form (`truth.json`), like every file
@@ -110,6 +112,64 @@ pub struct TrueModel {
     pub effects: Vec<Effect>,
 }
 
+/// Iteration cap of the fixed points under gravity ([`TrueModel::rest_under_gravity`],
+/// [`TrueModel::displacement_under_gravity`]); they contract with ‖C K_G‖ + ‖C K_C‖ ≈ 1e-2 on an
+/// arm and settle in a handful of iterations, so reaching the cap means springs too soft to hold
+/// the arm up (or a backlash whose torque keeps changing sign): an error, not a value.
+pub const MAX_GRAVITY_ITERATIONS: usize = 100;
+
+/// Gravity torques and stiffness entries below this fraction of their largest are rounding
+/// noise (a spring whose axis is parallel to gravity carries no weight: joint 1 of a
+/// floor-mounted arm) and are set to 0, so that a backlash there keeps its unloaded reference in
+/// the middle of the band, as without gravity, instead of taking the sign of the noise.
+const GRAVITY_ROUNDOFF: f64 = 1e-12;
+
+/// The true arm at rest under its own weight at one configuration (no applied wrench): what a
+/// measurement under gravity calls "unloaded". Made by [`TrueModel::rest_under_gravity`], once
+/// per configuration, and reused for every wrench applied there.
+#[derive(Debug, Clone)]
+pub struct RestUnderGravity {
+    q: Vec<f64>,
+    /// τ_g(q) on the 3n springs, N·m (rounding noise set to 0).
+    torques: Vec<f64>,
+    /// K_G(q), 3n×3n, N·m/rad (rounding noise set to 0).
+    stiffness: DMatrix<f64>,
+    /// θ₀ = response(τ_g + K_G θ₀), rad.
+    theta: Vec<f64>,
+    /// The tip point at θ₀, base frame, m.
+    tip: Vector3<f64>,
+}
+
+impl RestUnderGravity {
+    /// The joint angles it was computed at, rad.
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+    /// Gravity's torque τ_g on each of the 3n springs at θ = 0 (joint-major `[z, x, y]`), N·m.
+    pub fn gravity_torques(&self) -> &[f64] {
+        &self.torques
+    }
+    /// The spring deflections at rest under the weight, θ₀, rad (3n).
+    pub fn theta(&self) -> &[f64] {
+        &self.theta
+    }
+    /// The unloaded tip point (sagged under the weight), base frame, m.
+    pub fn tip(&self) -> Vector3<f64> {
+        self.tip
+    }
+    /// The springs' torque at deflection θ: τ_g + K_G θ plus `load`.
+    fn torque(&self, theta: &[f64], load: &[f64]) -> Vec<f64> {
+        let th = DVector::from_column_slice(theta);
+        let coupling = &self.stiffness * th;
+        self.torques
+            .iter()
+            .zip(coupling.iter())
+            .zip(load)
+            .map(|((g, k), l)| g + k + l)
+            .collect()
+    }
+}
+
 /// Nominal torsional compliances of a Panda-class cobot, rad/(N·m), base → tip: stiffness
 /// 10 kN·m/rad at the shoulder down to 2 kN·m/rad at the wrist.
 pub const NOMINAL_TORSION: [f64; 7] = [1.0e-4, 1.0e-4, 1.5e-4, 1.5e-4, 3.0e-4, 4.0e-4, 5.0e-4];
@@ -196,17 +256,188 @@ impl TrueModel {
     /// The out-of-catalogue effects act on top, exactly: a [`Effect::ToolAxialCompliance`]
     /// adds `c·(f·z)·z` (z from the unloaded tip frame), then a [`Effect::MountCompliance`]
     /// moves the loaded tip point rigidly with the mount, `d = t + exp(hat φ)(p₀ + d_arm) − p₀`.
+    ///
+    /// The arm is weightless here: "unloaded" is θ = 0, the rigid forward kinematics. Under
+    /// gravity "unloaded" is the arm at rest under its own weight, and the springs respond to
+    /// the total torque: see [`TrueModel::rest_under_gravity`] and
+    /// [`TrueModel::displacement_under_gravity`].
     pub fn displacement(
         &self,
         chain: &SerialChain,
         q: &[f64],
         wrench: &[f64; 6],
     ) -> (Vector3<f64>, Vector3<f64>) {
-        let (mut d, tip) = self.arm_displacement(chain, q, wrench);
+        let (d, tip) = self.arm_displacement(chain, q, wrench);
+        let unloaded = vec![0.0; self.compliance.len()];
+        (
+            self.outside_effects(chain, q, wrench, d, tip, &unloaded),
+            tip,
+        )
+    }
+
+    /// The arm at rest under its own weight at `q` (rad): the unloaded state of a measurement
+    /// under `gravity`. The bodies are the chain's [`mass_model`](SerialChain::mass_model)
+    /// (an error naming a link without `<inertial>`); gravity's torque τ_g(q) and stiffness
+    /// K_G(q) on the 3n springs come from [`GravityWorkspace`] (the potential's gradient and
+    /// Hessian at θ = 0), and the springs respond to the total torque:
+    /// `θ₀ = response(τ_g + K_G θ₀)` ([`TrueModel::spring_response`], so tilts, harmonic-drive
+    /// curves and backlash are evaluated where gravity preloads them), solved by fixed-point
+    /// iteration capped at [`MAX_GRAVITY_ITERATIONS`] (an error when it does not settle).
+    /// A spring gravity does not load (τ_g = 0, e.g. a vertical axis) keeps a backlash's
+    /// reference in the middle of its band, as without gravity.
+    pub fn rest_under_gravity(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        gravity: &Gravity,
+    ) -> Result<RestUnderGravity, TestbedError> {
+        // The truth must fit the chain (sizes, effects' joints) before anything indexes it.
+        super::campaign::check_truth(chain, self)?;
+        let n = chain.n_joints();
+        let m = self.compliance.len();
+        // The extended model's springs are joint-major `[Z, X, Y]` about `spring_axes`' `[a, u,
+        // v]` with no offsets, composed in that order at each joint: exactly the truth's
+        // compliance order and the testbed's deflected chain (kinematics.rs; the Jacobians are
+        // compared in tests/it/testbed.rs), so τ_g[k] and K_G[i, k] belong to compliance k.
+        let model = VirtualJointModel::extended(n);
+        let gravity_error = |e: crate::VjmError| TestbedError::Gravity {
+            message: e.to_string(),
+        };
+        let mut ws = GravityWorkspace::new(chain, &model, gravity, None).map_err(gravity_error)?;
+        ws.evaluate(chain, q).map_err(gravity_error)?;
+        let mut torques = ws.torques().to_vec();
+        let mut stiffness = ws.stiffness().clone();
+        let t_max = torques.iter().fold(0.0f64, |a, t| a.max(t.abs()));
+        torques
+            .iter_mut()
+            .filter(|t| t.abs() <= GRAVITY_ROUNDOFF * t_max)
+            .for_each(|t| *t = 0.0);
+        let k_max = stiffness.amax();
+        stiffness
+            .iter_mut()
+            .filter(|k| k.abs() <= GRAVITY_ROUNDOFF * k_max)
+            .for_each(|k| *k = 0.0);
+        let mut rest = RestUnderGravity {
+            q: q.to_vec(),
+            torques,
+            stiffness,
+            theta: vec![0.0; m],
+            tip: Vector3::zeros(),
+        };
+        let none = vec![0.0; m];
+        rest.theta = self.settle(vec![0.0; m], q, "unloaded", |th| rest.torque(th, &none))?;
+        rest.tip = deflected_tip(chain, q, &rest.theta);
+        Ok(rest)
+    }
+
+    /// The true tip displacement (m, base frame) under the applied `wrench` (base frame, at the
+    /// tip point) measured under gravity: the tip under load minus the tip at `rest` (from
+    /// [`TrueModel::rest_under_gravity`] at the same `q`), both under the arm's own weight,
+    /// before any measurement effect or noise; and the unloaded (sagged) tip point.
+    ///
+    /// The loaded springs settle at `θ₁ = response(τ_g + K_G θ₁ + Jᵀ W)`, the total torque
+    /// (capped fixed point, an error when it does not settle), and `d = J_t (θ₁ − θ₀)` with J
+    /// (and the load's torque `Jᵀ W`) at the sagged configuration θ₀, where the reference was
+    /// taken. With [`Effect::GeometricNonlinearity`] the load torque
+    /// uses the deflected Jacobian `J(q, θ₁)ᵀ W` and `d` is the exact difference of the
+    /// deflected tips at θ₁ and θ₀. The out-of-catalogue effects act as in
+    /// [`TrueModel::displacement`], the tool axis and the mount's lever taken at rest.
+    pub fn displacement_under_gravity(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        wrench: &[f64; 6],
+        rest: &RestUnderGravity,
+    ) -> Result<(Vector3<f64>, Vector3<f64>), TestbedError> {
+        if rest.q != q || rest.theta.len() != self.compliance.len() {
+            return Err(TestbedError::InvalidSpec {
+                field: "rest",
+                message: "the rest under gravity was computed at another configuration or for \
+                          another chain"
+                    .into(),
+            });
+        }
+        let w = DVector::from_column_slice(wrench);
+        let d = if self.geometric() {
+            let theta = self.settle(rest.theta.clone(), q, "loaded", |th| {
+                let pose = deflected_pose(chain, q, th);
+                let load: Vec<f64> = (pose.jacobian.transpose() * &w).iter().cloned().collect();
+                rest.torque(th, &load)
+            })?;
+            deflected_tip(chain, q, &theta) - rest.tip
+        } else {
+            // Linear in the load about the sagged pose, where the reference was taken: the
+            // sag turns the Jacobian by as much as K_G changes the springs' torques (both first
+            // order in the weight), so the load acts through J(q, θ₀).
+            let sagged = deflected_pose(chain, q, &rest.theta);
+            let load: Vec<f64> = (sagged.jacobian.transpose() * &w).iter().cloned().collect();
+            let theta =
+                self.settle(rest.theta.clone(), q, "loaded", |th| rest.torque(th, &load))?;
+            let delta: Vec<f64> = theta.iter().zip(&rest.theta).map(|(a, b)| a - b).collect();
+            let d = sagged.jacobian.rows(0, 3) * DVector::from_column_slice(&delta);
+            Vector3::new(d[0], d[1], d[2])
+        };
+        let d = self.outside_effects(chain, q, wrench, d, rest.tip, &rest.theta);
+        Ok((d, rest.tip))
+    }
+
+    /// The fixed point `θ = response(torque(θ))` from `start`, capped at
+    /// [`MAX_GRAVITY_ITERATIONS`] with the convergence test of the weightless geometric loop;
+    /// `what` (`"unloaded"`/`"loaded"`) and `q` name it in the error.
+    fn settle(
+        &self,
+        start: Vec<f64>,
+        q: &[f64],
+        what: &str,
+        mut torque: impl FnMut(&[f64]) -> Vec<f64>,
+    ) -> Result<Vec<f64>, TestbedError> {
+        let mut theta = start;
+        for _ in 0..MAX_GRAVITY_ITERATIONS {
+            let next = self.spring_response(&torque(&theta));
+            let change = next
+                .iter()
+                .zip(&theta)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            let scale = next.iter().map(|a| a.abs()).fold(1e-300, f64::max);
+            theta = next;
+            if !change.is_finite() {
+                break;
+            }
+            if change <= 1e-14 * scale {
+                return Ok(theta);
+            }
+        }
+        let q: Vec<String> = q
+            .iter()
+            .map(|v| stiffness_core::num::Short(*v).to_string())
+            .collect();
+        Err(TestbedError::Gravity {
+            message: format!(
+                "the {what} equilibrium under the arm's weight did not settle in \
+                 {MAX_GRAVITY_ITERATIONS} iterations at q = [{}] rad (springs too soft to hold \
+                 the arm, or a backlash whose torque keeps changing sign)",
+                q.join(", ")
+            ),
+        })
+    }
+
+    /// The out-of-catalogue effects on top of the arm's displacement `d` (see
+    /// [`TrueModel::displacement`]); `tip` and `theta_rest` are the unloaded tip point and
+    /// spring deflections (the tool axis is the unloaded tip frame's z).
+    fn outside_effects(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        wrench: &[f64; 6],
+        mut d: Vector3<f64>,
+        tip: Vector3<f64>,
+        theta_rest: &[f64],
+    ) -> Vector3<f64> {
         let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
         for e in &self.effects {
             if let Effect::ToolAxialCompliance { compliance } = e {
-                let frame = deflected_tip_frame(chain, q, &vec![0.0; self.compliance.len()]);
+                let frame = deflected_tip_frame(chain, q, theta_rest);
                 let z = frame.rotation * Vector3::z();
                 d += tool_axial_displacement(*compliance, &z, &f);
             }
@@ -221,7 +452,7 @@ impl TrueModel {
                 d = moved_by_mount(&t, &phi, &(tip + d)) - tip;
             }
         }
-        (d, tip)
+        d
     }
 
     /// The arm's own response (springs, tilts, harmonic drives, backlash, K_C), before the
@@ -258,7 +489,7 @@ impl TrueModel {
                 break;
             }
         }
-        let tip = super::kinematics::deflected_tip(chain, q, &theta);
+        let tip = deflected_tip(chain, q, &theta);
         (tip - pose0.tip, pose0.tip)
     }
 

@@ -25,4 +25,5 @@ mod dataset;
 mod diagnose;
 mod outside;
 mod testbed;
+mod testbed_gravity;
 mod truth_file;

@@ -196,7 +196,10 @@ fn a_model_predicts_the_sag_under_its_own_weight() {
         identified += 1;
         let want = gravity_sag(&chain, &traditional, &c_true, qi, &g, None).unwrap();
         for (got, want) in p[i].deflection.iter().zip(&want).take(3) {
-            assert!((got - want).abs() <= 1e-6 * want.abs().max(1e-4), "pose {i}");
+            assert!(
+                (got - want).abs() <= 1e-6 * want.abs().max(1e-4),
+                "pose {i}"
+            );
         }
     }
     // A tip wrench loads J1's x tilt and J2's torsion (their axes coincide on the Panda)
