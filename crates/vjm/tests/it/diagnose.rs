@@ -1202,3 +1202,51 @@ fn a_bias_and_a_tilt_together_are_both_named_and_nothing_remains() {
         );
     }
 }
+
+/// A hardening gear preloaded by the weight (the testbed under gravity: the shoulder's gear
+/// carries the arm, ≈ 45 N·m on the Panda, beyond its first knee): diagnosed under the same
+/// gravity it is named at its joint, and its extended model predicts the held-out poses
+/// better than the baseline, on at least 9 of 10 seeds (measured 10). Weightless, the
+/// candidate's knots sit about the wrong torque (the load's alone): named on 1 of 10.
+#[test]
+fn a_gear_preloaded_by_gravity_is_named_when_gravity_is_modelled() {
+    let chain = SerialChain::bundled();
+    let g = vjm::gravity::Gravity::default();
+    let truth = TrueModel::nominal(7).with_effect(Effect::TorsionNonlinear {
+        joint: 1,
+        spring: HarmonicDriveSpring::stiffening(1e-4, 2.4, 30.0, 70.0),
+    });
+    let (mut named_g, mut named_w, mut better) = (0, 0, 0);
+    let mut misses = Vec::new();
+    for seed in 0..10 {
+        let s = CampaignSpec {
+            gravity: Some(g),
+            ..spec(seed)
+        };
+        let c = simulate(&chain, &truth, &s).unwrap();
+        for gravity in [Some(g), None] {
+            let opts = DiagnoseOptions {
+                gravity,
+                per_row: false,
+                ..Default::default()
+            };
+            let d = diagnose(&chain, &c.dataset, &opts).unwrap();
+            let hit = named(&d, "joint_torsion_nonlinear", Some(2), None);
+            if gravity.is_some() {
+                named_g += usize::from(hit);
+                better +=
+                    usize::from(d.extended.test_mean_rel_error < d.baseline.test_mean_rel_error);
+                if !hit {
+                    misses.push((seed, describe(&d)));
+                }
+            } else {
+                named_w += usize::from(hit);
+            }
+        }
+    }
+    assert!(named_g >= 9 && better >= 9, "{misses:?}");
+    assert!(
+        named_w <= 3,
+        "weightless named it on {named_w} of 10 (measured 1 when written)"
+    );
+}
