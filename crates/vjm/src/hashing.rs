@@ -54,6 +54,22 @@ pub fn kinematics_sha256(chain: &SerialChain) -> String {
     hex(&h.finalize())
 }
 
+/// SHA-256 over the chain's [`MassModel`](crate::gravity::MassModel): the number of bodies,
+/// then per actuated joint (base → tip) its body's mass and centre of mass (child frame); numbers
+/// as their IEEE-754 bits. What a model identified under gravity assumed the arm weighs; an
+/// error when the chain has no masses (naming the link without `<inertial>`).
+pub fn inertials_sha256(chain: &SerialChain) -> Result<String, crate::VjmError> {
+    let masses = chain.mass_model()?;
+    let mut h = Sha256::new();
+    h.update((masses.bodies().len() as u64).to_le_bytes());
+    for b in masses.bodies() {
+        for v in std::iter::once(b.mass).chain(b.com.iter().copied()) {
+            h.update(v.to_bits().to_le_bytes());
+        }
+    }
+    Ok(hex(&h.finalize()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

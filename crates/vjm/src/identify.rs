@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
+use crate::gravity::{Gravity, GravityWorkspace, RowFrame};
 use crate::kinematics::Workspace;
 use crate::lanes::gram::{gram_range, GramProblem};
 use crate::lanes::kinematics::ChainLanes;
@@ -79,6 +80,12 @@ pub struct IdentifyOptions {
     pub null_tol: f64,
     /// Normal equations, QR, or normal equations with a conditioning check (default).
     pub method: SolveMethod,
+    /// The gravity the measurements were taken under (base frame), or `None` for a weightless
+    /// arm (the default here; Python's `identify` and the CLI default to standard gravity,
+    /// [`Gravity::default`]). With gravity the displacements are fitted about the sagged
+    /// equilibrium (see [`identify`]); the chain then needs its masses
+    /// ([`SerialChain::mass_model`]).
+    pub gravity: Option<Gravity>,
 }
 
 impl Default for IdentifyOptions {
@@ -92,6 +99,7 @@ impl Default for IdentifyOptions {
             rank_rtol: s.rank_rtol,
             null_tol: s.null_tol,
             method: SolveMethod::Auto,
+            gravity: None,
         }
     }
 }
@@ -200,6 +208,9 @@ pub struct Identification {
     pub condition_number: f64,
     /// The reduction that produced this result: `normal_equations` or `qr` (never `auto`).
     pub method: SolveMethod,
+    /// Refits about the sagged equilibrium under [`IdentifyOptions::gravity`] after the
+    /// weightless fit; 0 for a weightless identification.
+    pub gravity_iterations: usize,
     /// The low-level solution (null space, covariance).
     #[serde(skip)]
     pub solution: RankRevealingSolution,
@@ -211,6 +222,14 @@ pub struct Identification {
 ///
 /// Inputs (row-major, base frame, SI): `q` N×n (rad), `wrench` N×6 (N, N·m, at the tip
 /// point), `displacement` N×3 (m), `rotation` N×3 (rad, small rotation vector) or `None`.
+///
+/// With [`IdentifyOptions::gravity`] the displacements are (loaded − unloaded), both at the
+/// static equilibrium under the arm's weight: the weightless fit is refitted about the sagged
+/// equilibrium, the Jacobian at the sag and gravity's stiffness coupling into the load's
+/// torque at the current estimate, until the compliances change by ≤ [`GRAVITY_TOLERANCE`]
+/// (at most [`MAX_GRAVITY_ITERATIONS`] refits, else an error); the result's
+/// `gravity_iterations` counts them. One more pass over the data per refit, one copy of the
+/// displacements.
 pub fn identify(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -262,6 +281,253 @@ pub fn identify_checking_rows(
 
 #[allow(clippy::too_many_arguments)]
 fn identify_inner(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    q: &[f64],
+    wrench: &[f64],
+    displacement: &[f64],
+    rotation: Option<&[f64]>,
+    opts: &IdentifyOptions,
+    rows_ok: Option<RowCheck<'_>>,
+) -> Result<Option<Identification>, VjmError> {
+    let Some(gravity) = opts.gravity else {
+        return identify_pass(
+            chain,
+            model,
+            q,
+            wrench,
+            displacement,
+            rotation,
+            opts,
+            rows_ok,
+        );
+    };
+    // Before any pass: a chain without masses is refused naming the link.
+    let weight = GravityWorkspace::new(chain, model, &gravity, None)?;
+    let weightless = IdentifyOptions {
+        gravity: None,
+        ..*opts
+    };
+    // The first pass checks the rows; the refits read the same rows again.
+    let Some(first) = identify_pass(
+        chain,
+        model,
+        q,
+        wrench,
+        displacement,
+        rotation,
+        &weightless,
+        rows_ok,
+    )?
+    else {
+        return Ok(None);
+    };
+    let inputs = Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    };
+    refit_under_gravity(chain, &inputs, &weightless, &weight, first, |d, r| {
+        identify_pass(chain, model, q, wrench, d, r, &weightless, None)?.ok_or_else(|| {
+            VjmError::Numerical {
+                message: "the identification was abandoned without a row check".into(),
+            }
+        })
+    })
+    .map(Some)
+}
+
+/// Refits of the identification under gravity before [`identify`] gives up.
+pub const MAX_GRAVITY_ITERATIONS: usize = 20;
+
+/// The refits under gravity stop when no compliance changes by more than this times the
+/// largest compliance.
+pub const GRAVITY_TOLERANCE: f64 = 1e-10;
+
+/// A measurement set as [`identify`] takes it (row-major, base frame, SI).
+struct Measurements<'a> {
+    q: &'a [f64],
+    wrench: &'a [f64],
+    displacement: &'a [f64],
+    rotation: Option<&'a [f64]>,
+}
+
+/// The identification under gravity from the weightless one, `first`.
+///
+/// Under gravity a measurement (loaded − unloaded, both at the static equilibrium under the
+/// weight) records `y = J(θ₀) C τ_eff`: the Jacobian at the sagged pose θ₀ = C τ₀ (where the
+/// reference was taken), and the load's torque there plus gravity's coupling,
+/// `τ_eff = τ + K_G Δθ` ([`GravityWorkspace::sag`], [`GravityWorkspace::effective_torques`]).
+/// It is linear in C for given θ₀ and τ_eff but the weightless fit `fit` models `J(0) C τ(0)`,
+/// so each refit fits `y' = y − (J(θ₀) C_k τ_eff − J(0) C_k τ(0))`, the measurements less
+/// gravity's part at the current estimate C_k: its fixed point fits `y = J(θ₀) C τ_eff`
+/// exactly, and the refits contract with the ratio of the sag and of ‖C K_G‖ to 1 (≈ 1e-2 on
+/// an arm), a few refits to [`GRAVITY_TOLERANCE`]. Memory: one corrected copy of the
+/// displacements (and rotations when used).
+fn refit_under_gravity(
+    chain: &SerialChain,
+    data: &Measurements<'_>,
+    opts: &IdentifyOptions,
+    weight: &GravityWorkspace,
+    first: Identification,
+    fit: impl Fn(&[f64], Option<&[f64]>) -> Result<Identification, VjmError>,
+) -> Result<Identification, VjmError> {
+    let rotation = data.rotation.filter(|_| opts.use_rotations);
+    let mut displacement = data.displacement.to_vec();
+    let mut rot = rotation.map(<[f64]>::to_vec);
+    let mut id = first;
+    let mut change = f64::INFINITY;
+    for refit in 1..=MAX_GRAVITY_ITERATIONS {
+        let c = id.solution.solution.clone();
+        correct_for_gravity(
+            chain,
+            data,
+            rotation,
+            weight,
+            &c,
+            refit,
+            &mut displacement,
+            rot.as_deref_mut(),
+        )?;
+        let mut next = fit(&displacement, rot.as_deref())?;
+        next.gravity_iterations = refit;
+        let scale = next
+            .solution
+            .solution
+            .iter()
+            .fold(0.0f64, |a, x| a.max(x.abs()));
+        let step = next
+            .solution
+            .solution
+            .iter()
+            .zip(&c)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        id = next;
+        if step <= GRAVITY_TOLERANCE * scale {
+            return Ok(id);
+        }
+        change = step / scale;
+    }
+    Err(VjmError::Numerical {
+        message: format!(
+            "the identification under gravity did not settle in {MAX_GRAVITY_ITERATIONS} refits: \
+             the compliances still changed by {} of their size in the last (springs too soft \
+             to hold the arm under its weight, or the wrong gravity vector or masses?)",
+            stiffness_core::num::Short(change)
+        ),
+    })
+}
+
+/// Per-thread scratch of [`correct_for_gravity`].
+#[derive(Clone)]
+struct GravityRowScratch {
+    ws: Workspace,
+    weight: GravityWorkspace,
+    jac0: Vec<f64>,
+    jac: Vec<f64>,
+    tau0: Vec<f64>,
+    tau: Vec<f64>,
+    effective: Vec<f64>,
+    preload: Vec<f64>,
+}
+
+/// Writes the measurements less gravity's part at compliances `c` (see
+/// [`refit_under_gravity`]) into `displacement` (N×3) and `rotation` (N×3, when rotations are
+/// used), chunk by chunk over rayon tasks. `refit` numbers the refit in errors.
+#[allow(clippy::too_many_arguments)]
+fn correct_for_gravity(
+    chain: &SerialChain,
+    data: &Measurements<'_>,
+    measured_rotation: Option<&[f64]>,
+    weight: &GravityWorkspace,
+    c: &[f64],
+    refit: usize,
+    displacement: &mut [f64],
+    rotation: Option<&mut [f64]>,
+) -> Result<(), VjmError> {
+    let model = weight.model();
+    let m = model.n_params();
+    let n = chain.n_joints();
+    let scratch = GravityRowScratch {
+        ws: Workspace::new(chain, model)?,
+        weight: weight.clone(),
+        jac0: vec![0.0; 6 * m],
+        jac: vec![0.0; 6 * m],
+        tau0: vec![0.0; m],
+        tau: vec![0.0; m],
+        effective: vec![0.0; m],
+        preload: vec![0.0; m],
+    };
+    let rows_per = if measured_rotation.is_some() { 6 } else { 3 };
+    let n_chunks = displacement.len().div_ceil(3 * CHUNK);
+    let mut rot_chunks: Vec<Option<&mut [f64]>> = match rotation {
+        Some(r) => r.chunks_mut(3 * CHUNK).map(Some).collect(),
+        None => (0..n_chunks).map(|_| None).collect(),
+    };
+    let at_row = |i: usize| {
+        move |e: VjmError| match e {
+            VjmError::Numerical { message } => VjmError::Numerical {
+                message: format!("row {i}, under gravity (refit {refit}): {message}"),
+            },
+            other => other,
+        }
+    };
+    displacement
+        .par_chunks_mut(3 * CHUNK)
+        .zip(rot_chunks.par_iter_mut())
+        .enumerate()
+        .try_for_each_init(
+            || scratch.clone(),
+            |s, (chunk, (d, r))| -> Result<(), VjmError> {
+                let start = chunk * CHUNK;
+                for local in 0..d.len() / 3 {
+                    let i = start + local;
+                    let qi = &data.q[i * n..(i + 1) * n];
+                    let f = &data.wrench[6 * i..6 * i + 6];
+                    s.ws.evaluate(chain, qi);
+                    s.ws.write_jacobian(&mut s.jac0);
+                    s.jac.copy_from_slice(&s.jac0);
+                    let mut tip = s.ws.p;
+                    let mut tip_rotation = s.ws.tip_rotation(chain);
+                    s.weight.evaluate(chain, qi).map_err(at_row(i))?;
+                    let frame = RowFrame {
+                        jacobian: &mut s.jac,
+                        tip: &mut tip,
+                        tip_rotation: &mut tip_rotation,
+                    };
+                    s.weight.sag(c, frame, &mut s.preload).map_err(at_row(i))?;
+                    for k in 0..m {
+                        let (c0, c1) = (&s.jac0[6 * k..6 * k + 6], &s.jac[6 * k..6 * k + 6]);
+                        s.tau0[k] = (0..6).map(|a| c0[a] * f[a]).sum();
+                        s.tau[k] = (0..6).map(|a| c1[a] * f[a]).sum();
+                    }
+                    s.weight
+                        .effective_torques(c, &s.tau, &mut s.effective)
+                        .map_err(at_row(i))?;
+                    for row in 0..rows_per {
+                        let shift: f64 = (0..m)
+                            .map(|k| {
+                                c[k] * (s.jac[6 * k + row] * s.effective[k]
+                                    - s.jac0[6 * k + row] * s.tau0[k])
+                            })
+                            .sum();
+                        if row < 3 {
+                            d[3 * local + row] = data.displacement[3 * i + row] - shift;
+                        } else if let (Some(r), Some(measured)) =
+                            (r.as_deref_mut(), measured_rotation)
+                        {
+                            r[3 * local + row - 3] = measured[3 * i + row - 3] - shift;
+                        }
+                    }
+                }
+                Ok(())
+            },
+        )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn identify_pass(
     chain: &SerialChain,
     model: &VirtualJointModel,
     q: &[f64],
@@ -387,7 +653,8 @@ fn accumulate_gram(
 }
 
 /// The same as [`identify`] through the dense path: builds the whole whitened design
-/// ([`build_design`]) and factors it with faer's QR. For checking and small problems.
+/// ([`build_design`]) and factors it with faer's QR. For checking and small problems. Under
+/// gravity the same refits as [`identify`]'s, each a dense solve.
 pub fn identify_dense(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -397,19 +664,56 @@ pub fn identify_dense(
     rotation: Option<&[f64]>,
     opts: &IdentifyOptions,
 ) -> Result<Identification, VjmError> {
-    let (design, rhs) = build_design(chain, model, q, wrench, displacement, rotation, opts)?;
-    let m = model.n_params();
-    let factor = lsq::dense_factor(&design, rhs.len(), m, &rhs)?;
-    finish(chain, model, &factor, opts, SolveMethod::Qr)
+    let weightless = IdentifyOptions {
+        gravity: None,
+        ..*opts
+    };
+    let weight = opts
+        .gravity
+        .map(|g| GravityWorkspace::new(chain, model, &g, None))
+        .transpose()?;
+    let fit = |d: &[f64], r: Option<&[f64]>| {
+        let (design, rhs) = build_design(chain, model, q, wrench, d, r, &weightless)?;
+        let factor = lsq::dense_factor(&design, rhs.len(), model.n_params(), &rhs)?;
+        finish(chain, model, &factor, &weightless, SolveMethod::Qr)
+    };
+    let first = fit(displacement, rotation)?;
+    let Some(weight) = weight else {
+        return Ok(first);
+    };
+    let inputs = Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    };
+    refit_under_gravity(chain, &inputs, &weightless, &weight, first, fit)
 }
 
-/// Solves from an accumulated factor (e.g. one merged from several batches).
+/// [`accumulate`], [`build_design`] and [`identify_from_factor`] are the weightless, linear
+/// problem: under gravity the design depends on the compliances ([`identify`] refits).
+fn refuse_gravity(opts: &IdentifyOptions, function: &str) -> Result<(), VjmError> {
+    match opts.gravity {
+        None => Ok(()),
+        Some(_) => Err(VjmError::InvalidOption {
+            name: "gravity",
+            message: format!(
+                "{function} builds the weightless (linear) problem; under gravity the design \
+                 depends on the compliances: use identify or identify_dense, or set gravity to None"
+            ),
+        }),
+    }
+}
+
+/// Solves from an accumulated factor (e.g. one merged from several batches). Weightless only:
+/// an error for [`IdentifyOptions::gravity`] set.
 pub fn identify_from_factor(
     chain: &SerialChain,
     model: &VirtualJointModel,
     factor: &TriangularFactor,
     opts: &IdentifyOptions,
 ) -> Result<Identification, VjmError> {
+    refuse_gravity(opts, "identify_from_factor")?;
     model.check_chain(chain)?;
     if factor.ncols() != model.n_params() + 1 {
         return Err(VjmError::ShapeMismatch {
@@ -555,7 +859,8 @@ fn validate_inner(
 /// small enough to balance two cores.
 const CHUNK: usize = 4096;
 
-/// The streaming factor of the whitened `[A b]` (see [`identify`]).
+/// The streaming factor of the whitened `[A b]` (see [`identify`]). Weightless only: an error
+/// for [`IdentifyOptions::gravity`] set (the design then depends on the compliances).
 pub fn accumulate(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -565,6 +870,7 @@ pub fn accumulate(
     rotation: Option<&[f64]>,
     opts: &IdentifyOptions,
 ) -> Result<TriangularFactor, VjmError> {
+    refuse_gravity(opts, "accumulate")?;
     let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
     let ws0 = Workspace::new(chain, model)?;
     let m = model.n_params();
@@ -643,7 +949,8 @@ fn push_measurement(
 }
 
 /// The whitened dense design (row-major, (N·rows)×m) and right-hand side of the
-/// identification problem: row (i, r) is `A_i[r, :]/σ_r` and `Δx_i[r]/σ_r`.
+/// identification problem: row (i, r) is `A_i[r, :]/σ_r` and `Δx_i[r]/σ_r`. Weightless only
+/// (an error for [`IdentifyOptions::gravity`] set).
 pub fn build_design(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -653,6 +960,7 @@ pub fn build_design(
     rotation: Option<&[f64]>,
     opts: &IdentifyOptions,
 ) -> Result<(Vec<f64>, Vec<f64>), VjmError> {
+    refuse_gravity(opts, "build_design")?;
     let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
     let mut ws = Workspace::new(chain, model)?;
     let m = model.n_params();
@@ -786,6 +1094,7 @@ fn finish(
         singular_values: sol.singular_values.clone(),
         condition_number,
         method,
+        gravity_iterations: 0,
         solution: sol,
     })
 }

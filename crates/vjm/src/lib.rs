@@ -74,12 +74,12 @@ pub use design::plan::{
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
-pub use hashing::{kinematics_sha256, sha256_hex};
+pub use hashing::{inertials_sha256, kinematics_sha256, sha256_hex};
 pub use identify::{
     accumulate, build_design, identify, identify_checking_rows, identify_dense,
     identify_from_factor, Combination, CombinationTerm, Identification, IdentifyOptions,
-    ParameterEstimate, RowCheck, SolveMethod, NORMAL_EQUATIONS_MAX_CONDITION,
-    NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
+    ParameterEstimate, RowCheck, SolveMethod, GRAVITY_TOLERANCE, MAX_GRAVITY_ITERATIONS,
+    NORMAL_EQUATIONS_MAX_CONDITION, NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
 };
 pub use identify_partial::IdentificationPartial;
 pub use kinematics::{

@@ -204,7 +204,7 @@ impl GravityWorkspace {
     /// τ₀ = τ_g + K_G θ₀ (springs of compliance `compliance`, rad/(N·m); 0 = rigid). `frame`
     /// holds the row's Jacobian (6×m column-major, this workspace's springs), tip point and
     /// tip rotation at θ = 0 and receives them at θ₀
-    /// ([`deflect_in_place`](crate::kinematics::deflect_in_place), exact); `preload` (m)
+    /// (`kinematics::deflect_in_place`, exact); `preload` (m)
     /// receives τ₀, the torque each spring carries there (N·m).
     pub fn sag(
         &mut self,

@@ -5,6 +5,11 @@
 //! SHA-256 of the compact JSON serialisation of `model` (field order as written by this code,
 //! floats in shortest round-trip form). Loading parses `model`, serialises it again the same
 //! way and compares: any edited value changes H (reformatting the file does not).
+//!
+//! The gravity a model was identified under (`gravity`, `inertials_sha256`) was added to
+//! schema 1 without changing its number: both fields are left out for a weightless model, so
+//! such a file (and its H) is exactly what was written before, and a file without them, of
+//! any age, loads as weightless.
 
 use std::io::Write;
 use std::path::Path;

@@ -54,6 +54,7 @@ pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
 pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
 use crate::chain::SerialChain;
+use crate::gravity::Gravity;
 use crate::hashing::{kinematics_sha256, sha256_hex};
 use crate::identify::{Identification, IdentifyOptions};
 use crate::model::{Spring, VirtualJointModel};
@@ -248,6 +249,15 @@ pub struct StiffnessModel {
     estimate: EstimateRecord,
     noise: NoiseRecord,
     data: DataSource,
+    /// The gravity the model was identified under, `[gx, gy, gz]` m/s² in the base frame
+    /// ([`IdentifyOptions::gravity`]); absent for a weightless model (so a weightless model's
+    /// file, and its content hash, are those written before gravity was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    gravity: Option<[f64; 3]>,
+    /// [`inertials_sha256`](crate::inertials_sha256) of the chain identified under gravity
+    /// (its masses and centres of mass); absent for a weightless model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    inertials_sha256: Option<String>,
     /// The program that wrote the file, e.g. `robot-stiffness 0.1.0`.
     created_by: String,
 }
@@ -339,6 +349,12 @@ impl StiffnessModel {
             use_rotations: opts.use_rotations,
             nonnegative: opts.nonnegative,
         };
+        // A model identified under gravity assumed the chain's masses: recorded, so that it is
+        // not used with other ones.
+        let inertials_sha256 = opts
+            .gravity
+            .map(|_| crate::hashing::inertials_sha256(chain))
+            .transpose()?;
         let out = StiffnessModel {
             robot,
             springs,
@@ -346,6 +362,8 @@ impl StiffnessModel {
             estimate,
             noise,
             data,
+            gravity: opts.gravity.map(|g| g.vector().into()),
+            inertials_sha256,
             created_by: format!("robot-stiffness {}", env!("CARGO_PKG_VERSION")),
         };
         out.validate()
@@ -380,6 +398,17 @@ impl StiffnessModel {
     /// The program that wrote the model.
     pub fn created_by(&self) -> &str {
         &self.created_by
+    }
+    /// The gravity the model was identified under (base frame), `None` for a weightless
+    /// model (also every file written before gravity was recorded).
+    pub fn gravity(&self) -> Option<Gravity> {
+        // Validated finite when built or loaded, so `Gravity::new` cannot fail.
+        self.gravity.and_then(|g| Gravity::new(g).ok())
+    }
+    /// SHA-256 of the chain's masses the model was identified with
+    /// ([`inertials_sha256`](crate::inertials_sha256)); `None` for a weightless model.
+    pub fn inertials_sha256(&self) -> Option<&str> {
+        self.inertials_sha256.as_deref()
     }
     /// Whether the model predicts rotations (it was identified with measured rotations).
     pub fn has_rotations(&self) -> bool {
@@ -474,6 +503,16 @@ impl StiffnessModel {
                 short(&k).into(),
             );
         }
+        if let Some(stored) = &self.inertials_sha256 {
+            // Identified under gravity: the springs were fitted about the sag these masses
+            // cause, so other masses would give other springs.
+            let what = "the inertials (SHA-256 of the link masses and centres of mass)";
+            match crate::hashing::inertials_sha256(chain) {
+                Ok(given) if given == *stored => {}
+                Ok(given) => return other(what, short(stored).into(), short(&given).into()),
+                Err(e) => return other(what, short(stored).into(), format!("unknown ({e})")),
+            }
+        }
         Ok(())
     }
 
@@ -552,6 +591,39 @@ impl StiffnessModel {
         for (j, o) in self.springs.offsets.iter().enumerate() {
             if let Some(k) = o.iter().position(|x| !x.is_finite()) {
                 return bad(format!("springs.offsets[{j}][{k}]"), o[k], "finite");
+            }
+        }
+        if let Some(g) = &self.gravity {
+            if let Some(k) = g.iter().position(|x| !x.is_finite()) {
+                return bad(format!("gravity[{k}]"), g[k], "finite (m/s²)");
+            }
+        }
+        match (&self.gravity, &self.inertials_sha256) {
+            (None, None) => {}
+            (Some(_), Some(h))
+                if h.len() == 64
+                    && h.bytes()
+                        .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)) => {}
+            (Some(_), Some(h)) => {
+                // By characters: the text is not known to be ASCII here.
+                return Err(format!(
+                    "inertials_sha256 `{}` is not a SHA-256 (64 lowercase hex digits)",
+                    h.chars().take(16).collect::<String>()
+                ));
+            }
+            (Some(_), None) => {
+                return Err(
+                    "gravity is set but inertials_sha256 is missing: a model identified \
+                            under gravity records the masses it assumed"
+                        .into(),
+                )
+            }
+            (None, Some(_)) => {
+                return Err(
+                    "inertials_sha256 is set but gravity is not: a weightless model \
+                            records no masses"
+                        .into(),
+                )
             }
         }
         if let Some(c) = &e.covariance {

@@ -511,3 +511,312 @@ fn a_model_saved_against_the_bundled_urdf_before_its_inertials_still_loads() {
     let err = m.check_robot(&chain, "forged.json").unwrap_err();
     assert!(err.to_string().contains("URDF content"), "{err}");
 }
+
+/// Noise-free measurements of the bundled Panda under gravity by the exact equilibrium
+/// ([`deflection_under_gravity`](vjm::gravity::deflection_under_gravity): the deflected chain,
+/// no linearisation — a code path independent of `identify`'s): `count` random poses, each
+/// loaded by forces up to `force` N and moments up to `force`/10 N·m, and with `paired` also
+/// by the opposite wrench (the load's second-order geometric non-linearity then cancels in
+/// the fit). Returns q, wrenches, displacements, rotations.
+fn panda_under_gravity(
+    c: &[f64],
+    count: usize,
+    force: f64,
+    paired: bool,
+    seed: u64,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+    use rand::{Rng, SeedableRng};
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let base_q = crate::strategies::random_configurations(&panda, count, seed);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1);
+    let (mut q, mut w, mut d, mut r) = (vec![], vec![], vec![], vec![]);
+    for qi in base_q.chunks_exact(7) {
+        let mut wi = [0.0; 6];
+        for (k, v) in wi.iter_mut().enumerate() {
+            let s = if k < 3 { force } else { force / 10.0 };
+            *v = rng.random_range(-s..s);
+        }
+        let loads = if paired {
+            vec![wi, wi.map(|x| -x)]
+        } else {
+            vec![wi]
+        };
+        for load in loads {
+            let dev = vjm::gravity::deflection_under_gravity(
+                &panda,
+                &model,
+                c,
+                qi,
+                &load,
+                &Gravity::default(),
+                None,
+            )
+            .unwrap();
+            q.extend_from_slice(qi);
+            w.extend_from_slice(&load);
+            d.extend_from_slice(&dev[..3]);
+            r.extend_from_slice(&dev[3..]);
+        }
+    }
+    (q, w, d, r)
+}
+
+/// The largest relative error of the identified compliances (without rotations the Panda's
+/// last torsion turns the flange about its own axis and is not identifiable: the first six).
+fn worst_relative_error(id: &vjm::Identification, truth: &[f64]) -> f64 {
+    let known = if id.rank == 7 { 7 } else { 6 };
+    id.compliance[..known]
+        .iter()
+        .zip(truth)
+        .map(|(c, t)| (c.expect("identifiable") - t).abs() / t)
+        .fold(0.0, f64::max)
+}
+
+/// Panda-class torsion compliances, 1e-4 … 5e-4 rad/(N·m) (joint stiffness 2–10 kN·m/rad).
+const PANDA_TORSIONS: [f64; 7] = [1e-4, 2e-4, 1.5e-4, 3e-4, 5e-4, 4e-4, 2.5e-4];
+
+/// `identify` under gravity recovers the springs from (loaded − unloaded) measurements taken
+/// at the exact static equilibrium under the Panda's weight; the weightless fit of the same
+/// data is biased by gravity's stiffness and the sag (≈ 2 %). Measured (60 poses, worst of
+/// the six identifiable torsions): with paired loads (± W: the load's second-order geometric
+/// non-linearity cancels) 1.3e-4 under gravity at 20 N and at 5 N alike against 2.2e-2
+/// weightless — what remains is second order in the weight (it scales with C², 8e-6 at C/4:
+/// gravity's stiffness is taken at the unsagged pose); single loads of ≤ 5 N (moments ≤ 0.5
+/// N·m) add the load's non-linearity, 6.5e-4 (2.8e-3 at 20 N, 1.6e-4 at 1 N).
+#[test]
+fn identify_under_gravity_recovers_the_springs_of_the_exact_equilibrium() {
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let c = PANDA_TORSIONS;
+    let weightless = vjm::IdentifyOptions::default();
+    let mut under_gravity = weightless;
+    under_gravity.gravity = Some(Gravity::default());
+    for (force, paired, bound) in [(20.0, true, 2e-4), (5.0, false, 1e-3)] {
+        let (q, w, d, _) = panda_under_gravity(&c, 60, force, paired, 3);
+        let with = vjm::identify(&panda, &model, &q, &w, &d, None, &under_gravity).unwrap();
+        let without = vjm::identify(&panda, &model, &q, &w, &d, None, &weightless).unwrap();
+        let (e_with, e_without) = (
+            worst_relative_error(&with, &c),
+            worst_relative_error(&without, &c),
+        );
+        eprintln!(
+            "loads ≤ {force} N (paired: {paired}): worst relative error {e_with:.2e} under \
+             gravity in {} refits, {e_without:.2e} weightless",
+            with.gravity_iterations
+        );
+        assert!(e_with <= bound, "under gravity: {e_with:e}");
+        assert!(e_without >= 10.0 * e_with, "{e_without:e} vs {e_with:e}");
+        assert!(
+            with.gravity_iterations >= 2 && with.gravity_iterations <= vjm::MAX_GRAVITY_ITERATIONS
+        );
+        assert_eq!(without.gravity_iterations, 0);
+        // The dense path refits the same way.
+        let dense = vjm::identify_dense(&panda, &model, &q, &w, &d, None, &under_gravity).unwrap();
+        assert_eq!(dense.rank, with.rank);
+        for (a, b) in dense.compliance[..6].iter().zip(&with.compliance) {
+            let (a, b) = (a.unwrap(), b.unwrap());
+            assert!((a - b).abs() <= 1e-9 * b, "{a} vs {b}");
+        }
+    }
+}
+
+/// With measured rotations (six rows a measurement) the refits correct the rotations too.
+#[test]
+fn identify_under_gravity_with_rotations() {
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let c = PANDA_TORSIONS;
+    let (q, w, d, r) = panda_under_gravity(&c, 40, 20.0, true, 5);
+    let mut opts = vjm::IdentifyOptions::default();
+    opts.use_rotations = true;
+    opts.noise_sigma = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5];
+    let without = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    opts.gravity = Some(Gravity::default());
+    let with = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let (e_with, e_without) = (
+        worst_relative_error(&with, &c),
+        worst_relative_error(&without, &c),
+    );
+    eprintln!("with rotations: {e_with:.2e} under gravity, {e_without:.2e} weightless");
+    assert!(
+        e_with <= 1e-4 && e_without >= 10.0 * e_with,
+        "{e_with:e}, {e_without:e}"
+    );
+}
+
+/// `gravity: None` is today's weightless identification (no refit), and a zero gravity
+/// vector refits once to the same bits: the correction is exactly zero.
+#[test]
+fn identify_without_weight_is_the_weightless_fit() {
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::extended(7);
+    let (q, w, d, _) = panda_under_gravity(&PANDA_TORSIONS, 30, 20.0, false, 9);
+    let opts = vjm::IdentifyOptions::default();
+    assert_eq!(opts.gravity, None);
+    let none = vjm::identify(&panda, &model, &q, &w, &d, None, &opts).unwrap();
+    assert_eq!(none.gravity_iterations, 0);
+    let mut zero = opts;
+    zero.gravity = Some(Gravity::new([0.0; 3]).unwrap());
+    let refit = vjm::identify(&panda, &model, &q, &w, &d, None, &zero).unwrap();
+    assert_eq!(refit.gravity_iterations, 1);
+    assert_eq!(refit.compliance, none.compliance);
+    assert_eq!(refit.solution.solution, none.solution.solution);
+    assert_eq!(refit.stderr, none.stderr);
+    // The weightless building blocks refuse gravity rather than ignore it.
+    for err in [
+        vjm::build_design(&panda, &model, &q, &w, &d, None, &zero).map(|_| ()),
+        vjm::accumulate(&panda, &model, &q, &w, &d, None, &zero).map(|_| ()),
+    ] {
+        let err = err.unwrap_err();
+        assert!(
+            matches!(
+                &err,
+                VjmError::InvalidOption {
+                    name: "gravity",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+}
+
+/// Gravity on a chain whose link has a shape but no `<inertial>` is an error naming the link.
+#[test]
+fn identify_under_gravity_names_a_link_without_inertial() {
+    let xml = BRANCHED.replace(
+        r#"<link name="camera"><inertial><mass value="0.5"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>"#,
+        r#"<link name="camera"><visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual></link>"#,
+    );
+    let chain = SerialChain::from_urdf_str(&xml, "base", "flange").unwrap();
+    let model = VirtualJointModel::traditional(2);
+    let q = [0.1, 0.2, -0.3, 0.4, 0.5, -0.6];
+    let w = [1.0, 2.0, 3.0, 0.1, 0.2, 0.3].repeat(3);
+    let d = [1e-5; 9];
+    let mut opts = vjm::IdentifyOptions::default();
+    assert!(vjm::identify(&chain, &model, &q, &w, &d, None, &opts).is_ok());
+    opts.gravity = Some(Gravity::default());
+    for result in [
+        vjm::identify(&chain, &model, &q, &w, &d, None, &opts),
+        vjm::identify_dense(&chain, &model, &q, &w, &d, None, &opts),
+    ] {
+        let err = result.unwrap_err();
+        assert!(
+            matches!(&err, VjmError::InvalidInertial { link, .. } if link == "camera"),
+            "{err}"
+        );
+    }
+}
+
+/// A model identified under gravity records the gravity and a hash of the chain's masses; it
+/// round-trips, and loads only with the masses it was identified with. A weightless model's
+/// file has neither field (the file written before gravity was recorded).
+#[test]
+fn a_model_identified_under_gravity_records_gravity_and_inertials() {
+    use vjm::{DataSource, StiffnessModel};
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let (q, w, d, r) = panda_under_gravity(&PANDA_TORSIONS, 20, 20.0, false, 13);
+    let mut opts = vjm::IdentifyOptions::default();
+    opts.use_rotations = true;
+    let weightless = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let sm = StiffnessModel::from_identification(
+        &weightless,
+        &panda,
+        &model,
+        &opts,
+        DataSource::in_memory(20),
+    )
+    .unwrap();
+    assert_eq!(sm.gravity(), None);
+    assert_eq!(sm.inertials_sha256(), None);
+    let text = sm.to_json();
+    assert!(
+        !text.contains("gravity") && !text.contains("inertials"),
+        "{text}"
+    );
+
+    let g = Gravity::new([0.0, 0.0, -9.81]).unwrap();
+    opts.gravity = Some(g);
+    let id = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let sm =
+        StiffnessModel::from_identification(&id, &panda, &model, &opts, DataSource::in_memory(20))
+            .unwrap();
+    assert_eq!(sm.gravity(), Some(g));
+    let hash = vjm::inertials_sha256(&panda).unwrap();
+    assert_eq!(sm.inertials_sha256(), Some(hash.as_str()));
+    let text = sm.to_json();
+    let back = StiffnessModel::from_json(&text, "g.json").unwrap();
+    assert_eq!(back, sm);
+    assert_eq!(back.gravity(), Some(g));
+    back.check_robot(&panda, "g.json").unwrap();
+
+    // Other masses (the hand 1 kg heavier) are another robot for this model.
+    let mut bodies = panda.mass_model().unwrap().bodies().to_vec();
+    bodies[6].mass += 1.0;
+    let heavier = panda
+        .clone()
+        .with_masses(vjm::gravity::MassModel::new(bodies).unwrap())
+        .unwrap();
+    assert_ne!(vjm::inertials_sha256(&heavier).unwrap(), hash);
+    let err = back.check_robot(&heavier, "g.json").unwrap_err();
+    assert!(err.to_string().contains("inertials"), "{err}");
+    // ... while the weightless model does not care.
+    StiffnessModel::from_identification(
+        &weightless,
+        &panda,
+        &model,
+        &{
+            let mut o = opts;
+            o.gravity = None;
+            o
+        },
+        DataSource::in_memory(20),
+    )
+    .unwrap()
+    .check_robot(&heavier, "w.json")
+    .unwrap();
+
+    // Files edited and re-hashed: a forged inertials hash is refused on load with the chain,
+    // a malformed one or gravity without its hash when parsed.
+    let edit = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+        f(&mut doc["model"]);
+        let inner: StiffnessModel = serde_json::from_value(doc["model"].clone()).unwrap();
+        doc["content_sha256"] = serde_json::Value::String(inner.content_sha256());
+        doc.to_string()
+    };
+    let other = format!("0{}", &hash[1..]);
+    let other = if other == hash {
+        format!("1{}", &hash[1..])
+    } else {
+        other
+    };
+    let forged = edit(&|m| m["inertials_sha256"] = serde_json::Value::String(other.clone()));
+    let m = StiffnessModel::from_json(&forged, "forged.json").unwrap();
+    let err = m.check_robot(&panda, "forged.json").unwrap_err();
+    assert!(
+        matches!(&err, vjm::ModelError::OtherRobot { what, .. } if what.contains("inertials")),
+        "{err}"
+    );
+    let malformed = edit(&|m| m["inertials_sha256"] = serde_json::Value::String("xyz".into()));
+    let err = StiffnessModel::from_json(&malformed, "bad.json").unwrap_err();
+    assert!(err.to_string().contains("inertials_sha256"), "{err}");
+    let unhashed = edit(&|m| {
+        m.as_object_mut().unwrap().remove("inertials_sha256");
+    });
+    let err = StiffnessModel::from_json(&unhashed, "bad.json").unwrap_err();
+    assert!(
+        err.to_string().contains("inertials_sha256 is missing"),
+        "{err}"
+    );
+    // Not three numbers: refused when parsed (before the hash is compared).
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["model"]["gravity"] = serde_json::json!([0.0, -9.81]);
+    let err = StiffnessModel::from_json(&doc.to_string(), "bad.json").unwrap_err();
+    assert!(
+        matches!(&err, vjm::ModelError::Format { message, .. } if message.contains("gravity") || message.contains("length 3")),
+        "{err}"
+    );
+}
