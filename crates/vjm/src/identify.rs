@@ -227,7 +227,7 @@ pub struct Identification {
 /// static equilibrium under the arm's weight: the weightless fit is refitted about the sagged
 /// equilibrium, the Jacobian at the sag and gravity's stiffness coupling into the load's
 /// torque at the current estimate, until the compliances change by ≤ [`GRAVITY_TOLERANCE`]
-/// (at most [`MAX_GRAVITY_ITERATIONS`] refits, else an error); the result's
+/// (at most [`MAX_GRAVITY_REFITS`] refits, else an error); the result's
 /// `gravity_iterations` counts them. One more pass over the data per refit, one copy of the
 /// displacements.
 pub fn identify(
@@ -339,7 +339,7 @@ fn identify_inner(
 }
 
 /// Refits of the identification under gravity before [`identify`] gives up.
-pub const MAX_GRAVITY_ITERATIONS: usize = 20;
+pub const MAX_GRAVITY_REFITS: usize = 20;
 
 /// The refits under gravity stop when no compliance changes by more than this times the
 /// largest compliance.
@@ -378,7 +378,7 @@ fn refit_under_gravity(
     let mut rot = rotation.map(<[f64]>::to_vec);
     let mut id = first;
     let mut change = f64::INFINITY;
-    for refit in 1..=MAX_GRAVITY_ITERATIONS {
+    for refit in 1..=MAX_GRAVITY_REFITS {
         let c = id.solution.solution.clone();
         correct_for_gravity(
             chain,
@@ -411,7 +411,7 @@ fn refit_under_gravity(
     }
     Err(VjmError::Numerical {
         message: format!(
-            "the identification under gravity did not settle in {MAX_GRAVITY_ITERATIONS} refits: \
+            "the identification under gravity did not settle in {MAX_GRAVITY_REFITS} refits: \
              the compliances still changed by {} of their size in the last (springs too soft \
              to hold the arm under its weight, or the wrong gravity vector or masses?)",
             stiffness_core::num::Short(change)

@@ -78,7 +78,7 @@ pub use hashing::{inertials_sha256, kinematics_sha256, sha256_hex};
 pub use identify::{
     accumulate, build_design, identify, identify_checking_rows, identify_dense,
     identify_from_factor, Combination, CombinationTerm, Identification, IdentifyOptions,
-    ParameterEstimate, RowCheck, SolveMethod, GRAVITY_TOLERANCE, MAX_GRAVITY_ITERATIONS,
+    ParameterEstimate, RowCheck, SolveMethod, GRAVITY_TOLERANCE, MAX_GRAVITY_REFITS,
     NORMAL_EQUATIONS_MAX_CONDITION, NORMAL_EQUATIONS_RANK_RTOL, NORMAL_EQUATIONS_ROUNDING_FLOOR,
 };
 pub use identify_partial::IdentificationPartial;
