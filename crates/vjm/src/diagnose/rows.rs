@@ -383,7 +383,7 @@ fn fill_from_jacobian(
 
 /// Moves a row's kinematics (Jacobian, tip point, tip rotation) to the deflected state
 /// `theta` (rad, 3n springs in the Jacobian's order), exactly
-/// ([`crate::kinematics::deflect_in_place`]; equal to `vjm::jacobian_deflected` to rounding,
+/// (`kinematics::deflect_in_place`; equal to `vjm::jacobian_deflected` to rounding,
 /// `tests/it/diagnose.rs`, `a_row_deflected_in_place_equals_the_deflected_chain`).
 pub fn deflect_row(row: &mut RowKinematics, theta: &[f64]) {
     let mut tip = Vector3::from(row.tip);
