@@ -93,6 +93,8 @@ impl PyIdentificationPartial {
             dense: false,
             method: "qr",
             allow_outside_limits,
+            // The partial statistic is the weightless (linear) problem: vjm refuses gravity.
+            gravity: None,
         };
         let c = robot.checked(model, &args)?;
         let chain = &robot.chain;

@@ -84,6 +84,13 @@ impl PyStiffnessModel {
         self.model.springs().labels.clone()
     }
 
+    /// The gravity the model was identified under, `[gx, gy, gz]` m/s² in the base frame;
+    /// `None` for a weightless model (also every file written before gravity was recorded).
+    #[getter]
+    fn gravity(&self) -> Option<[f64; 3]> {
+        self.model.gravity().map(|g| g.vector().into())
+    }
+
     /// Whether the model predicts rotations.
     #[getter]
     fn has_rotations(&self) -> bool {
@@ -103,8 +110,9 @@ impl PyStiffnessModel {
 
     /// Corrected joint targets for q (N, n) under wrench (N, 6) or a payload
     /// `(mass, [cx, cy, cz])`, with this model's springs and compliances: `(q, rows, status)`
-    /// as `vjm_compensate`. `match_orientation` defaults to whether the model has rotations.
-    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false))]
+    /// as `vjm_compensate`. `match_orientation` defaults to whether the model has rotations;
+    /// `gravity` / `recorded_gravity` as `vjm_compensate_model_file`.
+    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false, gravity = None, recorded_gravity = false))]
     #[allow(clippy::too_many_arguments)]
     fn compensate<'py>(
         &self,
@@ -119,7 +127,10 @@ impl PyStiffnessModel {
         rotation_tol: f64,
         check_limits: bool,
         allow_outside_limits: bool,
+        gravity: Option<[f64; 3]>,
+        recorded_gravity: bool,
     ) -> PyResult<crate::use_model::CompensationArrays<'py>> {
+        let gravity = crate::use_model::model_gravity(gravity, recorded_gravity)?;
         let n = self.chain.n_joints();
         let q = batch(&q, "q", &[n])?;
         let w = wrench
@@ -135,6 +146,7 @@ impl PyStiffnessModel {
             position_tol,
             rotation_tol,
             check_limits,
+            gravity,
         };
         crate::use_model::compensate_with_model(py, &self.model, &self.chain, &q.data, load, &opts)
     }
@@ -220,7 +232,7 @@ impl PyStiffnessModel {
 /// `data_file` is the measurement file the arrays came from (hashed into the model);
 /// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false, allow_outside_limits = false))]
+#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false, allow_outside_limits = false, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_identify_model<'py>(
     py: Python<'py>,
@@ -238,6 +250,7 @@ pub fn vjm_identify_model<'py>(
     data_file: Option<String>,
     robust_covariance: bool,
     allow_outside_limits: bool,
+    gravity: Option<[f64; 3]>,
 ) -> PyResult<(Bound<'py, PyAny>, PyStiffnessModel)> {
     let args = IdentifyArgs {
         q,
@@ -250,6 +263,7 @@ pub fn vjm_identify_model<'py>(
         dense,
         method,
         allow_outside_limits,
+        gravity,
     };
     let (id, built, warnings) = robot.identify_with(
         py,

@@ -168,8 +168,11 @@ fn arrays(py: Python<'_>, out: vjm::Compensation, n: usize) -> PyResult<Compensa
 
 /// [`vjm_compensate`] with the springs and compliances of a model file (robot and content
 /// hash checked on load). `match_orientation` defaults to whether the model has rotations.
+/// `gravity` (m/s², base frame) corrects the sag under the arm's weight too; with
+/// `recorded_gravity` the gravity is the one the model file records (standard gravity when it
+/// records none) and `gravity` must be `None`.
 #[pyfunction]
-#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false))]
+#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false, gravity = None, recorded_gravity = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_compensate_model_file<'py>(
     py: Python<'py>,
@@ -185,9 +188,12 @@ pub fn vjm_compensate_model_file<'py>(
     rotation_tol: f64,
     check_limits: bool,
     allow_outside_limits: bool,
+    gravity: Option<[f64; 3]>,
+    recorded_gravity: bool,
 ) -> PyResult<CompensationArrays<'py>> {
     let chain = &robot.chain;
     let n = chain.n_joints();
+    let gravity = model_gravity(gravity, recorded_gravity)?;
     // The inputs first (a bad payload is named even when the file is also bad), then the file.
     let q = batch(&q, "q", &[n])?;
     let w = match &wrench {
@@ -204,8 +210,32 @@ pub fn vjm_compensate_model_file<'py>(
         position_tol,
         rotation_tol,
         check_limits,
+        gravity,
     };
     compensate_with_model(py, &model, chain, &q.data, load, &opts)
+}
+
+/// The gravity of a compensation through a stiffness model: the one given, or with
+/// `recorded` the model's own ([`ModelGravity::Recorded`]).
+pub(crate) fn model_gravity(gravity: Option<[f64; 3]>, recorded: bool) -> PyResult<ModelGravity> {
+    let given = gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
+    match (given, recorded) {
+        (Some(_), true) => Err(value_error(
+            "give either gravity or recorded_gravity=True, not both",
+        )),
+        (Some(g), false) => Ok(ModelGravity::Given(Some(g))),
+        (None, false) => Ok(ModelGravity::Given(None)),
+        (None, true) => Ok(ModelGravity::Recorded),
+    }
+}
+
+/// Which gravity a compensation through a stiffness model corrects the sag under.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum ModelGravity {
+    /// This one; `None`: the load's deflection only (weightless).
+    Given(Option<vjm::gravity::Gravity>),
+    /// The gravity the model was identified under, standard gravity when it records none.
+    Recorded,
 }
 
 /// The options of a compensation through a stiffness model (Python keywords).
@@ -216,6 +246,7 @@ pub(crate) struct ModelCompensation {
     pub position_tol: f64,
     pub rotation_tol: f64,
     pub check_limits: bool,
+    pub gravity: ModelGravity,
 }
 
 /// Compensation through `model` (its springs and compliances; its robot checked against
@@ -236,6 +267,27 @@ pub(crate) fn compensate_with_model<'py>(
     opts.position_tol = o.position_tol;
     opts.rotation_tol = o.rotation_tol;
     opts.check_limits = o.check_limits;
+    opts.gravity = match o.gravity {
+        ModelGravity::Given(g) => g,
+        ModelGravity::Recorded => Some(model.gravity().unwrap_or_default()),
+    };
+    if opts.gravity.is_some() {
+        // Before the work: a URDF without masses is named at once.
+        chain.mass_model().py()?;
+        // The sag is the springs' static equilibrium under the weight: a spring set, which the
+        // minimum-norm member of an aliased family (negative entries) is not.
+        let compliance = &model.estimate().compliance;
+        if let Some(k) = compliance.iter().position(|c| *c < 0.0) {
+            return Err(value_error(format!(
+                "the model's spring {} has a negative compliance ({} rad/(N·m): springs that alias \
+                 are stored as the minimum-norm member of their family), which cannot hold the arm \
+                 under its weight: correct the load only (load_only=True), or use a model whose \
+                 springs do not alias (such as the traditional one)",
+                model.springs().labels[k],
+                stiffness_core::num::Short(compliance[k])
+            )));
+        }
+    }
     let out = run(py, || model.compensate(chain, q, load, &opts))?.py()?;
     arrays(py, out, chain.n_joints())
 }

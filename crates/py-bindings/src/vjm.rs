@@ -255,6 +255,7 @@ impl PyRobot {
             dense,
             method,
             allow_outside_limits,
+            gravity: None,
         };
         let (id, _, _) = self.identify_with(py, model, args, None, false)?;
         serde_json::to_string(&id)
@@ -330,6 +331,8 @@ pub(crate) struct IdentifyArgs<'py, 'a> {
     pub method: &'a str,
     /// Skip the check of the joint angles against the URDF limits.
     pub allow_outside_limits: bool,
+    /// The gravity the measurements were taken under (m/s², base frame), `None` weightless.
+    pub gravity: Option<[f64; 3]>,
 }
 
 impl PyRobot {
@@ -430,6 +433,7 @@ impl PyRobot {
         opts.nonnegative = a.nonnegative;
         opts.use_rotations = r.is_some();
         opts.method = method;
+        opts.gravity = a.gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
         Ok(Checked {
             model,
             q,

@@ -138,6 +138,7 @@ fn effect_keys(name: &str) -> Option<&'static [&'static str]> {
         "joint_tilt" => &["joint", "axis", "compliance"],
         "joint_torsion_nonlinear" => &["joint", "k1", "k2", "k3", "t1", "t2", "ratio"],
         "joint_backlash" => &["joint", "lost_motion"],
+        "joint_torsion_angle_dependent" => &["joint", "amplitude"],
         "wrench_bias" => &["bias"],
         "frame_misalignment" => &["rotation"],
         "geometric_nonlinearity" => &[],
@@ -243,6 +244,17 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
             joint: joint0(i, get(d, i, "joint")?, n)?,
             lost_motion: in_range(d, i, &name, "lost_motion", false, 0.1, "rad")?,
         },
+        "joint_torsion_angle_dependent" => {
+            let joint = joint0(i, get(d, i, "joint")?, n)?;
+            let amplitude: f64 = get(d, i, "amplitude")?;
+            // c·(1 + a·sin q) must stay a positive compliance.
+            if !(amplitude.is_finite() && amplitude.abs() < 1.0) {
+                return Err(value_error(format!(
+                    "effects[{i}] ({name}): `amplitude` must be within (−1, 1), got {amplitude}"
+                )));
+            }
+            Effect::TorsionAngleDependent { joint, amplitude }
+        }
         "wrench_bias" => Effect::WrenchBias {
             bias: get(d, i, "bias")?,
         },
@@ -265,7 +277,7 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
         },
         other => {
             return Err(value_error(format!(
-                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift, mount_compliance, tool_axial_compliance, sensor_crosstalk)"
+                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, joint_torsion_angle_dependent, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift, mount_compliance, tool_axial_compliance, sensor_crosstalk)"
             )))
         }
     })
@@ -294,7 +306,7 @@ fn true_model(
 /// Simulates a measurement campaign; returns a dict with the dataset arrays, the CSV text and
 /// the hidden truth (`true_displacement`, `applied_wrench`, `truth` as JSON).
 #[pyfunction]
-#[pyo3(signature = (robot, effects, n_poses = 40, wrenches_per_pose = 4, seed = 0, noise = true, torsion = None, force_max = None, moment_max = None, test_fraction = None))]
+#[pyo3(signature = (robot, effects, n_poses = 40, wrenches_per_pose = 4, seed = 0, noise = true, torsion = None, force_max = None, moment_max = None, test_fraction = None, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_simulate<'py>(
     py: Python<'py>,
@@ -308,6 +320,7 @@ pub fn vjm_simulate<'py>(
     force_max: Option<f64>,
     moment_max: Option<f64>,
     test_fraction: Option<f64>,
+    gravity: Option<[f64; 3]>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let chain = &robot.chain;
     let truth = true_model(chain.n_joints(), torsion, effects)?;
@@ -323,6 +336,12 @@ pub fn vjm_simulate<'py>(
     }
     if let Some(m) = moment_max {
         spec.moment_max = m;
+    }
+    if let Some(g) = gravity {
+        spec.gravity = Some(vjm::gravity::Gravity::new(g).py()?);
+        // Before the work, as identify and compensate do: a URDF without masses is a
+        // RobotModelError naming the link.
+        chain.mass_model().py()?;
     }
     if let Some(t) = test_fraction {
         spec.test_fraction = t;

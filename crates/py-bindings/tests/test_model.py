@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import listing, run_cli
-from robot_stiffness import InvalidValueError, ModelFileError, StiffnessError
+from robot_stiffness import InvalidValueError, ModelFileError, StiffnessError, cli_model
 from robot_stiffness.model import STANDARD_GRAVITY, StiffnessModel
 from robot_stiffness.vjm import Robot, simulate
 
@@ -58,10 +58,11 @@ def test_ur5_predictions_are_exact_although_springs_alias():
     if urdf is None:
         pytest.skip("example-robot-data's ur5_robot.urdf not found")
     robot = Robot.from_urdf(urdf, "base_link", "tool0")
-    c = simulate(robot, all_tilts(6, 1), n_poses=40, seed=4, noise=False)
+    # Weightless: StiffnessModel.predict is the load's linear deflection (no sag).
+    c = simulate(robot, all_tilts(6, 1), n_poses=40, seed=4, noise=False, gravity=None)
     m = c.measurements
     train, test = split(m)
-    ident = robot.identify(m.q[train], m.wrench[train], m.displacement[train], model="extended")
+    ident = robot.identify(m.q[train], m.wrench[train], m.displacement[train], model="extended", gravity=None)
     assert ident.rank < 18 and ident.aliases, "UR5 extended: some springs alias"
     assert np.isnan(ident.compliance).any()
     pred = ident.stiffness_model.predict(m.q[test], wrench=m.wrench[test])
@@ -153,7 +154,7 @@ def test_rotations_need_a_model_identified_with_rotations(panda):
     theta = truth * np.einsum("nrk,nr->nk", J, w)
     rot = np.einsum("nrk,nk->nr", J[:, 3:, :], theta)
     disp = np.einsum("nrk,nk->nr", J[:, :3, :], theta)
-    with_rot = panda.identify(q, w, disp, model="extended", rotation=rot)
+    with_rot = panda.identify(q, w, disp, model="extended", rotation=rot, gravity=None)  # linear data
     assert with_rot.stiffness_model.has_rotations
     pred = with_rot.stiffness_model.predict(q[:3], wrench=w[:3])
     np.testing.assert_allclose(pred.deflection[:, 3:], rot[:3], rtol=1e-9, atol=1e-15)
@@ -183,7 +184,8 @@ def test_cli_identify_save_then_predict(saved, panda, tmp_path):
     assert "rotations unavailable" in proc.stdout
     lines = (saved / "p.csv").read_text().splitlines()
     header = lines[0].split(",")
-    assert header[:7] == [f"q{j}" for j in range(1, 8)] and header[-1] == "identified"
+    assert header[:7] == [f"q{j}" for j in range(1, 8)] and header[-8] == "identified"
+    assert header[-7:] == cli_model.SAG_COLUMNS  # the sag under the arm's weight (use-the-model.md)
     rows = [line.split(",") for line in lines[1:]]
     col = {h: i for i, h in enumerate(header)}
     model = StiffnessModel.load(saved / "m.json", panda)

@@ -52,7 +52,9 @@ def two_arm(tmp_path_factory) -> Path:
     """A two-joint URDF and a campaign simulated on it."""
     d = tmp_path_factory.mktemp("two")
     (d / "two.urdf").write_text(TWO_JOINTS.format(xyz="0 0 0.1"))
-    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "6", "--seed", "3", "--urdf", "two.urdf", *ARM], cwd=d)
+    # Weightless (--no-gravity): the URDF has no inertials.
+    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "6", "--seed", "3", "--urdf", "two.urdf", *ARM,
+                    "--no-gravity"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d
 
@@ -67,7 +69,7 @@ def arm(two_arm, tmp_path) -> Path:
 
 def identify_arm(cwd: Path, urdf: str) -> str:
     """identify vjm c.csv --urdf URDF --save m.json; returns the URDF path the model records."""
-    proc = run_cli(["identify", "vjm", "c.csv", "--urdf", urdf, *ARM, "--save", "m.json"], cwd=cwd)
+    proc = run_cli(["identify", "vjm", "c.csv", "--urdf", urdf, *ARM, "--save", "m.json", "--no-gravity"], cwd=cwd)
     assert proc.returncode == 0, proc.stderr
     return str(json.loads((cwd / "m.json").read_text())["model"]["robot"]["urdf"])
 
@@ -105,7 +107,7 @@ def test_an_output_onto_the_urdf_the_model_names_is_refused(arm, recorded, comma
     assert rec == (str(urdf) if recorded == "absolute" else "two.urdf")
     target = "./two.urdf" if recorded == "absolute" else str(urdf)
     outputs = {"--out": target} if flag == "--out" else {"--out": "comp.csv", "--plot": target}
-    args = [command, "vjm", "m.json", "c.csv", *[x for kv in outputs.items() for x in kv]]
+    args = [command, "vjm", "m.json", "c.csv", *[x for kv in outputs.items() for x in kv], "--no-gravity"]
     if command == "compensate":
         args.append("--position-only")
     before = state(arm)
@@ -115,7 +117,7 @@ def test_an_output_onto_the_urdf_the_model_names_is_refused(arm, recorded, comma
     assert f"{flag} {Path(target)} is an input file" in line and "URDF m.json names" in line, line
     assert state(arm) == before and not leftovers(arm)
     # The model is still usable.
-    proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "p.csv"], cwd=arm)
+    proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "p.csv", "--no-gravity"], cwd=arm)
     assert proc.returncode == 0, proc.stderr
 
 
@@ -128,7 +130,7 @@ def test_a_link_to_the_named_urdf_is_the_urdf_even_with_force(arm, link):
         os.symlink("two.urdf", arm / "alias.urdf")
     before = state(arm)
     for force in ([], ["--force"]):
-        proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "alias.urdf", *force], cwd=arm)
+        proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "alias.urdf", *force, "--no-gravity"], cwd=arm)
         assert proc.returncode == 1
         assert "--out alias.urdf is an input file (the URDF m.json names)" in one_error_line(proc)
         assert state(arm) == before
@@ -141,7 +143,7 @@ def test_model_save_refuses_the_urdf_it_names_and_an_existing_file(arm, monkeypa
     monkeypatch.chdir(arm)
     robot = vjm.Robot.from_urdf("two.urdf", "base", "tool")
     m = vjm.read_measurements("c.csv", robot.n_joints)
-    ident = robot.identify(m.q, m.wrench, m.displacement)
+    ident = robot.identify(m.q, m.wrench, m.displacement, gravity=None)  # no inertials
     urdf_bytes = (arm / "two.urdf").read_bytes()
     for path in ("two.urdf", str(arm / "two.urdf")):
         with pytest.raises(rs.OutputPathError, match="is an input file .the URDF this model names"):

@@ -37,7 +37,8 @@ def test_clean_data_have_no_verdict_and_a_typed_one(clean):
     assert isinstance(d.verdict, Verdict)
     assert d.verdict.goodness_of_fit is None  # no noise level given
     assert d.verdict.remaining is None
-    assert {b.block for b in d.verdict.blocks} == {"linear_in_wrench", "tool_frame", "pose_offsets", "springs"}
+    assert {b.block for b in d.verdict.blocks} == {
+        "linear_in_wrench", "tool_frame", "pose_offsets", "pose_compliance", "springs"}
     assert all(isinstance(b, BlockTest) for b in d.verdict.blocks)
     assert d.verdict.lack_of_fit.p_value > 0.01
 
@@ -63,6 +64,18 @@ def test_pose_drift_is_unexplained_in_words(drift):
     assert "pose_offsets" in (d.verdict.remaining or ""), d.verdict.remaining
     j = json.loads(d.to_json())
     assert j["verdict"]["lack_of_fit"]["p_value"] < 1e-6
+
+
+def test_a_gear_whose_stiffness_follows_its_angle_is_unexplained_in_words():
+    # Outside the catalogue: the torsion compliance of joint 2 is c·(1 + 0.4·sin q2).
+    robot = vjm.Robot.bundled()
+    data = vjm.simulate(robot, [{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 0.4}],
+                        n_poses=40, seed=3)
+    d = vjm.diagnose(robot, data.measurements)
+    assert d.unexplained
+    assert "pose_compliance" in (d.verdict.remaining or ""), d.verdict.remaining
+    with pytest.raises(ValueError, match="amplitude"):
+        vjm.simulate(robot, [{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 1.0}])
 
 
 @pytest.mark.parametrize("flag,value,message", [

@@ -23,7 +23,7 @@ import inspect
 import math
 import numbers
 import os
-from typing import Any, Callable, Dict, List, Optional, Tuple, TypeVar, cast
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, TypeVar, Union, cast
 
 import numpy as np
 
@@ -91,6 +91,28 @@ def gravity_vector(value: Any, name: str = "gravity") -> Tuple[float, float, flo
         raise ShapeError(f"{name} must have 3 components (gx, gy, gz) in m/s², got {len(value)}")
     gx, gy, gz = (real(v, f"{name}[{i}]") for i, v in enumerate(value))
     return (gx, gy, gz)
+
+
+#: The default ``gravity`` of the calls through a stiffness model (``StiffnessModel.predict_sag``,
+#: ``StiffnessModel.compensate``, ``vjm.compensate_with_model_file``): the gravity the model was
+#: identified under (``StiffnessModel.gravity``), :data:`DEFAULT_GRAVITY` when it records none.
+RECORDED_GRAVITY = "recorded"
+
+#: A ``gravity`` argument of those calls: a vector, None (weightless) or :data:`RECORDED_GRAVITY`.
+ModelGravity = Union[Sequence[float], None, str]
+
+
+def model_gravity(value: Any, recorded: Optional[Tuple[float, float, float]],
+                  name: str = "gravity") -> Optional[Tuple[float, float, float]]:
+    """The gravity of a call through a stiffness model: ``value`` as a vector (None: weightless),
+    or for :data:`RECORDED_GRAVITY` the model's ``recorded`` one, else :data:`DEFAULT_GRAVITY`."""
+    if isinstance(value, str):
+        if value != RECORDED_GRAVITY:
+            raise InvalidValueError(
+                f"{name} must be 3 numbers (gx, gy, gz) in m/s², None (weightless) or {RECORDED_GRAVITY!r} "
+                f"(the model's own), got {quote(value)}")
+        return DEFAULT_GRAVITY if recorded is None else recorded
+    return None if value is None else gravity_vector(value, name)
 
 
 def flag(value: Any, name: str) -> bool:

@@ -130,6 +130,7 @@ def vjm_simulate(
     force_max: Optional[float] = None,
     moment_max: Optional[float] = None,
     test_fraction: Optional[float] = None,
+    gravity: Optional[Tuple[float, float, float]] = None,
 ) -> Dict[str, Any]: ...
 def vjm_identify_timed(
     robot: Robot,
@@ -186,6 +187,7 @@ def vjm_identify_model(
     data_file: Optional[str] = None,
     robust_covariance: bool = False,
     allow_outside_limits: bool = False,
+    gravity: Optional[Tuple[float, float, float]] = None,
 ) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
 def vjm_model_file_robot(path: _Path) -> Optional[Tuple[Optional[str], str, str]]: ...
@@ -218,6 +220,8 @@ def vjm_compensate_model_file(
     rotation_tol: float = 1e-9,
     check_limits: bool = True,
     allow_outside_limits: bool = False,
+    gravity: Optional[Tuple[float, float, float]] = None,
+    recorded_gravity: bool = False,
 ) -> Tuple[_F64, _F64, List[str]]: ...
 def vjm_design(
     robot: Robot,
@@ -354,6 +358,8 @@ class StiffnessModel:
     @property
     def labels(self) -> List[str]: ...
     @property
+    def gravity(self) -> Optional[List[float]]: ...
+    @property
     def has_rotations(self) -> bool: ...
     @property
     def rank(self) -> int: ...
@@ -384,4 +390,6 @@ class StiffnessModel:
         rotation_tol: float = 1e-9,
         check_limits: bool = True,
         allow_outside_limits: bool = False,
+        gravity: Optional[Tuple[float, float, float]] = None,
+        recorded_gravity: bool = False,
     ) -> Tuple[_F64, _F64, List[str]]: ...

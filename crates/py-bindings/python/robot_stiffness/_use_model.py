@@ -15,9 +15,9 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import checked
+from ._arguments import DEFAULT_GRAVITY, RECORDED_GRAVITY, ModelGravity, checked, gravity_vector, model_gravity
 from ._arrays import f64
-from ._errors import ArgumentTypeError, ShapeError
+from ._errors import ArgumentTypeError
 
 Array = npt.NDArray[np.float64]
 ModelSpec = Union[str, Sequence[str]]
@@ -158,7 +158,8 @@ def compensate(
     match_orientation: bool = False,
     with_kc: bool = True,
     allow_outside_limits: bool = False,
-    gravity: Optional[Sequence[float]] = None,
+    gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
+    load_only: bool = False,
 ) -> Compensation:
     """Corrected joint targets so that the loaded tip reaches the nominal unloaded tip.
 
@@ -171,20 +172,17 @@ def compensate(
     :meth:`Robot.identify <robot_stiffness.vjm.Robot.identify>` (implausible angles or loads,
     joint angles outside the URDF limits — ``allow_outside_limits=True`` to accept those).
 
-    ``gravity`` (m/s², base frame, e.g. ``(0, 0, -9.80665)``) corrects the tip's sag under the
-    arm's own weight too: the nominal unloaded tip is then the rigid kinematics' pose, and the
-    loaded tip the springs' static equilibrium under the arm's weight, the payload's weight and
-    the wrench (docs/gravity.md; the URDF must give the masses). Default ``None``: the load's
-    deflection only, as before.
+    By default the tip's sag under the arm's own weight is corrected too, under ``gravity``
+    (m/s², base frame; default ``DEFAULT_GRAVITY``, 9.80665 along −z): the nominal tip is then
+    the rigid kinematics' pose, and the loaded tip the springs' static equilibrium under the
+    arm's weight, the payload's weight and the wrench (docs/gravity.md; the URDF must give the
+    masses, an error naming a link without one). ``load_only=True`` (or ``gravity=None``)
+    corrects the load's deflection only, weightless, as before gravity was modelled: for a
+    controller that already corrects the arm's own sag.
     """
     inner = _robot_inner(robot)
     arr, w = _q_and_wrench(q, wrench)
-    g = None
-    if gravity is not None:
-        gv = tuple(float(x) for x in gravity)
-        if len(gv) != 3:
-            raise ShapeError(f"gravity must have 3 components (gx, gy, gz) in m/s², got {len(gv)}")
-        g = (gv[0], gv[1], gv[2])
+    g = None if load_only or gravity is None else gravity_vector(gravity)
     out = _core.vjm_compensate(
         inner, _model(model), f64(compliance, "compliance"), arr, w, _payload(payload),
         bool(match_orientation), bool(with_kc), allow_outside_limits=bool(allow_outside_limits),
@@ -203,15 +201,23 @@ def compensate_with_model_file(
     match_orientation: Optional[bool] = None,
     with_kc: bool = True,
     allow_outside_limits: bool = False,
+    gravity: ModelGravity = RECORDED_GRAVITY,
+    load_only: bool = False,
 ) -> Compensation:
     """:func:`compensate` with the springs and compliances of a saved model file (``identify vjm
     --save``); the file's robot and content hash are checked. ``match_orientation`` defaults to
-    whether the model was identified with rotations."""
+    whether the model was identified with rotations. The sag under the arm's weight is
+    corrected unless ``load_only`` or ``gravity=None``; ``gravity`` defaults to the one the
+    model was identified under (``"recorded"``; standard gravity when the file records none)."""
     inner = _robot_inner(robot)
     arr, w = _q_and_wrench(q, wrench)
+    # The recorded gravity is resolved where the file is read (the core); text other than
+    # "recorded" is refused here, as StiffnessModel.compensate refuses it.
+    recorded = not load_only and isinstance(gravity, str) and model_gravity(gravity, None) is not None
+    g = None if load_only or recorded or gravity is None else gravity_vector(gravity)
     out = _core.vjm_compensate_model_file(
         inner, str(path), arr, w, _payload(payload), match_orientation, bool(with_kc),
-        allow_outside_limits=bool(allow_outside_limits),
+        allow_outside_limits=bool(allow_outside_limits), gravity=g, recorded_gravity=recorded,
     )
     return _compensation(*out)
 

@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import check_path, checked, gravity_vector
+from ._arguments import DEFAULT_GRAVITY, check_path, checked, gravity_vector
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
 from .results import Diagnosis
@@ -194,6 +194,7 @@ def simulate(
     force_max: Optional[float] = None,
     moment_max: Optional[float] = None,
     test_fraction: Optional[float] = None,
+    gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
 ) -> Campaign:
     """Simulate a measurement campaign on ``robot`` from a true model carrying ``effects``.
 
@@ -207,10 +208,18 @@ def simulate(
     * ``{"effect": "joint_backlash", "joint": 2, "lost_motion": 2e-4}`` (rad);
     * ``{"effect": "wrench_bias", "bias": [fx, fy, fz, mx, my, mz]}`` (N, N·m, base frame);
     * ``{"effect": "frame_misalignment", "rotation": [rx, ry, rz]}`` (rad);
-    * ``{"effect": "geometric_nonlinearity"}``.
+    * ``{"effect": "geometric_nonlinearity"}``;
+    * ``{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 0.4}``: the
+      torsion compliance is c·(1 + amplitude·sin q_joint), amplitude in (−1, 1) (outside
+      ``diagnose``'s catalogue: it must say ``unexplained``).
 
     Poses are drawn inside the joint limits away from singularities; forces and moments are
     random; laser-tracker and F/T-sensor noise are added when ``noise``. Same seed, same data.
+
+    ``gravity`` (m/s², base frame; default ``DEFAULT_GRAVITY``, 9.80665 along −z): the campaign
+    is measured under the arm's weight (bodies from the URDF's inertials): each displacement is
+    the tip under load minus the tip unloaded, both at the static equilibrium under gravity.
+    ``None``: a weightless arm (no inertials needed).
     """
     d = _core.vjm_simulate(
         robot._inner,
@@ -223,6 +232,7 @@ def simulate(
         force_max=force_max,
         moment_max=moment_max,
         test_fraction=test_fraction,
+        gravity=None if gravity is None else gravity_vector(gravity),
     )
     return Campaign(
         measurements=Measurements._from_core(d),
@@ -251,7 +261,7 @@ def diagnose(
     force_sigma: Optional[float] = None,
     moment_sigma: Optional[float] = None,
     per_row: bool = True,
-    gravity: Optional[Sequence[float]] = None,
+    gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
 ) -> Diagnosis:
     """Show what the baseline model gets wrong on ``data``, name the cause, extend the model
     and measure the gain on held-out rows.
@@ -269,9 +279,10 @@ def diagnose(
     verdict adds a χ² goodness-of-fit test; not given, a default assumption sets only the relative
     weights and ``unexplained`` rests on the lack-of-fit test, which needs no noise level.
     ``per_row=False`` leaves out the per-row predictions (large campaigns).
-    ``gravity`` (m/s², base frame, e.g. ``DEFAULT_GRAVITY``): the measurements were taken under
-    the arm's weight (bodies from the URDF's inertials), so the springs respond about the
-    weight's equilibrium and the gear candidates see the total torque (docs/gravity.md).
+    ``gravity`` (m/s², base frame; default ``DEFAULT_GRAVITY``, 9.80665 along −z): the
+    measurements were taken under the arm's weight (bodies from the URDF's inertials), so the
+    springs respond about the weight's equilibrium and the gear candidates see the total torque
+    (docs/gravity.md). ``None``: a weightless arm (no inertials needed).
 
     The arrays of ``data`` are read where they are, without a copy, while other Python threads
     run: do not write to them from another thread during the call.

@@ -70,6 +70,12 @@ Examples:
   robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
   robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
 
+Gravity: simulate, identify, diagnose, predict, compensate and demo model the arm's own weight (link
+masses from the URDF's <inertial> elements) under 9.80665 m/s² along −z of the base by default
+(predict and compensate: the gravity the model file records); --gravity GX,GY,GZ for another mount
+(0,0,9.80665 on a ceiling), --no-gravity for a weightless arm. Under gravity a link without
+<inertial> is an error naming it.
+
 Outputs: every output path is checked before the run. No output may be an input (or the URDF a
 model file names); outputs are regular files (a FIFO, device, socket or symbolic link is refused). An existing
 output file is replaced only with --force. A --report/--out folder is created if missing; an
@@ -118,19 +124,23 @@ def _add_robot_args(p: argparse.ArgumentParser) -> None:
 
 
 GRAVITY_HELP = (
-    "the gravity the arm was measured or is used under, m/s² in the base frame (default 0,0,-9.80665: "
-    "a floor-mounted arm whose base z points up; 0,0,9.80665 for a ceiling mount); the links' masses "
-    "come from the URDF's <inertial> elements"
+    "the gravity the arm was measured or is used under, m/s² in the base frame (default {default}; "
+    "0,0,-9.80665 is a floor-mounted arm whose base z points up, 0,0,9.80665 a ceiling mount); the "
+    "links' masses come from the URDF's <inertial> elements"
 )
+GRAVITY_DEFAULT = "0,0,-9.80665"
+#: The default of the commands that read a model file (predict, compensate).
+GRAVITY_DEFAULT_MODEL = "the gravity the model was identified under, 0,0,-9.80665 when it records none"
 
 
-def _add_gravity_args(p: argparse.ArgumentParser) -> None:
+def _add_gravity_args(p: argparse.ArgumentParser, default: str = GRAVITY_DEFAULT) -> None:
     """``--gravity GX,GY,GZ`` / ``--no-gravity``: one pair of flags for every command that models
-    the arm's weight."""
+    the arm's weight (simulate, identify, diagnose, predict, compensate, demo)."""
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--gravity", type=T.gravity, default=None, metavar="GX,GY,GZ", help=GRAVITY_HELP)
+    g.add_argument("--gravity", type=T.gravity, default=None, metavar="GX,GY,GZ",
+                   help=GRAVITY_HELP.format(default=default))
     g.add_argument("--no-gravity", action="store_true",
-                   help="a weightless model (no inertials needed): the measurements were not taken under gravity")
+                   help="a weightless arm (no inertials needed): the arm's own weight is left out")
 
 
 def _gravity(args: argparse.Namespace) -> Optional[Tuple[float, float, float]]:
@@ -141,6 +151,21 @@ def _gravity(args: argparse.Namespace) -> Optional[Tuple[float, float, float]]:
         return None
     given = getattr(args, "gravity", None)
     return DEFAULT_GRAVITY if given is None else given
+
+
+def _model_gravity(args: argparse.Namespace) -> Any:
+    """The gravity of a command that reads a model file: ``--gravity``, None for
+    ``--no-gravity``, else the model's own (``RECORDED_GRAVITY``)."""
+    from ._arguments import RECORDED_GRAVITY
+
+    if args.no_gravity:
+        return None
+    return RECORDED_GRAVITY if args.gravity is None else args.gravity
+
+
+def _gravity_words(g: Optional[Tuple[float, float, float]]) -> str:
+    """``under gravity 0,0,-9.80665 m/s²`` or ``weightless``: what a command's output says."""
+    return "weightless" if g is None else f"under gravity {','.join(f'{v:g}' for v in g)} m/s²"
 
 
 def _robot(args: argparse.Namespace) -> Any:
@@ -157,7 +182,14 @@ def _robot(args: argparse.Namespace) -> Any:
 
 
 #: The Python spelling of an option in a core message → the flag of the command line.
-CLI_NAMES = {"project=True": "--project", "RotationPolicy::Project": "--project"}
+CLI_NAMES = {
+    "project=True": "--project",
+    "RotationPolicy::Project": "--project",
+    # A link without <inertial> while gravity is on (every command that models the weight).
+    "(or turn gravity off)": "(or pass --no-gravity for a weightless arm)",
+    "or turn gravity off": "or pass --no-gravity for a weightless arm",
+    "(load_only=True)": "(--load-only)",
+}
 
 
 def _check_input(path: str, what: str) -> None:
@@ -299,6 +331,7 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
             noise=not args.no_noise,
             force_max=args.force_max,
             moment_max=args.moment_max,
+            gravity=_gravity(args),
         )
     csv_out.write_text(c.csv)
     if truth_out is not None:
@@ -306,7 +339,7 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none (torsional springs only)"
     print(f"wrote {args.out}: {len(c.measurements)} rows ({args.poses} poses × {args.wrenches_per_pose} wrenches), "
-          f"seed {args.seed}, hidden effects: {names}")
+          f"seed {args.seed}, {_gravity_words(_gravity(args))}, hidden effects: {names}")
     return 0
 
 
@@ -352,13 +385,15 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
         data_file=args.data,
         robust_covariance=save_out is not None,
         allow_outside_limits=args.allow_outside_limits,
+        gravity=_gravity(args),
     )
     doc = res.to_dict()
     if json_out is not None:
         json_out.write_text(_json_text(doc))
     cli_model.write_model(save_out, res)
     out.commit()
-    print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements")
+    print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements "
+          f"({_gravity_words(_gravity(args))})")
     for label, c, s, ok in zip(res.labels, res.compliance, res.stderr, res.identifiable):
         if ok:
             print(f"  {label:>5}  {c: .4e} ± {s:.1e} rad/(N·m)")
@@ -546,7 +581,9 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     files = ["campaign.csv", "truth.json", "diagnosis.json"] + [f"report/{f}" for f in REPORT_FILES]
     staged = out.directory(directory, force=args.force, flag="--out", expected=files).path
     robot = Robot.bundled()
-    campaign = in_worker(simulate, robot, DEMO_EFFECTS, n_poses=40, wrenches_per_pose=4, seed=args.seed)
+    gravity = _gravity(args)
+    campaign = in_worker(simulate, robot, DEMO_EFFECTS, n_poses=40, wrenches_per_pose=4, seed=args.seed,
+                         gravity=gravity)
     result = _diagnose(robot, campaign.measurements, args)
     study = in_worker(seed_study, robot, seed=args.seed)
     (staged / "campaign.csv").write_text(campaign.csv, encoding="utf-8")
@@ -560,8 +597,8 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     hidden = ", ".join(
         f"{e['effect']} at joint {e['joint']} about {e['axis']} ({e['compliance']:.0e} rad/(N·m))" for e in DEMO_EFFECTS
     )
-    print(f"Simulated {len(campaign.measurements)} measurements (40 poses × 4 wrenches, laser-tracker and F/T noise) "
-          f"on the bundled Franka Panda; hidden in the truth: {hidden}.")
+    print(f"Simulated {len(campaign.measurements)} measurements (40 poses × 4 wrenches, laser-tracker and F/T noise, "
+          f"{_gravity_words(gravity)}) on the bundled Franka Panda; hidden in the truth: {hidden}.")
     for line in story(result):
         print(line)
     for line in _seed_study_lines(study):
@@ -607,8 +644,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="a serial arm",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Simulate loaded measurements of a serial arm: random poses inside the joint limits, random "
-        "wrenches at the tip, laser-tracker and F/T-sensor noise. Writes a VJM measurement file with "
-        "pose and set (train/test) columns.",
+        "wrenches at the tip, laser-tracker and F/T-sensor noise, under the arm's own weight (tip under load − tip "
+        "unloaded, both at the static equilibrium under gravity; --no-gravity for a weightless arm). Writes a VJM "
+        "measurement file with pose and set (train/test) columns.",
         epilog="""\
 effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units):
   joint_tilt:joint=3,axis=x,compliance=5e-5          tilting compliance, rad/(N·m)
@@ -622,6 +660,7 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
   pose_drift:sigma=5e-5                               an independent offset per pose, m
   tool_axial_compliance:compliance=1e-4               tool compliant along its axis, m/N
   sensor_crosstalk:coupling=0.05                      F/T cross-axis sensitivity (0.05 = 5 %)
+  joint_torsion_angle_dependent:joint=2,amplitude=0.4 torsion compliance c·(1 + amplitude·sin q_joint)
 """,
     )
     sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")
@@ -640,6 +679,7 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
                     help="random seed, 0..2**64-1; same seed, same file (default 0)")
     sv.add_argument("--no-noise", action="store_true", help="no instrument noise")
     sv.add_argument("--truth", metavar="TRUTH.json", help="also write the hidden true model as JSON")
+    _add_gravity_args(sv)
     sv.add_argument("--force", action="store_true", help=FORCE_HELP)
     sv.set_defaults(func=cmd_simulate)
     sc = sim_sub.add_parser(
@@ -675,7 +715,9 @@ effects (--effect NAME:key=value,...):
         "vjm",
         help="joint compliances of a serial arm",
         description="Rank-revealing identification of virtual-joint compliances (rad/(N·m)). Parameters that the "
-        "data cannot identify are reported as null with the identifiable combinations.",
+        "data cannot identify are reported as null with the identifiable combinations. The displacements are "
+        "fitted about the equilibrium under the arm's own weight (--gravity; --no-gravity: the weightless, linear "
+        "fit); --save records the gravity in the model file.",
     )
     iv.add_argument("data", metavar="DATA.csv", help="VJM measurement file")
     _add_robot_args(iv)
@@ -689,6 +731,7 @@ effects (--effect NAME:key=value,...):
     iv.add_argument("--method", choices=("auto", "normal_equations", "qr"), default="auto",
                     help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")
     iv.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
+    _add_gravity_args(iv)
     cli_model.add_save_option(iv)
     iv.add_argument("--force", action="store_true", help=FORCE_HELP)
     iv.set_defaults(func=cmd_identify_vjm)
@@ -766,8 +809,8 @@ effects (--effect NAME:key=value,...):
     demo = sub.add_parser(
         "demo",
         help="simulate → diagnose → report on the bundled arm (< 1 min)",
-        description="Simulate a campaign on the bundled Franka Panda with a hidden tilting compliance, diagnose "
-        "it, write a report, and print the story.",
+        description="Simulate a campaign on the bundled Franka Panda with a hidden tilting compliance under "
+        "standard gravity, diagnose it under the same gravity, write a report, and print the story.",
     )
     demo.add_argument("--out", default="robot-stiffness-demo", metavar="DIR",
                       help="output folder (default ./robot-stiffness-demo); created if missing, an "
@@ -775,6 +818,7 @@ effects (--effect NAME:key=value,...):
     demo.add_argument("--force", action="store_true", help=FORCE_HELP)
     demo.add_argument("--seed", type=T.seed, default=1, help="campaign seed (default 1)")
     demo.add_argument("--quiet", action="store_true", help="no progress display")
+    _add_gravity_args(demo)
     demo.set_defaults(func=cmd_demo, baseline=None, fdr=None, split_seed=None)
     from .cli_use import register as register_use_commands  # design, compensate
 
@@ -840,7 +884,8 @@ def _run(args: argparse.Namespace) -> int:
         try:
             for path, what in cli_model.named_inputs(args):  # the URDF and data a model file names
                 out.add_input(path, what)
-            return int(args.func(args, out))
+            with reworded(CLI_NAMES):  # the core's Python terms as the command line's flags
+                return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:
             with signals_deferred():
                 code, line = _outcome(e, out)

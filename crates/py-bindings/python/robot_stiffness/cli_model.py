@@ -34,6 +34,11 @@ deviations are those of the predicted true deflection (parameter uncertainty), n
 measurement. Rotations are empty when the model was identified without rotations. A row with
 identified=false excites a direction the identification data could not see: its values are a
 minimum-norm guess and its standard deviations are empty.
+Then, unless --no-gravity, the tip's static sag under the arm's own weight (and the --payload's)
+relative to the rigid forward kinematics: sag_dx,sag_dy,sag_dz (m, base frame), their standard
+deviations sag_sd_dx,sag_sd_dy,sag_sd_dz and sag_identified (as identified, for the load the
+weight puts on the springs). The gravity is --gravity, else the one the model file records
+(identify vjm --save), else 9.80665 m/s² along −z; the URDF must give the link masses.
 
 The robot defaults to the one recorded in the model file (its URDF path, base and tip); --urdf,
 --base, --tip override it. Either way the model file is checked against it (URDF SHA-256, links,
@@ -107,6 +112,7 @@ def add_commands(sub: Any, cli: Any, force_help: str) -> None:
                     help="accept joint angles outside the URDF limits (refused by default, as by identify: "
                     "degrees or a wrong joint order?)")
     _add_robot_args(pv)
+    cli._add_gravity_args(pv, cli.GRAVITY_DEFAULT_MODEL)
     pv.set_defaults(func=cmd_predict_vjm)
 
 
@@ -187,11 +193,18 @@ def _cell(v: float) -> str:
     return "" if not math.isfinite(v) else repr(float(v))
 
 
-def predictions_csv(n_joints: int, q: np.ndarray, pred: Any) -> str:
-    """The PRED.csv text (see ``predict vjm --help``)."""
+#: The sag columns of PRED.csv (``predict vjm`` without ``--no-gravity``).
+SAG_COLUMNS = ["sag_dx", "sag_dy", "sag_dz", "sag_sd_dx", "sag_sd_dy", "sag_sd_dz", "sag_identified"]
+
+
+def predictions_csv(n_joints: int, q: np.ndarray, pred: Any, sag: Any = None) -> str:
+    """The PRED.csv text (see ``predict vjm --help``); with ``sag`` (a Prediction of
+    ``StiffnessModel.predict_sag``) its :data:`SAG_COLUMNS`."""
     header = [f"q{j}" for j in range(1, n_joints + 1)]
     header += ["fx", "fy", "fz", "mx", "my", "mz", "dx", "dy", "dz", "rx", "ry", "rz"]
     header += ["sdx", "sdy", "sdz", "srx", "sry", "srz", "identified"]
+    if sag is not None:
+        header += SAG_COLUMNS
     lines = [",".join(header)]
     for i in range(q.shape[0]):
         cells = [_cell(v) for v in q[i]]
@@ -199,6 +212,10 @@ def predictions_csv(n_joints: int, q: np.ndarray, pred: Any) -> str:
         cells += [_cell(v) for v in pred.deflection[i]]
         cells += [_cell(v) for v in pred.stddev[i]]
         cells.append("true" if pred.identified[i] else "false")
+        if sag is not None:
+            cells += [_cell(v) for v in sag.deflection[i, :3]]
+            cells += [_cell(v) for v in sag.stddev[i, :3]]
+            cells.append("true" if sag.identified[i] else "false")
         lines.append(",".join(cells))
     return "\n".join(lines) + "\n"
 
@@ -223,7 +240,10 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     with _CLI._data_file(args.data), reworded(PAYLOAD_NAMES):
         pred = in_worker(model.predict, q, wrench=wrench, payload=payload,
                          allow_outside_limits=args.allow_outside_limits)
-    staged.write_text(predictions_csv(robot.n_joints, q, pred))
+        gravity = _CLI._model_gravity(args)
+        sag = None if gravity is None else in_worker(
+            model.predict_sag, q, gravity=gravity, payload=payload, allow_outside_limits=args.allow_outside_limits)
+    staged.write_text(predictions_csv(robot.n_joints, q, pred, sag))
     out.commit()
     n = q.shape[0]
     bad = np.flatnonzero(~pred.identified)
@@ -232,6 +252,9 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
         f"wrote {args.out}: {n} rows predicted with {args.model_file} "
         f"({len(model.labels)} springs, rank {model.rank}); largest |d| {np.max(d) * 1e3:.3f} mm"
     )
+    if sag is not None:
+        s = np.linalg.norm(sag.deflection[:, :3], axis=1)
+        print(f"sag under the arm's own weight (sag_dx..sag_dz): largest |sag| {np.max(s) * 1e3:.3f} mm")
     if not model.has_rotations:
         print("rotations unavailable: the model was identified without rotations (rx..rz, srx..srz empty)")
     if bad.size:

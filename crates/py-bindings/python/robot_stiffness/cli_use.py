@@ -56,10 +56,12 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     com_sub.required = True
     cv = com_sub.add_parser(
         "vjm",
-        help="joint targets so that the loaded tip reaches the nominal unloaded tip",
+        help="joint targets so that the loaded tip reaches the nominal tip",
         description="For each row of TRAJ.csv (q1..qn nominal targets; fx..mz the expected load, or --payload) "
         "write corrected targets q1..qn, the predicted remaining error and a status (converged, "
-        "outside_limits, near_singular, not_converged, unstable).",
+        "outside_limits, near_singular, not_converged, unstable). By default the tip's sag under the arm's "
+        "own weight is corrected with the load's deflection, so that the tip reaches the rigid kinematics' "
+        "pose (the URDF must give the link masses); --load-only corrects the load's deflection only.",
     )
     cv.add_argument("model_file", metavar="MODEL.json", help="model file written by identify vjm --save")
     cv.add_argument("data", metavar="TRAJ.csv", help="trajectory: q1..qn and fx,fy,fz,mx,my,mz (or --payload)")
@@ -69,6 +71,12 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     cv.add_argument("--position-only", action="store_true",
                     help="match the position only (default: also the orientation when the model has rotations)")
     cv.add_argument("--no-kc", action="store_true", help="leave out the complementary stiffness K_C")
+    from .cli import GRAVITY_DEFAULT_MODEL, _add_gravity_args
+
+    _add_gravity_args(cv, GRAVITY_DEFAULT_MODEL)
+    cv.add_argument("--load-only", action="store_true",
+                    help="correct the load's deflection only (weightless, the nominal tip is the unloaded tip), "
+                    "not the arm's own sag: for a controller that already corrects the sag")
     cv.add_argument("--allow-outside-limits", action="store_true",
                     help="accept nominal joint angles outside the URDF limits (refused by default, as by identify: "
                     "degrees or a wrong joint order?)")
@@ -171,7 +179,8 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
         comp = in_worker(
             compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
             match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
-            allow_outside_limits=args.allow_outside_limits,
+            allow_outside_limits=args.allow_outside_limits, gravity=cli_model._CLI._model_gravity(args),
+            load_only=args.load_only,
         )
     comp_out.write_text(_comp_csv(q, comp))
     if plot_out is not None:
@@ -184,7 +193,8 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     before = float(np.mean(comp.deflection)) * 1e3
     after = float(np.max(comp.position_error[ok])) * 1e3 if ok.any() else math.nan
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
-    print(f"Compensated {len(comp.status)} rows: {summary}. Mean predicted deflection {before:.4f} mm; "
+    what = "the load's deflection only" if args.load_only or args.no_gravity else "own weight + load"
+    print(f"Compensated {len(comp.status)} rows ({what}): {summary}. Mean predicted deflection {before:.4f} mm; "
           f"largest predicted remaining error of the converged rows {after:.2e} mm. Written {args.out}"
           + (f" and {args.plot}" if args.plot else "") + ".")
     bad = [i for i, s in enumerate(comp.status) if s != "converged"]

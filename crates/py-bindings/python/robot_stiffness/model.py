@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import DEFAULT_GRAVITY, checked, gravity_vector, real
+from ._arguments import RECORDED_GRAVITY, ModelGravity, checked, model_gravity, real
 from ._arrays import f64
 from ._errors import InvalidValueError
 from ._outputs import Outputs
@@ -183,6 +183,15 @@ class StiffnessModel:
         return int(self._inner.rank)
 
     @property
+    def gravity(self) -> Optional[Tuple[float, float, float]]:
+        """The gravity the model was identified under, ``(gx, gy, gz)`` m/s² in the base frame
+        (``Robot.identify(gravity=...)``); None for a weightless model and for files written
+        before gravity was recorded. The default gravity of :meth:`predict_sag` and
+        :meth:`compensate` (standard gravity when None)."""
+        g = self._inner.gravity
+        return None if g is None else (float(g[0]), float(g[1]), float(g[2]))
+
+    @property
     def has_rotations(self) -> bool:
         """Whether the model predicts rotations (identified with measured rotations)."""
         return bool(self._inner.has_rotations)
@@ -241,7 +250,7 @@ class StiffnessModel:
     def predict_sag(
         self,
         q: Any,
-        gravity: Sequence[float] = DEFAULT_GRAVITY,
+        gravity: ModelGravity = RECORDED_GRAVITY,
         payload: Optional[Payload] = None,
         allow_outside_limits: bool = False,
     ) -> Prediction:
@@ -250,7 +259,8 @@ class StiffnessModel:
         removes (docs/gravity.md).
 
         ``q``: joint angles in rad, (n,) or (N, n); ``gravity`` in m/s², base frame (default
-        9.80665 along −z); ``payload`` as for :meth:`predict`. The link masses come from the
+        ``"recorded"``: :attr:`gravity`, the one the model was identified under, or 9.80665
+        along −z when it records none); ``payload`` as for :meth:`predict`. The link masses come from the
         robot's URDF inertials. ``deflection`` is the exact static equilibrium with the model's
         springs (its first-order part ``J C τ_g`` when the stored compliances are not all ≥ 0,
         as for a model with aliased springs); ``stddev``, ``identified`` and ``excitation`` are
@@ -261,7 +271,10 @@ class StiffnessModel:
         if arr.ndim == 1:
             arr = arr.reshape(1, -1)
         p = None if payload is None else _payload(payload)
-        d = self._inner.predict_sag(arr, gravity_vector(gravity), payload=p,
+        g = model_gravity(gravity, self.gravity)
+        if g is None:
+            raise InvalidValueError("predict_sag() needs a gravity vector: a weightless arm does not sag")
+        d = self._inner.predict_sag(arr, g, payload=p,
                                     allow_outside_limits=bool(allow_outside_limits))
         return Prediction(
             deflection=d["deflection"],
@@ -280,6 +293,8 @@ class StiffnessModel:
         match_orientation: Optional[bool] = None,
         with_kc: bool = True,
         allow_outside_limits: bool = False,
+        gravity: ModelGravity = RECORDED_GRAVITY,
+        load_only: bool = False,
     ) -> Compensation:
         """Corrected joint targets so that the tip, loaded, reaches where the nominal targets
         put it unloaded — :func:`robot_stiffness.vjm.compensate` with this model's springs and
@@ -289,14 +304,23 @@ class StiffnessModel:
         ``match_orientation`` defaults to whether the model was identified with rotations;
         ``with_kc`` includes the complementary stiffness K_C. The inputs get the checks of
         :meth:`predict` (``allow_outside_limits``). See ``docs/use-the-model.md``.
+
+        By default the sag under the arm's own weight is corrected too (the nominal tip is the
+        rigid kinematics' pose; the loaded tip the springs' static equilibrium under ``gravity``,
+        the payload's weight and the wrench), with ``gravity`` as for :meth:`predict_sag`; the
+        URDF must give the link masses. ``load_only=True`` (or ``gravity=None``) corrects the
+        load's deflection only, weightless, as before gravity was modelled: for a controller
+        that already corrects the arm's own sag.
         """
         arr, w = _q_and_wrench(q, wrench)
         p = None
         if payload is not None:
             mass, cx, cy, cz = _payload(payload)
             p = (mass, [cx, cy, cz])
+        g = None if load_only else model_gravity(gravity, self.gravity)
         out = self._inner.compensate(arr, wrench=w, payload=p, match_orientation=match_orientation,
-                                     with_kc=bool(with_kc), allow_outside_limits=bool(allow_outside_limits))
+                                     with_kc=bool(with_kc), allow_outside_limits=bool(allow_outside_limits),
+                                     gravity=g)
         return _compensation(*out)
 
     def __repr__(self) -> str:

@@ -537,8 +537,9 @@ class ChiSquareTest(_Result):
 @dataclass(frozen=True, eq=False)
 class BlockTest(_Result):
     """One block of the lack-of-fit alternative (``linear_in_wrench``, ``tool_frame``,
-    ``pose_offsets``, ``springs``) tested alone against the extended model, and what structure
-    in it means."""
+    ``pose_offsets``, ``pose_compliance``, ``springs``) tested alone against the extended
+    model, and what structure in it means. ``pose_compliance`` (per pose, its own offsets and
+    its own scale of each joint's torsion response) also decides ``unexplained``."""
 
     block: str
     f_test: FTest

@@ -32,7 +32,7 @@ import math
 import os
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -40,7 +40,14 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import DEFAULT_GRAVITY, checked, gravity_vector
 from ._arrays import f64
-from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, SuspiciousDataWarning
+from ._errors import (
+    ArgumentTypeError,
+    IdentificationError,
+    InvalidValueError,
+    ShapeError,
+    StiffnessError,
+    SuspiciousDataWarning,
+)
 from ._vjm_data import (
     Campaign,
     Diagnosis,
@@ -74,6 +81,7 @@ from ._tables import (
 )
 
 __all__ = [
+    "DEFAULT_GRAVITY",
     "Robot",
     "Identification",
     "IdentificationPartial",
@@ -199,6 +207,7 @@ class _CoreIdentification:
     condition_number: Optional[float]
     method: str
     warnings: List[str] = field(default_factory=list)
+    gravity_iterations: int = 0
 
 
 def _json_combination(c: _CoreCombination) -> Dict[str, object]:
@@ -226,6 +235,7 @@ class Identification:
     :class:`~robot_stiffness.model.StiffnessModel` to predict with (or :meth:`save`).
     ``warnings`` holds the messages of the :class:`~robot_stiffness.SuspiciousDataWarning`
     issued by :meth:`Robot.identify` (outlier rows, implausible or negative compliances).
+    ``gravity_iterations``: the refits about the sagged equilibrium under gravity (0 weightless).
     """
 
     model: str
@@ -246,6 +256,7 @@ class Identification:
     parameters: List[IdentifiedParameter] = field(default_factory=list, repr=False)
     sigma2: Optional[float] = field(default=None, repr=False)
     warnings: Tuple[str, ...] = field(default=(), repr=False)
+    gravity_iterations: int = field(default=0, repr=False)
     stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
     _combinations_json: List[Dict[str, object]] = field(default_factory=list, repr=False, compare=False)
 
@@ -296,6 +307,7 @@ class Identification:
             parameters=core.parameters,
             sigma2=core.sigma2,
             warnings=tuple(core.warnings),
+            gravity_iterations=core.gravity_iterations,
             stiffness_model=model,
             _combinations_json=[_json_combination(c) for c in core.combinations],
         )
@@ -327,6 +339,7 @@ class Identification:
             "residual_rms": self.residual_rms,
             "condition_number": self.condition_number if math.isfinite(self.condition_number) else None,
             "method": self.method,
+            "gravity_iterations": self.gravity_iterations,
             "warnings": list(self.warnings),
         }
 
@@ -345,6 +358,24 @@ def _gravity_args(
             raise ShapeError(f"payload centre must have 3 components (cx, cy, cz) in m, got {len(c)}")
         p = (float(mass), (c[0], c[1], c[2]))
     return (g[0], g[1], g[2]), p
+
+
+def _why_gravity_failed(error: IdentificationError, run: Callable[[Optional[Sequence[float]]], Tuple[Any, Any]],
+                        gravity: Optional[Sequence[float]]) -> IdentificationError:
+    """The refits under gravity diverge on data in wrong units (kN, mm: compliances far too
+    large to hold the arm) before the screening can say so: the weightless fit's findings
+    (``run(None)``, only on that failure) are added to the message."""
+    if gravity is None or "under gravity did not settle" not in str(error):
+        return error
+    try:
+        core, _ = run(None)
+    except StiffnessError:
+        return error
+    listed = core.get("warnings")
+    found = [str(w) for w in listed] if isinstance(listed, list) else []
+    if not found:
+        return error
+    return IdentificationError(f"{error}; the weightless fit of these data warns: {' | '.join(found)}")
 
 
 class Robot:
@@ -537,6 +568,7 @@ class Robot:
         data_file: Optional[PathLike] = None,
         robust_covariance: bool = False,
         allow_outside_limits: bool = False,
+        gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
     ) -> Identification:
         """Rank-revealing weighted least-squares identification of the spring compliances.
 
@@ -561,6 +593,12 @@ class Robot:
         (implausible units or magnitudes, no load, no displacement, joint angles outside the
         URDF limits — ``allow_outside_limits=True`` to accept those).
 
+        ``gravity`` (m/s², base frame; default :data:`DEFAULT_GRAVITY`, 9.80665 along −z): the
+        measurements were taken under the arm's weight (bodies from the URDF's inertials, an
+        error naming a link without one), so each displacement (loaded − unloaded) is fitted
+        about the sagged equilibrium; the model records it (``StiffnessModel.gravity``).
+        ``None``: a weightless arm, the linear fit (no inertials needed).
+
         Parameters that cannot be identified from these data get NaN (never a number), and the
         identifiable combinations are reported. Raises :class:`~robot_stiffness.ShapeError`
         naming the array and dimension, :class:`~robot_stiffness.InvalidValueError` for NaN,
@@ -574,10 +612,15 @@ class Robot:
             "identify", q, wrench, displacement, rotation)
         q_arr = f64(q, "q")
         # A table's cells are named by column and row; arrays keep the core's array/row/column.
+        def run(g: Optional[Sequence[float]]) -> Tuple[Dict[str, "_core._CoreValue"], Any]:
+            return self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma, noise_scale_known,
+                                  nonnegative, dense, method, data_file, robust_covariance, allow_outside_limits, g)
+
         with blame_rows() if from_table else contextlib.nullcontext():
-            core, core_model = self._identify(q_arr, wrench, displacement, model, rotation, noise_sigma,
-                                              noise_scale_known, nonnegative, dense, method, data_file,
-                                              robust_covariance, allow_outside_limits)
+            try:
+                core, core_model = run(gravity)
+            except IdentificationError as e:
+                raise _why_gravity_failed(e, run, gravity) from None
         result = Identification._from_core(core, StiffnessModel(core_model, self))
         for message in result.warnings:
             # stacklevel: this method, its @checked wrapper, the caller.
@@ -616,14 +659,27 @@ class Robot:
         noise_scale_known: bool = False,
         nonnegative: bool = False,
         allow_outside_limits: bool = False,
+        gravity: Optional[Sequence[float]] = None,
     ) -> IdentificationPartial:
         """The identification statistics of these measurements, to be merged with those of the
         campaign's other parts (:meth:`IdentificationPartial.merge`) and solved once
         (:meth:`IdentificationPartial.finish`): for campaigns split across processes or
         machines (``docs/fleet.md``). Same inputs, units and checks as :meth:`identify`; the
         statistic is the streaming QR factor, so the finished result equals
-        ``identify(..., method="qr")`` on all the rows to rounding.
+        ``identify(..., method="qr", gravity=None)`` on all the rows to rounding.
+
+        Weightless only: the statistic is that of the linear problem, and under gravity the
+        design depends on the compliances (:meth:`identify` refits about the sagged
+        equilibrium). So ``gravity`` must be ``None`` (its default here, unlike every other
+        call): any other value is an :class:`~robot_stiffness.InvalidValueError`; identify
+        measurements taken under gravity with :meth:`identify` on all the rows.
         """
+        if gravity is not None:
+            raise InvalidValueError(
+                "identify_partial() is weightless only (the partial statistic is the linear problem; under "
+                "gravity the design depends on the compliances): pass gravity=None, or identify all the rows "
+                f"with Robot.identify(gravity=...); got gravity={gravity!r}"
+            )
         from_table, q, wrench, displacement, rotation = self._measurement_arrays(
             "identify_partial", q, wrench, displacement, rotation)
         with blame_rows() if from_table else contextlib.nullcontext():
@@ -648,8 +704,8 @@ class Robot:
 
     def _identify(self, q_arr: Array, wrench: Any, displacement: Any, model: ModelSpec, rotation: Any,
                   noise_sigma: Any, noise_scale_known: bool, nonnegative: bool, dense: bool, method: str,
-                  data_file: Any, robust_covariance: bool,
-                  allow_outside_limits: bool = False) -> Tuple[Dict[str, "_core._CoreValue"], Any]:
+                  data_file: Any, robust_covariance: bool, allow_outside_limits: bool = False,
+                  gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY) -> Tuple[Dict[str, "_core._CoreValue"], Any]:
         # One call identifies and builds the stiffness model from the same arrays.
         core, core_model = _core.vjm_identify_model(
             self._inner,
@@ -666,6 +722,7 @@ class Robot:
             data_file=None if data_file is None else os.fspath(data_file),
             robust_covariance=bool(robust_covariance),
             allow_outside_limits=bool(allow_outside_limits),
+            gravity=None if gravity is None else gravity_vector(gravity),
         )
         return core, core_model
 

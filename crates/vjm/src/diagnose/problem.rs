@@ -441,8 +441,10 @@ impl<'a> VjmProblem<'a> {
     ) -> Result<PartOut, Cancelled> {
         let p = self.ncols();
         let mut acc = CompressedAccumulator::new(p);
-        let mut runs = extras.within.map(|sel| WithinRuns::new(sel.len()));
         let n_joints = self.chain.n_joints();
+        let mut runs = extras
+            .within
+            .map(|sel| WithinRuns::new(sel.len(), n_joints));
         let mut torque_sq = vec![0.0; if extras.torque_squares { n_joints } else { 0 }];
         // The design's columns, and the within-pose selection's (which may name lack-of-fit
         // blocks, after y).
@@ -468,7 +470,12 @@ impl<'a> VjmProblem<'a> {
             }
             if set == RowSet::Train {
                 if let (Some(runs), Some(sel)) = (&mut runs, extras.within) {
-                    runs.push(self.groups[i], w, sel.iter().map(|&c| z[c]));
+                    runs.push(
+                        self.groups[i],
+                        w,
+                        sel.iter().map(|&c| z[c]),
+                        (0..n_joints).map(|j| z[3 * j]),
+                    );
                 }
                 for (j, sq) in torque_sq.iter_mut().enumerate() {
                     // The gear's knots sit in the range of the total torque, preload included.
@@ -875,10 +882,44 @@ pub struct WithinPose {
     pub plain: stiffness_core::lsq::TriangularFactor,
     /// Offsets projected out: 3 per run with a non-singular `M`.
     pub n_offsets: usize,
+    /// R of the training design with each run's offsets **and** its own scale of every joint's
+    /// torsion response projected out (the `pose_compliance` block, see `WithinRuns::flush`).
+    pub pose_compliance: stiffness_core::lsq::TriangularFactor,
+    /// Parameters that projection took: per run the rank of its local columns.
+    pub n_local: usize,
 }
 
 /// Longest run of rows given one offset.
 pub const MAX_RUN: usize = 4096;
+
+impl WithinPose {
+    /// The columns of `cols` (the factor's numbering) that [`WithinPose::pose_compliance`]'s
+    /// projection leaves in the data: those in the data before it (the engine's zero-column
+    /// rule on the unprojected columns, read from [`WithinPose::plain`]) whose projected norm
+    /// exceeds the engine's `RANK_TOL` of their unprojected norm. The model's torsion springs
+    /// are in every run's local span: projected, they are rounding, and the zero-column rule
+    /// applied to the projected design, relative to its own largest column, would count them
+    /// when every column given is rounding (a torsion-only baseline).
+    pub fn pose_compliance_columns(&self, cols: &[usize]) -> Vec<usize> {
+        use stiffness_core::engine::basis::{RANK_TOL, ZERO_COLUMN_RTOL};
+        let norm = |f: &stiffness_core::lsq::TriangularFactor, k: usize| -> f64 {
+            let p = f.ncols();
+            (0..p).map(|i| f.r()[i * p + k].powi(2)).sum::<f64>().sqrt()
+        };
+        let zero = ZERO_COLUMN_RTOL
+            * cols
+                .iter()
+                .map(|&k| norm(&self.plain, k))
+                .fold(0.0, f64::max);
+        cols.iter()
+            .copied()
+            .filter(|&k| {
+                let plain = norm(&self.plain, k);
+                plain > zero && norm(&self.pose_compliance, k) > RANK_TOL * plain
+            })
+            .collect()
+    }
+}
 
 impl VjmProblem<'_> {
     /// The [`WithinPose`] factor at `lin` over the columns `cols` of the layout (in that
@@ -915,9 +956,15 @@ impl VjmProblem<'_> {
         for &c in sel {
             want[c] = true;
         }
-        let mut runs = WithinRuns::new(sel.len());
+        let n = self.chain.n_joints();
+        let mut runs = WithinRuns::new(sel.len(), n);
         self.for_each_train_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
-            runs.push(self.groups[i], w, sel.iter().map(|&c| whiten(w, &cols[c])));
+            runs.push(
+                self.groups[i],
+                w,
+                sel.iter().map(|&c| whiten(w, &cols[c])),
+                (0..n).map(|j| whiten(w, &cols[3 * j])),
+            );
         })?;
         Ok(runs)
     }
@@ -944,11 +991,25 @@ struct WithinRuns {
     /// Scratch of a flush, p each: `S = Σ Wᵢᵀ Zᵢ` (then `M⁻¹ S`) and `L⁻¹ S`.
     s: Vec<Vector3<f64>>,
     shares: Vec<Vector3<f64>>,
+    /// The rows with each run's offsets and torsion scales projected out
+    /// ([`WithinPose::pose_compliance`]), and the local ranks projected.
+    local_acc: stiffness_core::lsq::TriangularAccumulator,
+    n_local: usize,
+    /// Joints, and the current run's whitened torsion columns `Wᵢ J_t[:, 3j] τ_3j` (n per row).
+    n_joints: usize,
+    ls: Vec<Vector3<f64>>,
+    /// Scratch of the local projection: the run's columns, p × 3·rows.
+    proj: Vec<f64>,
 }
 
 impl WithinRuns {
-    fn new(p: usize) -> Self {
+    fn new(p: usize, n_joints: usize) -> Self {
         Self {
+            local_acc: stiffness_core::lsq::TriangularAccumulator::new(p),
+            n_local: 0,
+            n_joints,
+            ls: Vec::new(),
+            proj: Vec::new(),
             acc: stiffness_core::lsq::TriangularAccumulator::new(p),
             offsets: stiffness_core::lsq::TriangularAccumulator::new(p),
             rows: 0,
@@ -963,14 +1024,75 @@ impl WithinRuns {
         }
     }
 
-    /// A training row of pose `group` with whitening `w` and whitened columns `z` (p).
-    fn push(&mut self, group: usize, w: &Matrix3<f64>, z: impl Iterator<Item = Vector3<f64>>) {
+    /// A training row of pose `group` with whitening `w`, whitened columns `z` (p) and
+    /// whitened torsion columns `torsion` (one per joint).
+    fn push(
+        &mut self,
+        group: usize,
+        w: &Matrix3<f64>,
+        z: impl Iterator<Item = Vector3<f64>>,
+        torsion: impl Iterator<Item = Vector3<f64>>,
+    ) {
         if group != self.group || self.ws.len() >= MAX_RUN {
             self.flush();
             self.group = group;
         }
         self.ws.push(*w);
         self.zs.extend(z);
+        self.ls.extend(torsion);
+    }
+
+    /// The `pose_compliance` projection of the current run: its rows `Zᵢ` projected off the
+    /// span of its local columns — the three offsets `Wᵢ e_k` and every joint's torsion
+    /// response `Wᵢ J_t[:, 3j] τ_3j`, i.e. a free offset and a free scale of each joint's
+    /// torsion compliance for this run alone — and folded. [`WithinRuns::flush`]'s `M⁻¹ S`
+    /// generalised from the 3×3 `M` to the (3+n)×(3+n) Gram matrix of the local columns, which
+    /// may be singular: a run of one wrench (3 rows) carries its offsets only, a joint whose
+    /// torsion does not move the tip (an axis through the tip point) carries nothing. The rank
+    /// is decided by the engine's own policy (`stiffness_core::engine::basis`: a column below
+    /// 10⁻¹² of the largest local column is not in the data, a column within 10⁻⁷ of the span
+    /// of those before it adds nothing), on the explicit local columns (3·rows long,
+    /// orthonormalised twice by Gram–Schmidt) rather than on their Gram matrix, whose
+    /// eigenvalues would square the condition number. Offsets go first, so that a run keeps
+    /// its offsets and gets the torsion scales it can carry; the ranks add up to `n_local`.
+    fn flush_local(&mut self) {
+        let (p, n, rows) = (self.p, self.n_joints, self.ws.len());
+        let len = 3 * rows;
+        let mut local: Vec<Vec<f64>> = Vec::with_capacity(3 + n);
+        for k in 0..3 {
+            local.push(
+                self.ws
+                    .iter()
+                    .flat_map(|w| [w[(0, k)], w[(1, k)], w[(2, k)]])
+                    .collect(),
+            );
+        }
+        for j in 0..n {
+            local.push(
+                self.ls
+                    .iter()
+                    .skip(j)
+                    .step_by(n.max(1))
+                    .flat_map(|v| [v.x, v.y, v.z])
+                    .collect(),
+            );
+        }
+        let basis = stiffness_core::engine::basis::Basis::of_design(&local);
+        self.n_local += basis.rank();
+        self.proj.clear();
+        self.proj.resize(p * len, 0.0);
+        for (k, col) in self.proj.chunks_exact_mut(len).enumerate() {
+            for (i, z) in self.zs.chunks_exact(p).enumerate() {
+                col[3 * i..3 * i + 3].copy_from_slice(z[k].as_slice());
+            }
+            basis.project_out(col);
+        }
+        for r in 0..len {
+            for (k, dst) in self.zrow.iter_mut().enumerate() {
+                *dst = self.proj[k * len + r];
+            }
+            self.local_acc.push_row_unchecked(&self.zrow);
+        }
     }
 
     /// Projects the run's offset out of its rows (`Zᵢ − Wᵢ M⁻¹ S`) and folds them. The
@@ -983,6 +1105,7 @@ impl WithinRuns {
             return;
         }
         let p = self.p;
+        self.flush_local();
         self.rows += 3 * self.ws.len();
         let m: Matrix3<f64> = self.ws.iter().map(|w| w.transpose() * w).sum();
         let offset = m
@@ -1028,6 +1151,7 @@ impl WithinRuns {
         }
         self.ws.clear();
         self.zs.clear();
+        self.ls.clear();
     }
 
     /// Adds another part's rows (later rows of the file).
@@ -1040,8 +1164,12 @@ impl WithinRuns {
         self.offsets
             .merge(other.offsets)
             .expect("parts have the same width");
+        self.local_acc
+            .merge(other.local_acc)
+            .expect("parts have the same width");
         self.rows += other.rows;
         self.n_offsets += other.n_offsets;
+        self.n_local += other.n_local;
     }
 
     fn finish(mut self) -> WithinPose {
@@ -1059,6 +1187,8 @@ impl WithinRuns {
             factor,
             plain,
             n_offsets: self.n_offsets,
+            pose_compliance: self.local_acc.finish(),
+            n_local: self.n_local,
         }
     }
 }

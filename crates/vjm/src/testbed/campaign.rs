@@ -197,6 +197,19 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 }
                 Some(*joint)
             }
+            Effect::TorsionAngleDependent { joint, amplitude } => {
+                if !(amplitude.is_finite() && amplitude.abs() < 1.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "joint_torsion_angle_dependent at joint {}: amplitude must be within \
+                             (−1, 1) (the compliance c·(1 + amplitude·sin q) stays > 0), got {}",
+                            joint + 1,
+                            stiffness_core::num::Short(*amplitude)
+                        ),
+                    });
+                }
+                Some(*joint)
+            }
             Effect::MountCompliance {
                 translation,
                 rotation,

@@ -63,6 +63,20 @@ pub enum Effect {
     /// Equilibrium in the deflected configuration (the load-dependent Jacobian, K_C) and the
     /// exact tip motion, instead of the linear `J C Jᵀ W`.
     GeometricNonlinearity,
+    /// Not in the diagnosis catalogue (used to check `unexplained`): the torsion compliance of
+    /// `joint` depends on its own angle, `c·(1 + amplitude·sin q_joint)` with c the joint's
+    /// linear torsion compliance (a gear whose mesh stiffness varies around its turn). The
+    /// extra deflection `amplitude·sin(q)·c·τ` adds to whatever else the joint does (a
+    /// harmonic-drive curve or a backlash at the same joint is not scaled). `amplitude` in
+    /// (−1, 1), so that the compliance stays positive.
+    #[serde(rename = "joint_torsion_angle_dependent")]
+    TorsionAngleDependent {
+        /// 0-based joint (written 1-based).
+        #[serde(serialize_with = "one_based")]
+        joint: usize,
+        /// Relative amplitude of the compliance's variation, in (−1, 1).
+        amplitude: f64,
+    },
     /// Not in the diagnosis catalogue (used to check `unexplained`): every pose's displacements
     /// carry an independent offset with per-axis standard deviation `sigma` (m), like a base
     /// that settles differently at each configuration.
@@ -246,6 +260,20 @@ impl TrueModel {
         theta
     }
 
+    /// [`TrueModel::spring_response`] at the configuration `q` (rad): with
+    /// [`Effect::TorsionAngleDependent`] the joint's torsion deflects by a further
+    /// `amplitude·sin(q_joint)·c·τ`.
+    pub fn spring_response_at(&self, q: &[f64], tau: &[f64]) -> Vec<f64> {
+        let mut theta = self.spring_response(tau);
+        for e in &self.effects {
+            if let Effect::TorsionAngleDependent { joint, amplitude } = e {
+                let s = 3 * joint;
+                theta[s] += amplitude * q[*joint].sin() * self.compliance[s] * tau[s];
+            }
+        }
+        theta
+    }
+
     /// The true tip displacement (m, base frame) at `q` under the applied wrench `wrench`
     /// (base frame, at the tip point), before any measurement effect or noise, and the unloaded
     /// tip point. With [`Effect::GeometricNonlinearity`] the equilibrium
@@ -393,7 +421,7 @@ impl TrueModel {
     ) -> Result<Vec<f64>, TestbedError> {
         let mut theta = start;
         for _ in 0..MAX_GRAVITY_ITERATIONS {
-            let next = self.spring_response(&torque(&theta));
+            let next = self.spring_response_at(q, &torque(&theta));
             let change = next
                 .iter()
                 .zip(&theta)
@@ -467,7 +495,7 @@ impl TrueModel {
         let w = DVector::from_column_slice(wrench);
         let pose0 = deflected_pose(chain, q, &vec![0.0; m]);
         let tau: Vec<f64> = (pose0.jacobian.transpose() * &w).iter().cloned().collect();
-        let mut theta = self.spring_response(&tau);
+        let mut theta = self.spring_response_at(q, &tau);
         if !self.geometric() {
             let jt = pose0.jacobian.rows(0, 3);
             let d = jt * DVector::from_column_slice(&theta);
@@ -477,7 +505,7 @@ impl TrueModel {
         for _ in 0..100 {
             let pose = deflected_pose(chain, q, &theta);
             let tau: Vec<f64> = (pose.jacobian.transpose() * &w).iter().cloned().collect();
-            let next = self.spring_response(&tau);
+            let next = self.spring_response_at(q, &tau);
             let change = next
                 .iter()
                 .zip(&theta)
