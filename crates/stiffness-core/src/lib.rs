@@ -7,6 +7,8 @@
 //!   [`Monitor`] that bundles both for a computation.
 //! - [`decompose`]: SVD and symmetric eigen-decomposition with an iteration cap (nalgebra's
 //!   own loop forever on NaN) and a named [`NotConverged`] error.
+//! - [`table`]: the one CSV reader and writer of measurement tables (chunked, parallel, errors
+//!   naming line and column).
 //! - [`num`]: [`num::Short`], the one format of a number quoted in a message (`1e308`, not 309
 //!   digits).
 //!
@@ -43,6 +45,7 @@ pub mod num;
 pub mod so3;
 mod so3_error;
 pub mod stats;
+pub mod table;
 
 pub use cancel::{Cancel, Cancelled, Monitor, Progress};
 pub use decompose::NotConverged;

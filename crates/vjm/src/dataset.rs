@@ -35,6 +35,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use stiffness_core::num::Short;
+use stiffness_core::table::{write_csv, CellKind, Column, CsvReader, Layout, Table, TableError};
+use stiffness_core::Cancel;
 
 /// Largest plausible displacement component, m. A cobot tip moving more than 5 cm under a
 /// static test load is far outside any stiffness experiment; such values are almost always
@@ -272,12 +274,59 @@ pub enum DatasetError {
         /// Values per row.
         per_row: usize,
     },
+    /// Reading was cancelled through its token.
+    #[error("cancelled")]
+    Cancelled,
     /// The train/test split leaves one side empty.
     #[error("the train/test split leaves no {which} rows")]
     EmptySplit {
         /// `train` or `test`.
         which: SetLabel,
     },
+}
+
+impl From<TableError> for DatasetError {
+    fn from(e: TableError) -> Self {
+        match e {
+            TableError::Io { path, source } => DatasetError::Io { path, source },
+            TableError::NoHeader => DatasetError::NoHeader,
+            TableError::Parse {
+                line,
+                column,
+                text,
+                expected,
+            } => DatasetError::Parse {
+                line,
+                column,
+                text,
+                expected,
+            },
+            // The only label column of a measurement file is `set`.
+            TableError::Label { line, text, .. } => DatasetError::UnknownSet { line, label: text },
+            TableError::Malformed { line, message } => DatasetError::Csv { line, message },
+            TableError::Cancelled => DatasetError::Cancelled,
+            other => DatasetError::Csv {
+                line: 0,
+                message: other.to_string(),
+            },
+        }
+    }
+}
+
+impl DatasetError {
+    /// The error of a cell check (which counts row i as line i + 2) with the line the row has
+    /// in the file.
+    pub(crate) fn at_file_lines(mut self, table: &Table) -> Self {
+        match &mut self {
+            DatasetError::NonFinite { line, .. }
+            | DatasetError::Implausible { line, .. }
+            | DatasetError::OutsideLimits { line, .. } => {
+                *line = table.line_of((*line as usize).saturating_sub(2));
+            }
+            _ => {}
+        }
+        self
+    }
 }
 
 /// A validated VJM measurement campaign. All vectors have base-frame components (see
@@ -300,6 +349,8 @@ pub struct Dataset<'a> {
 const WRENCH_COLUMNS: [&str; 6] = ["fx", "fy", "fz", "mx", "my", "mz"];
 const DISPLACEMENT_COLUMNS: [&str; 3] = ["dx", "dy", "dz"];
 const ROTATION_COLUMNS: [&str; 3] = ["rx", "ry", "rz"];
+/// The `set` labels, in the order of the reader's label codes.
+const SET_LABELS: &[&str] = &["train", "test"];
 
 fn check_len(
     name: &'static str,
@@ -810,12 +861,7 @@ impl<'a> Dataset<'a> {
         path: impl AsRef<Path>,
         n_joints: usize,
     ) -> Result<Dataset<'static>, DatasetError> {
-        let path = path.as_ref();
-        let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Dataset::from_reader(std::io::BufReader::new(file), n_joints)
+        Dataset::read_table(CsvReader::open(path)?, n_joints)
     }
 
     /// Reads and validates a measurement file from any reader (see the module docs for columns).
@@ -823,15 +869,16 @@ impl<'a> Dataset<'a> {
         reader: impl Read,
         n_joints: usize,
     ) -> Result<Dataset<'static>, DatasetError> {
-        let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .trim(csv::Trim::All)
-            .from_reader(reader);
-        let csv_err = |e: csv::Error| DatasetError::Csv {
-            line: e.position().map(|p| p.line()).unwrap_or(0),
-            message: e.to_string(),
-        };
-        let headers = rdr.headers().map_err(csv_err)?.clone();
+        Dataset::read_table(CsvReader::from_reader(reader)?, n_joints)
+    }
+
+    /// The rows of an opened table (the one reader of `stiffness_core::table`: chunked, on
+    /// every core), then the cell checks of in-memory data, with the file's lines in messages.
+    fn read_table<R: Read>(
+        reader: CsvReader<R>,
+        n_joints: usize,
+    ) -> Result<Dataset<'static>, DatasetError> {
+        let headers = reader.header();
         if headers.iter().all(|h| h.is_empty()) {
             return Err(DatasetError::NoHeader);
         }
@@ -870,32 +917,23 @@ impl<'a> Dataset<'a> {
                 expected: n_joints,
             });
         }
-        if let Some(missing) = (1..=n_joints)
-            .map(|j| format!("q{j}"))
-            .find(|c| !index.contains_key(c))
-        {
-            return Err(DatasetError::MissingColumn {
-                column: missing,
-                n_joints,
-            });
-        }
-        let need = |c: &str| -> Result<usize, DatasetError> {
+        let need = |c: &str| -> Result<(usize, String), DatasetError> {
             index
                 .get(c)
-                .copied()
+                .map(|&k| (k, c.to_string()))
                 .ok_or_else(|| DatasetError::MissingColumn {
                     column: c.to_string(),
                     n_joints,
                 })
         };
-        let q_idx: Vec<usize> = (1..=n_joints)
+        let q_cols: Vec<(usize, String)> = (1..=n_joints)
             .map(|j| need(&format!("q{j}")))
             .collect::<Result<_, _>>()?;
-        let w_idx: Vec<usize> = WRENCH_COLUMNS
+        let w_cols: Vec<(usize, String)> = WRENCH_COLUMNS
             .iter()
             .map(|c| need(c))
             .collect::<Result<_, _>>()?;
-        let d_idx: Vec<usize> = DISPLACEMENT_COLUMNS
+        let d_cols: Vec<(usize, String)> = DISPLACEMENT_COLUMNS
             .iter()
             .map(|c| need(c))
             .collect::<Result<_, _>>()?;
@@ -904,81 +942,59 @@ impl<'a> Dataset<'a> {
             .filter(|c| index.contains_key(**c))
             .map(|c| c.to_string())
             .collect();
-        let r_idx: Option<Vec<usize>> = match r_present.len() {
+        let r_cols: Option<Vec<(usize, String)>> = match r_present.len() {
             0 => None,
-            3 => Some(ROTATION_COLUMNS.iter().map(|c| index[*c]).collect()),
+            3 => Some(
+                ROTATION_COLUMNS
+                    .iter()
+                    .map(|c| (index[*c], c.to_string()))
+                    .collect(),
+            ),
             _ => return Err(DatasetError::PartialRotation { found: r_present }),
         };
-        let pose_idx = index.get("pose").copied();
-        let set_idx = index.get("set").copied();
-
-        let mut q = Vec::new();
-        let mut wrench = Vec::new();
-        let mut displacement = Vec::new();
-        let mut rotation = r_idx.as_ref().map(|_| Vec::new());
-        let mut pose = pose_idx.map(|_| Vec::new());
-        let mut set = set_idx.map(|_| Vec::new());
-        let mut record = csv::StringRecord::new();
-        loop {
-            match rdr.read_record(&mut record) {
-                Ok(true) => {}
-                Ok(false) => break,
-                Err(e) => return Err(csv_err(e)),
-            }
-            let line = record.position().map(|p| p.line()).unwrap_or(0);
-            let num = |k: usize, column: &str| -> Result<f64, DatasetError> {
-                let text = record.get(k).unwrap_or("");
-                let v: f64 = text.parse().map_err(|_| DatasetError::Parse {
-                    line,
-                    column: column.to_string(),
-                    text: text.to_string(),
-                    expected: "a number",
-                })?;
-                check_value(line, column, v)?;
-                Ok(v)
-            };
-            for (j, &k) in q_idx.iter().enumerate() {
-                q.push(num(k, &format!("q{}", j + 1))?);
-            }
-            for (c, &k) in WRENCH_COLUMNS.iter().zip(&w_idx) {
-                wrench.push(num(k, c)?);
-            }
-            for (c, &k) in DISPLACEMENT_COLUMNS.iter().zip(&d_idx) {
-                displacement.push(num(k, c)?);
-            }
-            if let (Some(ri), Some(rv)) = (&r_idx, rotation.as_mut()) {
-                for (c, &k) in ROTATION_COLUMNS.iter().zip(ri) {
-                    rv.push(num(k, c)?);
-                }
-            }
-            if let (Some(k), Some(pv)) = (pose_idx, pose.as_mut()) {
-                let text = record.get(k).unwrap_or("");
-                let id: i64 = text.parse().map_err(|_| DatasetError::Parse {
-                    line,
-                    column: "pose".to_string(),
-                    text: text.to_string(),
-                    expected: "an integer",
-                })?;
-                pv.push(id);
-            }
-            if let (Some(k), Some(sv)) = (set_idx, set.as_mut()) {
-                let text = record.get(k).unwrap_or("");
-                let label = match text.to_ascii_lowercase().as_str() {
-                    "train" => SetLabel::Train,
-                    "test" => SetLabel::Test,
-                    _ => {
-                        return Err(DatasetError::UnknownSet {
-                            line,
-                            label: text.to_string(),
-                        })
+        let mut layout = Layout::new();
+        let q_g = layout.group(CellKind::Float, q_cols);
+        let w_g = layout.group(CellKind::Float, w_cols);
+        let d_g = layout.group(CellKind::Float, d_cols);
+        let r_g = r_cols.map(|c| layout.group(CellKind::Float, c));
+        let pose_g = index
+            .get("pose")
+            .map(|&k| layout.group(CellKind::Integer, vec![(k, "pose".to_string())]));
+        let set_g = index
+            .get("set")
+            .map(|&k| layout.group(CellKind::Label(SET_LABELS), vec![(k, "set".to_string())]));
+        let mut table = reader.read(&layout, &Cancel::new())?;
+        let q = table.take_floats(q_g);
+        let wrench = table.take_floats(w_g);
+        let displacement = table.take_floats(d_g);
+        let rotation = r_g.map(|g| table.take_floats(g));
+        let pose = pose_g.map(|g| table.take_integers(g));
+        let set = set_g.map(|g| {
+            table
+                .take_labels(g)
+                .into_iter()
+                .map(|c| {
+                    if c == 0 {
+                        SetLabel::Train
+                    } else {
+                        SetLabel::Test
                     }
-                };
-                sv.push(label);
-            }
-        }
+                })
+                .collect()
+        });
         if displacement.is_empty() {
             return Err(DatasetError::Empty);
         }
+        // The one check of in-memory data; it counts row i as line i + 2, the file may differ
+        // (blank lines).
+        check_cells(
+            n_joints,
+            &q,
+            Some(&wrench),
+            Some(&displacement),
+            rotation.as_deref(),
+        )
+        .map_err(|e| e.at_file_lines(&table))?;
         check_information(&wrench, &displacement)?;
         Ok(Dataset {
             n_joints,
@@ -1021,48 +1037,51 @@ impl<'a> Dataset<'a> {
         }
     }
 
-    /// Writes the dataset as CSV to any writer. Floats are written with full round-trip
-    /// precision.
+    /// Writes the dataset as CSV to any writer, numbers in their shortest round-trip form (the
+    /// one writer of `stiffness_core::table`).
     pub fn to_writer(&self, writer: impl Write) -> Result<(), DatasetError> {
-        let mut w = csv::Writer::from_writer(writer);
-        let csv_err = |e: csv::Error| DatasetError::Csv {
-            line: 0,
-            message: e.to_string(),
-        };
         let mut header: Vec<String> = (1..=self.n_joints).map(|j| format!("q{j}")).collect();
         header.extend(WRENCH_COLUMNS.iter().map(|s| s.to_string()));
         header.extend(DISPLACEMENT_COLUMNS.iter().map(|s| s.to_string()));
-        if self.rotation.is_some() {
+        let mut columns = vec![
+            Column::Floats {
+                data: &self.q,
+                width: self.n_joints,
+            },
+            Column::Floats {
+                data: &self.wrench,
+                width: 6,
+            },
+            Column::Floats {
+                data: &self.displacement,
+                width: 3,
+            },
+        ];
+        if let Some(r) = &self.rotation {
             header.extend(ROTATION_COLUMNS.iter().map(|s| s.to_string()));
+            columns.push(Column::Floats { data: r, width: 3 });
         }
-        if self.pose.is_some() {
+        if let Some(p) = &self.pose {
             header.push("pose".into());
+            columns.push(Column::Integers {
+                data: p,
+                width: 1,
+                empty: None,
+            });
         }
-        if self.set.is_some() {
+        let codes: Option<Vec<u8>> = self
+            .set
+            .as_ref()
+            .map(|s| s.iter().map(|l| (*l == SetLabel::Test) as u8).collect());
+        if let Some(codes) = &codes {
             header.push("set".into());
+            columns.push(Column::Labels {
+                codes,
+                names: SET_LABELS,
+            });
         }
-        w.write_record(&header).map_err(csv_err)?;
-        let mut fields: Vec<String> = Vec::with_capacity(header.len());
-        for i in 0..self.len() {
-            fields.clear();
-            fields.extend(self.q(i).iter().map(|v| format!("{v:?}")));
-            fields.extend(self.wrench(i).iter().map(|v| format!("{v:?}")));
-            fields.extend(self.displacement(i).iter().map(|v| format!("{v:?}")));
-            if let Some(r) = self.rotation(i) {
-                fields.extend(r.iter().map(|v| format!("{v:?}")));
-            }
-            if let Some(p) = self.pose(i) {
-                fields.push(p.to_string());
-            }
-            if let Some(s) = self.set(i) {
-                fields.push(s.as_str().to_string());
-            }
-            w.write_record(&fields).map_err(csv_err)?;
-        }
-        w.flush().map_err(|source| DatasetError::Io {
-            path: PathBuf::from("<writer>"),
-            source,
-        })
+        let header: Vec<&str> = header.iter().map(String::as_str).collect();
+        Ok(write_csv(writer, &header, &columns, &Cancel::new())?)
     }
 
     /// Number of measurements (rows).

@@ -18,6 +18,7 @@ __all__ = [
     "InvalidValueError",
     "DataFileError",
     "MissingFileError",
+    "MissingDependencyError",
     "RobotModelError",
     "IdentificationError",
     "ModelFileError",
@@ -52,6 +53,11 @@ class DataFileError(StiffnessError, ValueError):
 
 class MissingFileError(StiffnessError, FileNotFoundError):
     """A file given by the user does not exist or cannot be read."""
+
+
+class MissingDependencyError(StiffnessError, ImportError):
+    """An optional package a feature needs is not installed (pyarrow for Parquet and Arrow
+    files); the message says which ``pip install`` provides it."""
 
 
 class RobotModelError(StiffnessError, ValueError):

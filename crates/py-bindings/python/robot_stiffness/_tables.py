@@ -1,4 +1,5 @@
-"""Tables (pandas DataFrames, dicts of columns, numpy structured arrays) → measurement arrays.
+"""Tables (pandas/polars DataFrames, pyarrow Tables, dicts of columns, numpy structured arrays)
+→ measurement arrays.
 
 The column names are those of the measurement files (see ``docs/python.md``):
 VJM: ``q1..qn``, ``fx,fy,fz,mx,my,mz``, ``dx,dy,dz``, optional ``rx,ry,rz``, ``pose``, ``set``;
@@ -15,11 +16,13 @@ import numpy as np
 import numpy.typing as npt
 
 from ._arrays import f64
+from ._columnar import arrow_column, is_arrow_table
 from ._errors import DataFileError, InvalidValueError, StiffnessError
 
 
 def is_table(x: Any) -> bool:
-    """True for a pandas DataFrame, a mapping of columns or a structured array."""
+    """True for a pandas or polars DataFrame, a pyarrow Table, a mapping of columns or a
+    structured array."""
     if isinstance(x, np.ndarray):
         return x.dtype.names is not None
     return hasattr(x, "columns") or isinstance(x, dict)
@@ -28,13 +31,33 @@ def is_table(x: Any) -> bool:
 def column_names(table: Any) -> List[str]:
     if isinstance(table, np.ndarray):
         return list(table.dtype.names or ())
+    if is_arrow_table(table):  # its .columns are the arrays, not the names
+        return [str(c) for c in table.column_names]
     if hasattr(table, "columns"):
         return [str(c) for c in table.columns]
     return [str(c) for c in table.keys()]
 
 
+def column(table: Any, key: str) -> Any:
+    """The column ``key`` (an exact name of :func:`column_names`) as the table holds it: a
+    pandas/polars Series (converted later by ``to_numpy``, a view where the frame's layout
+    allows), an array or a list; a pyarrow column becomes numpy here (a view of its buffer
+    when it can be), refusing a null cell by row. A polars null is refused the same way (its
+    ``to_numpy`` would turn it into NaN, or an integer column into floats)."""
+    if is_arrow_table(table):
+        return arrow_column(table[key], key)
+    col = table[key]
+    null_count = getattr(col, "null_count", None)
+    if callable(null_count) and not hasattr(col, "isna"):  # polars (pandas has isna, no null_count)
+        if null_count():
+            row = int(col.is_null().arg_true()[0])
+            raise DataFileError(f"column '{key}', row {row} (counting from 0): empty cell (null)")
+    return col
+
+
 def columns(table: Any, names: Sequence[str], what: str) -> npt.NDArray[np.float64]:
-    """The named columns as a C-ordered (N, len(names)) float64 array (one copy)."""
+    """The named columns as a C-ordered (N, len(names)) float64 array (one copy: float64
+    columns are read where they are and copied once into the result)."""
     available = column_names(table)
     lower = {c.lower(): c for c in available}
     cols = []
@@ -44,7 +67,7 @@ def columns(table: Any, names: Sequence[str], what: str) -> npt.NDArray[np.float
                 f"missing column '{name}' for {what} (table columns: {', '.join(available)})"
             )
         try:
-            col = f64(table[lower[name]], f"column '{lower[name]}'")
+            col = f64(column(table, lower[name]), f"column '{lower[name]}'")
         except InvalidValueError as e:
             raise DataFileError(str(e)) from None
         if col.ndim != 1:

@@ -16,7 +16,8 @@ from ._arguments import DEFAULT_GRAVITY, check_path, checked, gravity_vector
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
 from .results import Diagnosis
-from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column_names, columns, is_table, joint_columns, optional_columns
+from ._columnar import is_columnar_path, read_columns
+from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column, column_names, columns, is_table, joint_columns, optional_columns
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
     from .vjm import Robot
@@ -108,7 +109,19 @@ def read_measurements(path: PathLike, n_joints: int) -> Measurements:
     point, base frame —, ``dx,dy,dz`` (m, base frame), optional ``rx,ry,rz`` (rad), ``pose``,
     ``set``. Errors name the line and column (missing column, NaN, a displacement in mm…);
     a missing file raises :class:`~robot_stiffness.MissingFileError`.
+
+    A Parquet (``.parquet``, ``.pq``) or Arrow IPC (``.arrow``, ``.feather``, ``.ipc``) file,
+    told by its suffix, is read with pyarrow (the ``[parquet]`` extra) and gets the checks of
+    a DataFrame with the same columns: here the columns (missing, null cells, not numbers);
+    the cells' values (NaN, units) when the data are used; rows count from 0.
     """
+    if is_columnar_path(check_path(path, "path")):
+        wanted = joint_columns(n_joints) + WRENCH + DISPLACEMENT + ROTATION + ["pose", "set"]
+        table = read_columns(path, wanted)
+        try:
+            return as_measurements(table, n_joints)
+        except DataFileError as e:
+            raise DataFileError(f"{os.fspath(path)}: {e}") from None
     return Measurements._from_core(_core.vjm_read_csv(path, n_joints))
 
 
@@ -150,7 +163,7 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
         sets = None
         if "set" in names:
             key = next(c for c in column_names(data) if c.lower() == "set")
-            sets = [str(s) for s in list(data[key])]
+            sets = [str(s) for s in list(column(data, key))]
         return Measurements(
             q=columns(data, joint_columns(n_joints), "joint angles"),
             wrench=columns(data, WRENCH, "the wrench"),

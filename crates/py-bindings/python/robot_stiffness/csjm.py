@@ -33,7 +33,8 @@ import numpy.typing as npt
 from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
-from ._errors import ArgumentTypeError, DataFileError, ShapeError, reworded
+from ._columnar import is_columnar_path, read_columns
+from ._errors import ArgumentTypeError, DataFileError, InvalidValueError, ShapeError, reworded
 from ._tables import MOMENT, ROTATION_MATRIX, columns, is_table
 from ._vjm_data import ProgressCallback
 from .results import Diagnosis
@@ -52,6 +53,8 @@ Array = npt.NDArray[np.float64]
 #: Rust names in core messages → the Python spelling (the CLI maps these on to its flags).
 PYTHON_NAMES = {"RotationPolicy::Project": "project=True"}
 PathLike = Union[str, "os.PathLike[str]"]
+#: The core's DEFAULT_ORTHOGONALITY_TOL on ‖RᵀR − I‖_F, applied to Parquet/Arrow files as to CSV.
+_ORTHOGONALITY_TOL = 5e-3
 
 
 @dataclass(frozen=True)
@@ -150,6 +153,12 @@ def _table_arrays(table: Any) -> Tuple[Array, Array, int]:
     return r9.reshape(-1, 3, 3), tau, int(hits[0])
 
 
+def _columnar_table(path: PathLike) -> Any:
+    """The columns of a Parquet / Arrow IPC measurement file (read by suffix), for the table
+    path of :func:`identify` and :func:`diagnose`, so that they get a DataFrame's checks."""
+    return read_columns(path, ROTATION_MATRIX + MOMENT + ["ref"])
+
+
 @checked
 def identify(
     R: Any,
@@ -196,8 +205,25 @@ def read_measurements(path: PathLike, *, project: bool = False) -> Tuple[Array, 
 
     Columns ``r11..r33`` (ᴮ_A R, row-major), ``tx,ty,tz`` (moment in A, N·m), ``ref`` (1 on
     exactly one row). Errors name the row and column; a missing file raises
-    :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``).
+    :class:`~robot_stiffness.MissingFileError` (a ``FileNotFoundError``). A Parquet or Arrow IPC
+    file (by suffix: ``.parquet``, ``.pq``, ``.arrow``, ``.feather``, ``.ipc``; the ``[parquet]``
+    extra) gets the same orthogonality check and projection; its rows count from 0.
     """
+    if is_columnar_path(check_path(path, "path")):
+        R, tau, ref = _table_arrays(_columnar_table(path))
+        from .so3 import orthogonality_error, project_to_rotation
+
+        if not project:
+            err = np.asarray(orthogonality_error(R)).reshape(-1)
+            bad = np.flatnonzero(~(err <= _ORTHOGONALITY_TOL))
+            if bad.size:
+                row = int(bad[0])
+                raise InvalidValueError(
+                    f"{os.fspath(path)}: row {row} (counting from 0): r11..r33 is not a rotation "
+                    f"(orthogonality error {err[row]:.3g} > {_ORTHOGONALITY_TOL}); pass project=True to project it"
+                )
+        # Accepted matrices are replaced by their nearest rotation, as the CSV reader does.
+        return project_to_rotation(R), tau, ref
     with reworded(PYTHON_NAMES):
         R, tau, ref = _core.csjm_read_csv(path, project=project)
     return R, tau, int(ref)
@@ -205,7 +231,10 @@ def read_measurements(path: PathLike, *, project: bool = False) -> Tuple[Array, 
 
 @checked
 def identify_csv(path: PathLike, *, order: int = 1, project: bool = False) -> StiffnessFit:
-    """Read a CSJM measurement file and identify K (see :func:`identify`)."""
+    """Read a CSJM measurement file and identify K (see :func:`identify`). A Parquet or Arrow
+    IPC file (by suffix) takes the table path of :func:`identify`."""
+    if is_columnar_path(check_path(path, "path")):
+        return identify(_columnar_table(path), order=order, project=project)
     with reworded(PYTHON_NAMES):
         return StiffnessFit._from_core(_core.csjm_identify_csv(path, order=order, project=project))
 
@@ -276,6 +305,8 @@ def diagnose(
     """
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
+    if tau is None and ref is None and isinstance(data, (str, os.PathLike)) and is_columnar_path(check_path(data, "data")):
+        data = _columnar_table(data)
     if tau is None and ref is None and is_table(data):
         data, tau, ref = _table_arrays(data)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):

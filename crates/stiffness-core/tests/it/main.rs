@@ -3,3 +3,4 @@
 mod cancel;
 mod decompose;
 mod engine;
+mod table;

@@ -1,0 +1,619 @@
+//! The CSV reader: a header, then chunks of complete lines parsed on every core.
+//!
+//! Memory is bounded by the output columns plus one chunk ([`CHUNK_BYTES`]): the file is read
+//! a chunk at a time, each chunk's complete lines are split into one piece per thread at line
+//! boundaries, the pieces are parsed in parallel and appended in file order. The result does
+//! not depend on the thread count: pieces are concatenated in order, and the error reported is
+//! the first one in file order.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+use super::error::TableError;
+use crate::Cancel;
+
+/// Bytes read per chunk; also the longest line accepted (a measurement row is well under 1 kB).
+pub const CHUNK_BYTES: usize = 8 << 20;
+
+/// Pieces smaller than this are not split further (thread start-up would cost more).
+const MIN_PIECE_BYTES: usize = 256 << 10;
+
+/// What the cells of a group of columns become.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum CellKind {
+    /// `f64`, parsed by the standard library (shortest round trip of what the writer writes).
+    Float,
+    /// `i64`.
+    Integer,
+    /// The index of the label among these (ASCII case-insensitive).
+    Label(&'static [&'static str]),
+}
+
+/// A group of columns read into one row-major array (e.g. `q1..q7` into an N×7 array).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Group(usize);
+
+#[derive(Debug, Clone)]
+struct GroupSpec {
+    kind: CellKind,
+    /// Header index and message name of every column, in the array's order.
+    columns: Vec<(usize, String)>,
+}
+
+/// Which header columns to read and into which arrays; columns not named are skipped.
+#[derive(Debug, Clone, Default)]
+pub struct Layout {
+    groups: Vec<GroupSpec>,
+}
+
+impl Layout {
+    /// An empty layout (reads nothing but still checks every row's field count).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a group: the columns at these header indices (with the names messages use), read as
+    /// `kind`, into one row-major array of `columns.len()` values per row.
+    pub fn group(&mut self, kind: CellKind, columns: Vec<(usize, String)>) -> Group {
+        self.groups.push(GroupSpec { kind, columns });
+        Group(self.groups.len() - 1)
+    }
+}
+
+/// One group's values.
+#[derive(Debug, Clone, PartialEq)]
+enum Values {
+    Float(Vec<f64>),
+    Integer(Vec<i64>),
+    Label(Vec<u8>),
+}
+
+impl Values {
+    fn new(kind: CellKind) -> Self {
+        match kind {
+            CellKind::Float => Values::Float(Vec::new()),
+            CellKind::Integer => Values::Integer(Vec::new()),
+            CellKind::Label(_) => Values::Label(Vec::new()),
+        }
+    }
+    fn reserve(&mut self, n: usize) {
+        match self {
+            Values::Float(v) => v.reserve(n),
+            Values::Integer(v) => v.reserve(n),
+            Values::Label(v) => v.reserve(n),
+        }
+    }
+    fn append(&mut self, other: &mut Values) {
+        match (self, other) {
+            (Values::Float(a), Values::Float(b)) => a.append(b),
+            (Values::Integer(a), Values::Integer(b)) => a.append(b),
+            (Values::Label(a), Values::Label(b)) => a.append(b),
+            _ => unreachable!("groups keep their kind"),
+        }
+    }
+}
+
+/// The rows read: one array per [`Group`] and the file line of every row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    rows: usize,
+    values: Vec<Values>,
+    /// (row, line) where the line stops being the previous row's + 1 (after a blank line);
+    /// the first entry is row 0.
+    breaks: Vec<(usize, u64)>,
+}
+
+impl Table {
+    /// Rows read.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// The file line (header = 1) of row `row` (0-based data row).
+    pub fn line_of(&self, row: usize) -> u64 {
+        let k = self.breaks.partition_point(|&(r, _)| r <= row);
+        let (r, line) = self.breaks[k.max(1) - 1];
+        line + (row - r) as u64
+    }
+
+    /// Takes a [`CellKind::Float`] group's row-major values (empty if taken or of another kind).
+    pub fn take_floats(&mut self, group: Group) -> Vec<f64> {
+        match &mut self.values[group.0] {
+            Values::Float(v) => std::mem::take(v),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Takes a [`CellKind::Integer`] group's row-major values.
+    pub fn take_integers(&mut self, group: Group) -> Vec<i64> {
+        match &mut self.values[group.0] {
+            Values::Integer(v) => std::mem::take(v),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Takes a [`CellKind::Label`] group's label indices.
+    pub fn take_labels(&mut self, group: Group) -> Vec<u8> {
+        match &mut self.values[group.0] {
+            Values::Label(v) => std::mem::take(v),
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// A CSV table being read: the header is parsed on opening, the rows by [`CsvReader::read`].
+///
+/// Dialect: comma-separated, one record per line (`\n` or `\r\n`), a header line first, blank
+/// lines skipped (and counted), cells trimmed of ASCII whitespace, `"`-quoted cells allowed
+/// (with `""` for a quote) but not spanning lines, a UTF-8 byte-order mark ignored, every row with
+/// the header's field count.
+///
+/// ```
+/// use stiffness_core::table::{CellKind, CsvReader, Layout};
+/// let text = "x, y ,label\n1.5,2,a\n\n-3e-2,4,B\n";
+/// let mut reader = CsvReader::from_reader(text.as_bytes())?;
+/// assert_eq!(reader.header(), ["x", "y", "label"]);
+/// let mut layout = Layout::new();
+/// let xy = layout.group(CellKind::Float, vec![(0, "x".into()), (1, "y".into())]);
+/// let label = layout.group(CellKind::Label(&["a", "b"]), vec![(2, "label".into())]);
+/// let mut table = reader.read(&layout, &Default::default())?;
+/// assert_eq!(table.take_floats(xy), [1.5, 2.0, -0.03, 4.0]);
+/// assert_eq!(table.take_labels(label), [0, 1]);
+/// assert_eq!((table.line_of(0), table.line_of(1)), (2, 4)); // line 3 is blank
+/// # Ok::<(), stiffness_core::table::TableError>(())
+/// ```
+#[derive(Debug)]
+pub struct CsvReader<R> {
+    source: R,
+    path: PathBuf,
+    size: Option<u64>,
+    buf: Vec<u8>,
+    filled: usize,
+    eof: bool,
+    /// File line of the first byte of `buf`.
+    line: u64,
+    /// Bytes consumed before `buf` (for the row estimate).
+    consumed: u64,
+    header: Vec<String>,
+}
+
+impl CsvReader<std::fs::File> {
+    /// Opens `path` and reads its header.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, TableError> {
+        let path = path.as_ref();
+        let io = |source| TableError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = std::fs::File::open(path).map_err(io)?;
+        let size = file.metadata().map_err(io)?.len();
+        Self::start(file, path.to_path_buf(), Some(size))
+    }
+}
+
+impl<R: Read> CsvReader<R> {
+    /// Reads the header from any reader.
+    pub fn from_reader(source: R) -> Result<Self, TableError> {
+        Self::start(source, PathBuf::from("<reader>"), None)
+    }
+
+    fn start(source: R, path: PathBuf, size: Option<u64>) -> Result<Self, TableError> {
+        let mut reader = CsvReader {
+            source,
+            path,
+            size,
+            buf: vec![0; CHUNK_BYTES],
+            filled: 0,
+            eof: false,
+            line: 1,
+            consumed: 0,
+            header: Vec::new(),
+        };
+        reader.fill()?;
+        if reader.buf[..reader.filled].starts_with("\u{feff}".as_bytes()) {
+            reader.consume(3, 0);
+        }
+        // Blank lines before the header are skipped, as between rows.
+        loop {
+            let data = &reader.buf[..reader.filled];
+            let Some(end) = line_end(data, reader.eof) else {
+                return Err(TableError::Malformed {
+                    line: reader.line,
+                    message: format!("the header line is longer than {CHUNK_BYTES} bytes"),
+                });
+            };
+            if end == 0 {
+                return Err(TableError::NoHeader);
+            }
+            let text = utf8(&data[..end], reader.line)?;
+            let text = strip_eol(text);
+            if is_blank(text) {
+                reader.consume(end, 1);
+                continue;
+            }
+            let mut fields = Vec::new();
+            split_fields(text, reader.line, &mut |_, cell| {
+                fields.push(cell.into_owned());
+                Ok(())
+            })?;
+            reader.header = fields;
+            reader.consume(end, 1);
+            return Ok(reader);
+        }
+    }
+
+    /// The header's names, trimmed and unquoted, as written (not lower-cased).
+    pub fn header(&self) -> &[String] {
+        &self.header
+    }
+
+    /// Reads every row into the layout's groups; polls `cancel` once per chunk.
+    pub fn read(mut self, layout: &Layout, cancel: &Cancel) -> Result<Table, TableError> {
+        let width = self.header.len();
+        let mut slots: Vec<Option<(usize, usize)>> = vec![None; width];
+        for (g, spec) in layout.groups.iter().enumerate() {
+            for (offset, &(field, _)) in spec.columns.iter().enumerate() {
+                assert!(
+                    field < width,
+                    "layout names field {field} of a {width}-field header"
+                );
+                slots[field] = Some((g, offset));
+            }
+        }
+        let plan = Plan {
+            width,
+            slots,
+            groups: &layout.groups,
+        };
+        let mut table = Table {
+            rows: 0,
+            values: layout.groups.iter().map(|g| Values::new(g.kind)).collect(),
+            breaks: vec![(0, self.line)],
+        };
+        let mut reserved = false;
+        loop {
+            if cancel.is_cancelled() {
+                return Err(TableError::Cancelled);
+            }
+            self.fill()?;
+            let data = &self.buf[..self.filled];
+            if data.is_empty() {
+                break;
+            }
+            let end = match data.iter().rposition(|&b| b == b'\n') {
+                Some(k) => k + 1,
+                None if self.eof => data.len(),
+                None => {
+                    return Err(TableError::Malformed {
+                        line: self.line,
+                        message: format!("a line longer than {CHUNK_BYTES} bytes"),
+                    })
+                }
+            };
+            let pieces = split_pieces(&data[..end], rayon::current_num_threads());
+            let mut first_lines = Vec::with_capacity(pieces.len());
+            let mut line = self.line;
+            for piece in &pieces {
+                first_lines.push(line);
+                line += memchr::memchr_iter(b'\n', piece).count() as u64;
+            }
+            let mut parsed: Vec<Piece> = pieces
+                .par_iter()
+                .zip(first_lines.par_iter())
+                .map(|(piece, &first)| parse_piece(piece, first, &plan))
+                .collect();
+            for piece in &mut parsed {
+                if let Some(e) = piece.error.take() {
+                    return Err(e);
+                }
+                for &(row, line) in &piece.breaks {
+                    let row = table.rows + row;
+                    let &(r, l) = table.breaks.last().expect("row 0 has a break");
+                    if row == 0 {
+                        table.breaks[0] = (0, line);
+                    } else if l + (row - r) as u64 != line {
+                        table.breaks.push((row, line));
+                    }
+                }
+                for (all, part) in table.values.iter_mut().zip(piece.values.iter_mut()) {
+                    all.append(part);
+                }
+                table.rows += piece.rows;
+            }
+            // After the first chunk, reserve for the whole file from its size (no doubling).
+            if !reserved {
+                reserved = true;
+                if let Some(size) = self.size {
+                    let per_row = (self.consumed + end as u64) as f64 / table.rows.max(1) as f64;
+                    let rows = (size as f64 / per_row * 1.02) as usize;
+                    let more = rows.saturating_sub(table.rows);
+                    for (values, spec) in table.values.iter_mut().zip(&layout.groups) {
+                        values.reserve(more * spec.columns.len());
+                    }
+                }
+            }
+            self.consume(end, line - self.line);
+        }
+        Ok(table)
+    }
+
+    /// Tops the buffer up from the source (until full or at end of input).
+    fn fill(&mut self) -> Result<(), TableError> {
+        while !self.eof && self.filled < self.buf.len() {
+            match self.source.read(&mut self.buf[self.filled..]) {
+                Ok(0) => self.eof = true,
+                Ok(n) => self.filled += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(source) => {
+                    return Err(TableError::Io {
+                        path: self.path.clone(),
+                        source,
+                    })
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Drops the first `n` bytes of the buffer, which held `lines` line ends.
+    fn consume(&mut self, n: usize, lines: u64) {
+        self.buf.copy_within(n..self.filled, 0);
+        self.filled -= n;
+        self.line += lines;
+        self.consumed += n as u64;
+    }
+}
+
+/// The end (after its `\n`) of the first line of `data`; at end of input the whole rest.
+fn line_end(data: &[u8], eof: bool) -> Option<usize> {
+    match memchr::memchr(b'\n', data) {
+        Some(k) => Some(k + 1),
+        None if eof => Some(data.len()),
+        None => None,
+    }
+}
+
+/// Splits complete lines into about `parts` pieces at line boundaries.
+fn split_pieces(data: &[u8], parts: usize) -> Vec<&[u8]> {
+    let parts = parts.clamp(1, (data.len() / MIN_PIECE_BYTES).max(1));
+    let mut pieces = Vec::with_capacity(parts);
+    let mut start = 0;
+    for k in 1..parts {
+        let target = (data.len() * k / parts).max(start);
+        let Some(nl) = memchr::memchr(b'\n', &data[target..]) else {
+            break;
+        };
+        let end = target + nl + 1;
+        pieces.push(&data[start..end]);
+        start = end;
+    }
+    pieces.push(&data[start..]);
+    pieces
+}
+
+struct Plan<'a> {
+    width: usize,
+    /// Field → (group, offset in the group's row).
+    slots: Vec<Option<(usize, usize)>>,
+    groups: &'a [GroupSpec],
+}
+
+struct Piece {
+    rows: usize,
+    values: Vec<Values>,
+    /// (row in the piece, file line) of every row whose line is not the previous row's + 1,
+    /// and of the piece's first row.
+    breaks: Vec<(usize, u64)>,
+    error: Option<TableError>,
+}
+
+fn parse_piece(piece: &[u8], first_line: u64, plan: &Plan<'_>) -> Piece {
+    let mut out = Piece {
+        rows: 0,
+        values: plan.groups.iter().map(|g| Values::new(g.kind)).collect(),
+        breaks: Vec::new(),
+        error: None,
+    };
+    if let Err(e) = parse_lines(piece, first_line, plan, &mut out) {
+        out.error = Some(e);
+    }
+    out
+}
+
+fn parse_lines(
+    piece: &[u8],
+    first_line: u64,
+    plan: &Plan<'_>,
+    out: &mut Piece,
+) -> Result<(), TableError> {
+    let text = utf8(piece, first_line)?;
+    let mut line = first_line;
+    let mut expected = first_line;
+    let mut start = 0;
+    while start < text.len() {
+        let end =
+            memchr::memchr(b'\n', &text.as_bytes()[start..]).map_or(text.len(), |k| start + k + 1);
+        let row = strip_eol(&text[start..end]);
+        start = end;
+        if is_blank(row) {
+            line += 1;
+            continue;
+        }
+        if out.rows == 0 || line != expected {
+            out.breaks.push((out.rows, line));
+        }
+        for (values, spec) in out.values.iter_mut().zip(plan.groups) {
+            let n = spec.columns.len();
+            match values {
+                Values::Float(v) => v.resize(v.len() + n, 0.0),
+                Values::Integer(v) => v.resize(v.len() + n, 0),
+                Values::Label(v) => v.resize(v.len() + n, 0),
+            }
+        }
+        let mut fields = 0usize;
+        split_fields(row, line, &mut |k, cell| {
+            fields = k + 1;
+            let Some(&Some((g, offset))) = plan.slots.get(k) else {
+                return Ok(());
+            };
+            let spec = &plan.groups[g];
+            let column = || spec.columns[offset].1.clone();
+            let at = out.rows * spec.columns.len() + offset;
+            match &mut out.values[g] {
+                Values::Float(v) => {
+                    v[at] = cell.parse().map_err(|_| TableError::Parse {
+                        line,
+                        column: column(),
+                        text: cell.to_string(),
+                        expected: "a number",
+                    })?;
+                }
+                Values::Integer(v) => {
+                    v[at] = cell.parse().map_err(|_| TableError::Parse {
+                        line,
+                        column: column(),
+                        text: cell.to_string(),
+                        expected: "an integer",
+                    })?;
+                }
+                Values::Label(v) => {
+                    let CellKind::Label(allowed) = spec.kind else {
+                        unreachable!("a label group has label values")
+                    };
+                    let index = allowed
+                        .iter()
+                        .position(|a| a.eq_ignore_ascii_case(&cell))
+                        .ok_or_else(|| TableError::Label {
+                            line,
+                            column: column(),
+                            text: cell.to_string(),
+                            allowed,
+                        })?;
+                    v[at] = index as u8;
+                }
+            }
+            Ok(())
+        })?;
+        if fields != plan.width {
+            return Err(TableError::Malformed {
+                line,
+                message: format!(
+                    "found {fields} fields, the header has {} (a missing or extra comma?)",
+                    plan.width
+                ),
+            });
+        }
+        out.rows += 1;
+        line += 1;
+        expected = line;
+    }
+    Ok(())
+}
+
+/// Calls `cell(k, text)` for every field of one line (without its line end), trimmed and
+/// unquoted.
+fn split_fields<'t>(
+    row: &'t str,
+    line: u64,
+    cell: &mut dyn FnMut(usize, std::borrow::Cow<'t, str>) -> Result<(), TableError>,
+) -> Result<(), TableError> {
+    let bytes = row.as_bytes();
+    let mut k = 0;
+    let mut start = 0;
+    loop {
+        let rest = &row[start..];
+        let lead = rest.len() - rest.trim_start_matches(is_space).len();
+        if rest.as_bytes().get(lead) == Some(&b'"') {
+            let (text, after) = quoted(&rest[lead..], line)?;
+            let tail = &rest[lead + after..];
+            let tail_trimmed = tail.trim_start_matches(is_space);
+            cell(k, text)?;
+            match tail_trimmed.as_bytes().first() {
+                None => return Ok(()),
+                Some(b',') => {
+                    start += lead + after + (tail.len() - tail_trimmed.len()) + 1;
+                }
+                Some(_) => {
+                    return Err(TableError::Malformed {
+                        line,
+                        message: format!("text after the closing quote of field {}", k + 1),
+                    })
+                }
+            }
+        } else {
+            let end = memchr::memchr(b',', &bytes[start..]).map_or(row.len(), |e| start + e);
+            cell(
+                k,
+                std::borrow::Cow::Borrowed(row[start..end].trim_matches(is_space)),
+            )?;
+            if end == row.len() {
+                return Ok(());
+            }
+            start = end + 1;
+        }
+        k += 1;
+    }
+}
+
+/// A quoted field at the start of `s`: its text and the byte after the closing quote.
+fn quoted(s: &str, line: u64) -> Result<(std::borrow::Cow<'_, str>, usize), TableError> {
+    let bytes = s.as_bytes();
+    let mut owned: Option<String> = None;
+    let mut from = 1;
+    let mut k = 1;
+    while k < bytes.len() {
+        if bytes[k] == b'"' {
+            if bytes.get(k + 1) == Some(&b'"') {
+                owned.get_or_insert_with(String::new).push_str(&s[from..=k]);
+                k += 2;
+                from = k;
+                continue;
+            }
+            let text = match owned {
+                Some(mut o) => {
+                    o.push_str(&s[from..k]);
+                    std::borrow::Cow::Owned(o)
+                }
+                None => std::borrow::Cow::Borrowed(&s[1..k]),
+            };
+            let trimmed = match text {
+                std::borrow::Cow::Borrowed(t) => {
+                    std::borrow::Cow::Borrowed(t.trim_matches(is_space))
+                }
+                std::borrow::Cow::Owned(t) => {
+                    std::borrow::Cow::Owned(t.trim_matches(is_space).to_string())
+                }
+            };
+            return Ok((trimmed, k + 1));
+        }
+        k += 1;
+    }
+    Err(TableError::Malformed {
+        line,
+        message: "a quoted field is not closed on its line (a table cell cannot span lines)"
+            .to_string(),
+    })
+}
+
+fn is_space(c: char) -> bool {
+    c == ' ' || c == '\t' || c == '\r'
+}
+
+fn is_blank(s: &str) -> bool {
+    s.bytes().all(|b| b == b' ' || b == b'\t')
+}
+
+fn strip_eol(s: &str) -> &str {
+    let s = s.strip_suffix('\n').unwrap_or(s);
+    s.strip_suffix('\r').unwrap_or(s)
+}
+
+fn utf8(bytes: &[u8], first_line: u64) -> Result<&str, TableError> {
+    std::str::from_utf8(bytes).map_err(|e| TableError::Malformed {
+        line: first_line + memchr::memchr_iter(b'\n', &bytes[..e.valid_up_to()]).count() as u64,
+        message: "not UTF-8 text".to_string(),
+    })
+}

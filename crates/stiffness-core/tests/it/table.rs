@@ -1,0 +1,160 @@
+//! The table reader and writer: the dialect, the blame (line, column), chunk and thread
+//! independence, and the round trip of every float bit pattern class.
+
+use proptest::prelude::*;
+use stiffness_core::table::{write_csv, CellKind, Column, CsvReader, Layout, TableError};
+use stiffness_core::Cancel;
+
+fn floats(text: &str, n: usize) -> Result<(Vec<f64>, Vec<u64>), TableError> {
+    let reader = CsvReader::from_reader(text.as_bytes())?;
+    let mut layout = Layout::new();
+    let g = layout.group(
+        CellKind::Float,
+        (0..n).map(|k| (k, format!("c{k}"))).collect(),
+    );
+    let mut table = reader.read(&layout, &Cancel::new())?;
+    let lines = (0..table.rows()).map(|r| table.line_of(r)).collect();
+    Ok((table.take_floats(g), lines))
+}
+
+#[test]
+fn quoted_trimmed_crlf_and_bom_cells_read_as_their_numbers() {
+    let text = "\u{feff}a , \"b\"\r\n 1.5 ,\"2e-3\"\r\n\" -4 \", 5\r\n";
+    let (v, lines) = floats(text, 2).unwrap();
+    assert_eq!(v, [1.5, 2e-3, -4.0, 5.0]);
+    assert_eq!(lines, [2, 3]);
+}
+
+#[test]
+fn blank_lines_are_skipped_and_rows_keep_their_file_lines() {
+    let (v, lines) = floats("x\n\n1\n2\n\n \n3\n\n", 1).unwrap();
+    assert_eq!(v, [1.0, 2.0, 3.0]);
+    assert_eq!(lines, [3, 4, 7]);
+}
+
+#[test]
+fn a_bad_cell_is_named_by_line_and_column() {
+    match floats("a,b\n1,2\n\n3,x\n", 2) {
+        Err(TableError::Parse {
+            line: 4,
+            column,
+            text,
+            ..
+        }) => {
+            assert_eq!((column.as_str(), text.as_str()), ("c1", "x"));
+        }
+        other => panic!("expected a parse error on line 4, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_row_with_a_missing_field_is_malformed_at_its_line() {
+    assert!(matches!(
+        floats("a,b\n1,2\n3\n", 2),
+        Err(TableError::Malformed { line: 3, .. })
+    ));
+    assert!(matches!(
+        floats("a,b\n1,\"2\n", 2),
+        Err(TableError::Malformed { line: 2, .. })
+    ));
+    assert!(matches!(floats("", 1), Err(TableError::NoHeader)));
+    assert!(matches!(floats("\n \n", 1), Err(TableError::NoHeader)));
+}
+
+#[test]
+fn a_label_outside_its_list_is_named() {
+    let reader = CsvReader::from_reader("set\ntrain\nTEST\nvalidation\n".as_bytes()).unwrap();
+    let mut layout = Layout::new();
+    layout.group(CellKind::Label(&["train", "test"]), vec![(0, "set".into())]);
+    match reader.read(&layout, &Cancel::new()) {
+        Err(TableError::Label { line: 4, text, .. }) => assert_eq!(text, "validation"),
+        other => panic!("expected an unknown label on line 4, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_cancelled_read_returns_nothing() {
+    let cancel = Cancel::new();
+    cancel.cancel();
+    let reader = CsvReader::from_reader("x\n1\n".as_bytes()).unwrap();
+    assert!(matches!(
+        reader.read(&Layout::new(), &cancel),
+        Err(TableError::Cancelled)
+    ));
+}
+
+/// A table of ~20 MB spans several chunks and pieces: lines cut by a chunk boundary, the first
+/// error in file order and the line numbers must not depend on where the cuts fall or on the
+/// number of threads.
+#[test]
+fn a_table_larger_than_a_chunk_reads_the_same_on_one_thread_and_on_all() {
+    let rows = 400_000;
+    let mut text = String::from("i,x,y\n");
+    for i in 0..rows {
+        let x = (i as f64).sqrt() * 1e-3 - 0.3;
+        text.push_str(&format!("{i},{x:?},{}\n", -x * 7.0));
+        if i % 99_991 == 0 {
+            text.push('\n'); // a blank line every so often
+        }
+    }
+    assert!(text.len() > 2 * stiffness_core::table::read::CHUNK_BYTES);
+    let read = || {
+        let reader = CsvReader::from_reader(text.as_bytes()).unwrap();
+        let mut layout = Layout::new();
+        let i = layout.group(CellKind::Integer, vec![(0, "i".into())]);
+        let xy = layout.group(CellKind::Float, vec![(1, "x".into()), (2, "y".into())]);
+        let mut t = reader.read(&layout, &Cancel::new()).unwrap();
+        let lines: Vec<u64> = (0..t.rows()).map(|r| t.line_of(r)).collect();
+        (t.take_integers(i), t.take_floats(xy), lines)
+    };
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(read);
+    let all = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build()
+        .unwrap()
+        .install(read);
+    assert_eq!(one, all);
+    let (ids, xy, lines) = one;
+    assert_eq!(ids, (0..rows as i64).collect::<Vec<_>>());
+    for i in [0usize, 1, 99_991, 200_000, rows - 1] {
+        let x = (i as f64).sqrt() * 1e-3 - 0.3;
+        assert_eq!((xy[2 * i], xy[2 * i + 1]), (x, -x * 7.0));
+        // Row i is on line i + 2 plus one blank line after each row 0, 99 991, ...
+        let blanks = i.div_ceil(99_991);
+        assert_eq!(lines[i], i as u64 + 2 + blanks as u64, "row {i}");
+    }
+}
+
+#[test]
+fn the_writer_refuses_columns_that_do_not_fit() {
+    let mut out = Vec::new();
+    let bad = write_csv(
+        &mut out,
+        &["a", "b"],
+        &[Column::Floats {
+            data: &[1.0, 2.0, 3.0],
+            width: 2,
+        }],
+        &Cancel::new(),
+    );
+    assert!(matches!(bad, Err(TableError::Shape { .. })));
+    assert!(out.is_empty(), "nothing is written before the check");
+}
+
+proptest! {
+    /// Whatever the bits (subnormals, extremes, negative zero), a written number reads back
+    /// exactly; non-finite values become empty cells.
+    #[test]
+    fn every_finite_float_reads_back_bit_for_bit(bits in proptest::collection::vec(any::<u64>(), 1..200)) {
+        let values: Vec<f64> = bits.iter().map(|&b| f64::from_bits(b)).filter(|v| v.is_finite()).collect();
+        prop_assume!(!values.is_empty());
+        let mut out = Vec::new();
+        write_csv(&mut out, &["v"], &[Column::Floats { data: &values, width: 1 }], &Cancel::new()).unwrap();
+        let (back, _) = floats(std::str::from_utf8(&out).unwrap(), 1).unwrap();
+        prop_assert_eq!(back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+    }
+}
