@@ -295,6 +295,7 @@ impl From<TableError> for DatasetError {
                 column,
                 text,
                 expected,
+                ..
             } => DatasetError::Parse {
                 line,
                 column,

@@ -10,6 +10,21 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     hex(&Sha256::digest(bytes))
 }
 
+/// SHA-256 of everything `source` yields, lowercase hex; read in 1 MiB pieces, so a
+/// measurement file of any size is hashed in bounded memory (no copy of the file).
+pub fn sha256_hex_reader(mut source: impl std::io::Read) -> std::io::Result<String> {
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        match source.read(&mut buf) {
+            Ok(0) => return Ok(hex(&h.finalize())),
+            Ok(n) => h.update(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+}
+
 fn hex(digest: &[u8]) -> String {
     const DIGITS: &[u8; 16] = b"0123456789abcdef";
     let mut s = String::with_capacity(2 * digest.len());
@@ -84,6 +99,30 @@ mod tests {
         assert_eq!(
             sha256_hex(b""),
             "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"
+        );
+    }
+
+    /// FIPS 180-2's million-`a` vector, read in pieces that do not line up with the 1 MiB
+    /// buffer or the 64-byte blocks (a reader that returns at most 777 bytes per call).
+    #[test]
+    fn sha256_of_a_stream_is_that_of_its_bytes() {
+        struct Trickle(std::io::Repeat, usize);
+        impl std::io::Read for Trickle {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                let n = buf.len().min(777).min(self.1);
+                self.1 -= n;
+                self.0.read(&mut buf[..n])
+            }
+        }
+        let million_a = Trickle(std::io::repeat(b'a'), 1_000_000);
+        assert_eq!(
+            sha256_hex_reader(million_a).unwrap(),
+            "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0"
+        );
+        let two_mib = vec![7u8; 2 << 20];
+        assert_eq!(
+            sha256_hex_reader(&two_mib[..]).unwrap(),
+            sha256_hex(&two_mib)
         );
     }
 

@@ -74,7 +74,7 @@ pub use design::plan::{
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;
-pub use hashing::{inertials_sha256, kinematics_sha256, sha256_hex};
+pub use hashing::{inertials_sha256, kinematics_sha256, sha256_hex, sha256_hex_reader};
 pub use identify::{
     accumulate, build_design, identify, identify_checking_rows, identify_dense,
     identify_from_factor, Combination, CombinationTerm, Identification, IdentifyOptions,

@@ -18,6 +18,8 @@ use std::io::Read;
 use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
+use stiffness_core::table::{write_csv, CellKind, Column, CsvReader, Layout, TableError};
+use stiffness_core::Cancel;
 
 use super::error::IdentificationError;
 use crate::so3;
@@ -183,21 +185,41 @@ impl CsjmDataset {
                 });
             }
         }
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .trim(csv::Trim::All)
-            .flexible(false)
-            .from_reader(source);
-        let headers = reader.headers().map_err(csv_error)?.clone();
-        let columns = ColumnMap::from_headers(&headers)?;
+        let reader = CsvReader::from_reader(source).map_err(table_error)?;
+        let columns = ColumnMap::from_headers(reader.header())?;
+        let mut layout = Layout::new();
+        let named = |fields: &[usize], names: &[&str]| -> Vec<(usize, String)> {
+            fields
+                .iter()
+                .zip(names)
+                .map(|(&f, &n)| (f, n.to_string()))
+                .collect()
+        };
+        let rotation = layout.group(CellKind::Float, named(&columns.rotation, &ROTATION_COLUMNS));
+        let moment = layout.group(CellKind::Float, named(&columns.moment, &MOMENT_COLUMNS));
+        let flag = layout.group(
+            CellKind::Float,
+            named(&[columns.reference], &[REFERENCE_COLUMN]),
+        );
+        // CSJM files are a few hundred rows: the whole file is one read, not cancellable.
+        let mut table = reader.read(&layout, &Cancel::new()).map_err(table_error)?;
+        let (rotation, moment, flag) = (
+            table.take_floats(rotation),
+            table.take_floats(moment),
+            table.take_floats(flag),
+        );
 
         let mut reference: Vec<CsjmMeasurement> = Vec::new();
         let mut measurements = Vec::new();
-        for (index, record) in reader.records().enumerate() {
-            let record = record.map_err(csv_error)?;
+        for (index, &flag) in flag.iter().enumerate() {
             let row = index + 1;
-            let line = record.position().map_or(row as u64 + 1, |p| p.line());
-            let (measurement, is_reference) = parse_row(&record, &columns, row, line, options)?;
+            let line = table.line_of(index);
+            let cells = Cells {
+                rotation: &rotation[9 * index..9 * index + 9],
+                moment: &moment[3 * index..3 * index + 3],
+                flag,
+            };
+            let (measurement, is_reference) = parse_row(cells, row, line, options)?;
             if is_reference {
                 reference.push(measurement);
             } else {
@@ -259,40 +281,94 @@ impl CsjmDataset {
             .unzip()
     }
 
-    /// Writes the dataset in the measurement-file format (full round-trip precision).
+    /// Writes the dataset in the measurement-file format (numbers in their shortest
+    /// round-trip form, so reading the file back gives the same values bit for bit).
     pub fn write_csv<W: std::io::Write>(&self, out: W) -> Result<(), IdentificationError> {
-        let mut writer = csv::Writer::from_writer(out);
         let mut header: Vec<&str> = ROTATION_COLUMNS.to_vec();
         header.extend_from_slice(&MOMENT_COLUMNS);
         header.push(REFERENCE_COLUMN);
-        writer.write_record(&header).map_err(csv_error)?;
         let rows = std::iter::once((&self.reference, true))
             .chain(self.measurements.iter().map(|m| (m, false)));
+        let n = 1 + self.measurements.len();
+        let (mut rotation, mut moment, mut flag) = (
+            Vec::with_capacity(9 * n),
+            Vec::with_capacity(3 * n),
+            Vec::with_capacity(n),
+        );
         for (m, is_ref) in rows {
             let r = m.orientation.matrix();
-            let mut fields: Vec<String> = Vec::with_capacity(13);
             for i in 0..3 {
-                for j in 0..3 {
-                    fields.push(format!("{}", r[(i, j)]));
-                }
+                rotation.extend((0..3).map(|j| r[(i, j)]));
             }
-            fields.extend(m.moment.iter().map(|x| format!("{x}")));
-            fields.push(if is_ref { "1".into() } else { "0".into() });
-            writer.write_record(&fields).map_err(csv_error)?;
+            moment.extend(m.moment.iter());
+            flag.push(i64::from(is_ref));
         }
-        writer.flush().map_err(|source| IdentificationError::Io {
-            path: "<writer>".into(),
-            source,
-        })?;
-        Ok(())
+        let columns = [
+            Column::Floats {
+                data: &rotation,
+                width: 9,
+            },
+            Column::Floats {
+                data: &moment,
+                width: 3,
+            },
+            Column::Integers {
+                data: &flag,
+                width: 1,
+                empty: None,
+            },
+        ];
+        write_csv(out, &header, &columns, &Cancel::new()).map_err(table_error)
     }
 }
 
-fn csv_error(e: csv::Error) -> IdentificationError {
-    let line = e.position().map_or(0, |p| p.line());
-    IdentificationError::Csv {
-        line,
-        message: e.to_string(),
+/// The table layer's error as this crate's: the same row and line, the column by its name.
+fn table_error(e: TableError) -> IdentificationError {
+    let static_name = |column: &str| {
+        ROTATION_COLUMNS
+            .iter()
+            .chain(&MOMENT_COLUMNS)
+            .chain(std::iter::once(&REFERENCE_COLUMN))
+            .copied()
+            .find(|c| *c == column)
+    };
+    match e {
+        TableError::Io { path, source } => IdentificationError::Io {
+            path: path.display().to_string(),
+            source,
+        },
+        TableError::Parse {
+            line,
+            row,
+            column,
+            text,
+            ..
+        } => match static_name(&column) {
+            Some(REFERENCE_COLUMN) => IdentificationError::BadReferenceFlag {
+                row: row + 1,
+                line,
+                value: text,
+            },
+            Some(column) => IdentificationError::Parse {
+                row: row + 1,
+                line,
+                column,
+                value: text,
+            },
+            None => IdentificationError::Csv {
+                line,
+                message: format!("column '{column}': cannot parse '{text}' as a number"),
+            },
+        },
+        TableError::Malformed { line, message } => IdentificationError::Csv { line, message },
+        // An empty file lacks every column; name the first.
+        TableError::NoHeader => IdentificationError::MissingColumn {
+            column: ROTATION_COLUMNS[0],
+        },
+        other => IdentificationError::Csv {
+            line: 0,
+            message: other.to_string(),
+        },
     }
 }
 
@@ -304,12 +380,10 @@ struct ColumnMap {
 }
 
 impl ColumnMap {
-    fn from_headers(headers: &csv::StringRecord) -> Result<Self, IdentificationError> {
-        let names: Vec<String> = headers
-            .iter()
-            // A UTF-8 byte-order mark (spreadsheet exports) must not hide the first name.
-            .map(|h| h.trim_start_matches('\u{feff}').trim().to_ascii_lowercase())
-            .collect();
+    /// From the header's names (trimmed, byte-order mark removed by the reader); names are
+    /// compared case-insensitively.
+    fn from_headers(headers: &[String]) -> Result<Self, IdentificationError> {
+        let names: Vec<String> = headers.iter().map(|h| h.to_ascii_lowercase()).collect();
         for (i, name) in names.iter().enumerate() {
             if !name.is_empty() && names[..i].contains(name) {
                 return Err(IdentificationError::DuplicateColumn {
@@ -339,59 +413,52 @@ impl ColumnMap {
     }
 }
 
-fn parse_field(
-    record: &csv::StringRecord,
-    index: usize,
+/// One data row's cells as the table reader parsed them.
+struct Cells<'a> {
+    rotation: &'a [f64],
+    moment: &'a [f64],
+    flag: f64,
+}
+
+fn finite(
+    value: f64,
     column: &'static str,
     row: usize,
     line: u64,
 ) -> Result<f64, IdentificationError> {
-    let text = record.get(index).unwrap_or("");
-    let value: f64 = text.parse().map_err(|_| IdentificationError::Parse {
-        row,
-        line,
-        column,
-        value: text.to_string(),
-    })?;
-    if !value.is_finite() {
-        return Err(IdentificationError::NonFinite {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(IdentificationError::NonFinite {
             row,
             line,
             column,
             value,
-        });
+        })
     }
-    Ok(value)
 }
 
 fn parse_row(
-    record: &csv::StringRecord,
-    columns: &ColumnMap,
+    cells: Cells<'_>,
     row: usize,
     line: u64,
     options: &ReadOptions,
 ) -> Result<(CsjmMeasurement, bool), IdentificationError> {
     let mut entries = [0.0; 9];
-    for ((slot, &index), name) in entries
-        .iter_mut()
-        .zip(&columns.rotation)
-        .zip(ROTATION_COLUMNS)
-    {
-        *slot = parse_field(record, index, name, row, line)?;
+    for ((slot, &value), name) in entries.iter_mut().zip(cells.rotation).zip(ROTATION_COLUMNS) {
+        *slot = finite(value, name, row, line)?;
     }
     let mut moment = Vector3::zeros();
-    for ((slot, &index), name) in moment.iter_mut().zip(&columns.moment).zip(MOMENT_COLUMNS) {
-        *slot = parse_field(record, index, name, row, line)?;
+    for ((slot, &value), name) in moment.iter_mut().zip(cells.moment).zip(MOMENT_COLUMNS) {
+        *slot = finite(value, name, row, line)?;
     }
-    let flag_text = record.get(columns.reference).unwrap_or("");
-    let flag = flag_text.parse::<f64>().ok();
-    let is_reference = match flag {
-        Some(v) if v == 1.0 || v == 0.0 => v == 1.0,
-        _ => {
+    let is_reference = match cells.flag {
+        v if v == 1.0 || v == 0.0 => v == 1.0,
+        v => {
             return Err(IdentificationError::BadReferenceFlag {
                 row,
                 line,
-                value: flag_text.to_string(),
+                value: stiffness_core::num::Short(v).to_string(),
             })
         }
     };

@@ -35,6 +35,8 @@ pub enum TableError {
     Parse {
         /// File line (header = 1).
         line: u64,
+        /// Data row, 0-based (blank lines are not rows).
+        row: usize,
         /// The column, as the caller names it.
         column: String,
         /// The offending text.
@@ -47,6 +49,8 @@ pub enum TableError {
     Label {
         /// File line (header = 1).
         line: u64,
+        /// Data row, 0-based (blank lines are not rows).
+        row: usize,
         /// The column, as the caller names it.
         column: String,
         /// The offending text.
@@ -68,5 +72,16 @@ pub enum TableError {
 impl From<crate::Cancelled> for TableError {
     fn from(_: crate::Cancelled) -> Self {
         TableError::Cancelled
+    }
+}
+
+impl TableError {
+    /// The error of a piece of the file that starts after `rows` data rows, with its row
+    /// counted from the start of the file.
+    pub(crate) fn after_rows(mut self, rows: usize) -> Self {
+        if let TableError::Parse { row, .. } | TableError::Label { row, .. } = &mut self {
+            *row += rows;
+        }
+        self
     }
 }

@@ -307,7 +307,7 @@ impl<R: Read> CsvReader<R> {
                 .collect();
             for piece in &mut parsed {
                 if let Some(e) = piece.error.take() {
-                    return Err(e);
+                    return Err(e.after_rows(table.rows));
                 }
                 for &(row, line) in &piece.breaks {
                     let row = table.rows + row;
@@ -462,10 +462,13 @@ fn parse_lines(
             let spec = &plan.groups[g];
             let column = || spec.columns[offset].1.clone();
             let at = out.rows * spec.columns.len() + offset;
+            // The piece's own row: `read` adds the rows of the pieces before it.
+            let row = out.rows;
             match &mut out.values[g] {
                 Values::Float(v) => {
                     v[at] = cell.parse().map_err(|_| TableError::Parse {
                         line,
+                        row,
                         column: column(),
                         text: cell.to_string(),
                         expected: "a number",
@@ -474,6 +477,7 @@ fn parse_lines(
                 Values::Integer(v) => {
                     v[at] = cell.parse().map_err(|_| TableError::Parse {
                         line,
+                        row,
                         column: column(),
                         text: cell.to_string(),
                         expected: "an integer",
@@ -488,6 +492,7 @@ fn parse_lines(
                         .position(|a| a.eq_ignore_ascii_case(&cell))
                         .ok_or_else(|| TableError::Label {
                             line,
+                            row,
                             column: column(),
                             text: cell.to_string(),
                             allowed,

@@ -37,6 +37,7 @@ fn a_bad_cell_is_named_by_line_and_column() {
     match floats("a,b\n1,2\n\n3,x\n", 2) {
         Err(TableError::Parse {
             line: 4,
+            row: 1,
             column,
             text,
             ..
@@ -83,21 +84,45 @@ fn a_cancelled_read_returns_nothing() {
     ));
 }
 
-/// A table of ~20 MB spans several chunks and pieces: lines cut by a chunk boundary, the first
-/// error in file order and the line numbers must not depend on where the cuts fall or on the
-/// number of threads.
-#[test]
-fn a_table_larger_than_a_chunk_reads_the_same_on_one_thread_and_on_all() {
+/// A table of ~20 MB: it spans several chunks and pieces, so lines are cut by chunk
+/// boundaries. Row i is `i, x_i, -7 x_i` with a blank line after rows 0, 99 991, ...; with
+/// `bad_row` that row's `y` is not a number.
+fn big_table(bad_row: Option<usize>) -> (String, usize) {
     let rows = 400_000;
     let mut text = String::from("i,x,y\n");
     for i in 0..rows {
         let x = (i as f64).sqrt() * 1e-3 - 0.3;
-        text.push_str(&format!("{i},{x:?},{}\n", -x * 7.0));
+        if Some(i) == bad_row {
+            text.push_str(&format!("{i},{x:?},oops\n"));
+        } else {
+            text.push_str(&format!("{i},{x:?},{}\n", -x * 7.0));
+        }
         if i % 99_991 == 0 {
             text.push('\n'); // a blank line every so often
         }
     }
     assert!(text.len() > 2 * stiffness_core::table::read::CHUNK_BYTES);
+    (text, rows)
+}
+
+/// Row i's file line: i + 2 plus one blank line after each row 0, 99 991, ... before it.
+fn big_table_line(i: usize) -> u64 {
+    i as u64 + 2 + i.div_ceil(99_991) as u64
+}
+
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+/// The values and the line numbers must not depend on where the chunk and piece cuts fall or
+/// on the number of threads.
+#[test]
+fn a_table_larger_than_a_chunk_reads_the_same_on_one_thread_and_on_all() {
+    let (text, rows) = big_table(None);
     let read = || {
         let reader = CsvReader::from_reader(text.as_bytes()).unwrap();
         let mut layout = Layout::new();
@@ -107,25 +132,44 @@ fn a_table_larger_than_a_chunk_reads_the_same_on_one_thread_and_on_all() {
         let lines: Vec<u64> = (0..t.rows()).map(|r| t.line_of(r)).collect();
         (t.take_integers(i), t.take_floats(xy), lines)
     };
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(read);
-    let all = rayon::ThreadPoolBuilder::new()
-        .num_threads(4)
-        .build()
-        .unwrap()
-        .install(read);
+    let one = on_threads(1, read);
+    let all = on_threads(4, read);
     assert_eq!(one, all);
     let (ids, xy, lines) = one;
     assert_eq!(ids, (0..rows as i64).collect::<Vec<_>>());
     for i in [0usize, 1, 99_991, 200_000, rows - 1] {
         let x = (i as f64).sqrt() * 1e-3 - 0.3;
         assert_eq!((xy[2 * i], xy[2 * i + 1]), (x, -x * 7.0));
-        // Row i is on line i + 2 plus one blank line after each row 0, 99 991, ...
-        let blanks = i.div_ceil(99_991);
-        assert_eq!(lines[i], i as u64 + 2 + blanks as u64, "row {i}");
+        assert_eq!(lines[i], big_table_line(i), "row {i}");
+    }
+}
+
+/// A bad cell deep in the file (past the first chunk, in a later piece) is blamed on its own
+/// data row and file line, whatever the thread count.
+#[test]
+fn a_bad_cell_past_the_first_chunk_is_named_by_its_row_and_line() {
+    for bad in [1usize, 250_001, 399_999] {
+        let (text, _) = big_table(Some(bad));
+        for threads in [1, 4] {
+            let got = on_threads(threads, || {
+                let reader = CsvReader::from_reader(text.as_bytes()).unwrap();
+                let mut layout = Layout::new();
+                layout.group(
+                    CellKind::Float,
+                    vec![(0, "i".into()), (1, "x".into()), (2, "y".into())],
+                );
+                reader.read(&layout, &Cancel::new())
+            });
+            match got {
+                Err(TableError::Parse {
+                    row, line, column, ..
+                }) => {
+                    assert_eq!((row, line), (bad, big_table_line(bad)), "{threads} threads");
+                    assert_eq!(column, "y");
+                }
+                other => panic!("expected a parse error at row {bad}, got {other:?}"),
+            }
+        }
     }
 }
 

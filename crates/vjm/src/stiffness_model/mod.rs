@@ -55,7 +55,7 @@ pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
 use crate::chain::SerialChain;
 use crate::gravity::Gravity;
-use crate::hashing::{kinematics_sha256, sha256_hex};
+use crate::hashing::{kinematics_sha256, sha256_hex_reader};
 use crate::identify::{Identification, IdentifyOptions};
 use crate::model::{Spring, VirtualJointModel};
 
@@ -227,14 +227,15 @@ impl DataSource {
     /// Data read from `path` (`rows` rows used); the file is hashed now.
     pub fn file(path: impl AsRef<std::path::Path>, rows: usize) -> Result<Self, ModelError> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| ModelError::Read {
+        let read = |source| ModelError::Read {
             path: path.display().to_string(),
             source,
-        })?;
+        };
+        let sha256 = sha256_hex_reader(std::fs::File::open(path).map_err(read)?).map_err(read)?;
         Ok(DataSource {
             rows,
             file: Some(path.display().to_string()),
-            sha256: Some(sha256_hex(&bytes)),
+            sha256: Some(sha256),
         })
     }
 }

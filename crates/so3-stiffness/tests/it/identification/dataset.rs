@@ -198,6 +198,24 @@ fn reference_flag_must_be_zero_or_one() {
     }
 }
 
+/// Blank lines are skipped: a data row keeps its number (rows counted without them) and the
+/// error names the line it is on in the file.
+#[test]
+fn blank_lines_shift_the_line_but_not_the_row() {
+    let mut rows = valid_rows(4);
+    rows[3] = format!("{},2", rows[3].rsplit_once(',').unwrap().0);
+    rows.insert(1, String::new());
+    rows.insert(1, "  ".to_string());
+    match read(&file(&rows)) {
+        Err(IdentificationError::BadReferenceFlag {
+            row: 4,
+            line: 7,
+            value,
+        }) => assert_eq!(value, "2"),
+        other => panic!("expected BadReferenceFlag at row 4, line 7, got {other:?}"),
+    }
+}
+
 #[test]
 fn fewer_than_three_increments_is_an_error() {
     let rows = valid_rows(2);
