@@ -441,7 +441,7 @@ pub fn check_values(
 /// The per-cell part of [`check_values`] for the columns that are given; rows are counted
 /// from `q`. Shared with [`check_poses`], so that a prediction refuses exactly the joint
 /// angles and loads an identification refuses.
-fn check_cells(
+pub(crate) fn check_cells(
     n_joints: usize,
     q: &[f64],
     wrench: Option<&[f64]>,

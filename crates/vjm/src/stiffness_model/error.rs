@@ -93,6 +93,9 @@ pub enum ModelError {
         /// What is wrong.
         message: String,
     },
+    /// Reading a pose table was cancelled through its token; nothing was returned.
+    #[error("cancelled")]
+    Cancelled,
     /// Kinematics or input checks of the core (non-finite value with its row and column,
     /// wrong lengths).
     #[error(transparent)]

@@ -4,10 +4,16 @@
 //! Columns (header required, any order, case-insensitive): `q1..qn` (rad) and either all of
 //! `fx,fy,fz,mx,my,mz` (N, N·m, at the tip point, base frame) or none of them (the load is then
 //! given separately, e.g. as a payload). Other columns (`dx`, `pose`, `set`, …) are ignored,
-//! so a measurement file is a valid pose table.
+//! so a measurement file is a valid pose table. Read by the one table reader
+//! ([`stiffness_core::table::CsvReader`]: chunked, on every core); errors name the file, the
+//! line (header = 1) and the column.
 
 use std::collections::BTreeMap;
+use std::io::Read;
 use std::path::Path;
+
+use stiffness_core::table::{CellKind, CsvReader, Layout, TableError};
+use stiffness_core::Cancel;
 
 use super::ModelError;
 use crate::dataset::DatasetError;
@@ -39,118 +45,136 @@ impl PoseTable {
     /// Reads and validates `path` for a chain of `n_joints` joints. Errors name the file,
     /// the line (header = 1) and the column.
     pub fn read_csv(path: impl AsRef<Path>, n_joints: usize) -> Result<Self, ModelError> {
+        Self::read_csv_cancellable(path, n_joints, &Cancel::new())
+    }
+
+    /// [`PoseTable::read_csv`], stopping with [`ModelError::Cancelled`] once `cancel` is set
+    /// (polled once per chunk of the file).
+    pub fn read_csv_cancellable(
+        path: impl AsRef<Path>,
+        n_joints: usize,
+        cancel: &Cancel,
+    ) -> Result<Self, ModelError> {
         let path = path.as_ref();
         let shown = path.display().to_string();
-        let bad = |e: DatasetError| ModelError::Table {
-            path: shown.clone(),
-            message: e.to_string(),
-        };
-        let file = std::fs::File::open(path).map_err(|source| ModelError::Read {
-            path: shown.clone(),
-            source,
-        })?;
-        let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .trim(csv::Trim::All)
-            .from_reader(std::io::BufReader::new(file));
-        let csv_err = |e: csv::Error| {
-            bad(DatasetError::Csv {
-                line: e.position().map(|p| p.line()).unwrap_or(0),
-                message: e.to_string(),
-            })
-        };
-        let headers = rdr.headers().map_err(csv_err)?.clone();
-        let mut index: BTreeMap<String, usize> = BTreeMap::new();
-        for (k, h) in headers.iter().enumerate() {
-            if index.insert(h.to_ascii_lowercase(), k).is_some() {
-                return Err(bad(DatasetError::DuplicateColumn {
-                    column: h.to_string(),
-                }));
-            }
-        }
-        let q_found = index
-            .keys()
-            .filter(|c| {
-                c.len() > 1
-                    && c.starts_with('q')
-                    && c[1..].bytes().all(|b| b.is_ascii_digit())
-                    && !c[1..].starts_with('0')
-            })
-            .count();
-        if q_found != n_joints {
-            return Err(bad(DatasetError::JointCount {
-                found: q_found,
-                expected: n_joints,
-            }));
-        }
-        let missing = |column: String| {
-            ModelError::Table {
-            path: shown.clone(),
-            message: format!("missing column '{column}' (need q1..q{n_joints}, and fx,fy,fz,mx,my,mz unless the load is given separately)"),
-        }
-        };
-        let q_idx = (1..=n_joints)
-            .map(|j| {
-                let c = format!("q{j}");
-                index.get(&c).copied().ok_or_else(|| missing(c))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let present: Vec<&str> = WRENCH
-            .iter()
-            .copied()
-            .filter(|c| index.contains_key(*c))
-            .collect();
-        let w_idx = if present.is_empty() {
-            None
-        } else {
-            Some(
-                WRENCH
-                    .iter()
-                    .map(|c| index.get(*c).copied().ok_or_else(|| missing(c.to_string())))
-                    .collect::<Result<Vec<_>, _>>()?,
-            )
-        };
-        let mut q = Vec::new();
-        let mut wrench = w_idx.as_ref().map(|_| Vec::new());
-        let mut record = csv::StringRecord::new();
-        loop {
-            match rdr.read_record(&mut record) {
-                Ok(true) => {}
-                Ok(false) => break,
-                Err(e) => return Err(csv_err(e)),
-            }
-            let line = record.position().map(|p| p.line()).unwrap_or(0);
-            let num = |k: usize, column: &str| -> Result<f64, ModelError> {
-                let text = record.get(k).unwrap_or("");
-                let v: f64 = text.parse().map_err(|_| {
-                    bad(DatasetError::Parse {
-                        line,
-                        column: column.to_string(),
-                        text: text.to_string(),
-                        expected: "a number",
-                    })
-                })?;
-                // A measurement file's checks (finite, plausible for the unit): a pose in
-                // degrees or a load in the wrong unit is refused here as in `identify`.
-                crate::dataset::check_value(line, column, v).map_err(bad)?;
-                Ok(v)
-            };
-            for (j, &k) in q_idx.iter().enumerate() {
-                q.push(num(k, &format!("q{}", j + 1))?);
-            }
-            if let (Some(idx), Some(w)) = (&w_idx, wrench.as_mut()) {
-                for (c, &k) in WRENCH.iter().zip(idx) {
-                    w.push(num(k, c)?);
-                }
-            }
-        }
-        if q.is_empty() {
-            return Err(bad(DatasetError::Empty));
-        }
-        Ok(PoseTable {
-            n_joints,
-            q,
-            wrench,
-        })
+        let reader = CsvReader::open(path).map_err(|e| table_error(e, &shown, n_joints))?;
+        read_table(reader, n_joints, cancel).map_err(|e| table_error(e, &shown, n_joints))
     }
+
+    /// Reads a pose table from any reader (`<reader>` in messages).
+    pub fn from_reader(reader: impl Read, n_joints: usize) -> Result<Self, ModelError> {
+        let shown = "<reader>";
+        let reader = CsvReader::from_reader(reader).map_err(|e| table_error(e, shown, n_joints))?;
+        read_table(reader, n_joints, &Cancel::new()).map_err(|e| table_error(e, shown, n_joints))
+    }
+}
+
+/// What can fail while reading, before the file's name is attached.
+enum Failure {
+    Table(TableError),
+    Data(DatasetError),
+    Missing(String),
+}
+
+impl From<TableError> for Failure {
+    fn from(e: TableError) -> Self {
+        Failure::Table(e)
+    }
+}
+
+impl From<DatasetError> for Failure {
+    fn from(e: DatasetError) -> Self {
+        Failure::Data(e)
+    }
+}
+
+fn table_error(e: impl Into<Failure>, shown: &str, n_joints: usize) -> ModelError {
+    let table = |message: String| ModelError::Table {
+        path: shown.to_string(),
+        message,
+    };
+    match e.into() {
+        Failure::Table(TableError::Io { source, .. }) => ModelError::Read {
+            path: shown.to_string(),
+            source,
+        },
+        Failure::Table(TableError::Cancelled) => ModelError::Cancelled,
+        Failure::Table(TableError::NoHeader) => table(format!(
+            "the file is empty: no header line (expected columns q1..q{n_joints} and, unless the \
+             load is given separately, fx,fy,fz,mx,my,mz)"
+        )),
+        Failure::Table(other) => table(DatasetError::from(other).to_string()),
+        Failure::Data(e) => table(e.to_string()),
+        Failure::Missing(column) => table(format!(
+            "missing column '{column}' (need q1..q{n_joints}, and fx,fy,fz,mx,my,mz unless the \
+             load is given separately)"
+        )),
+    }
+}
+
+fn read_table<R: Read>(
+    reader: CsvReader<R>,
+    n_joints: usize,
+    cancel: &Cancel,
+) -> Result<PoseTable, Failure> {
+    let mut index: BTreeMap<String, usize> = BTreeMap::new();
+    for (k, h) in reader.header().iter().enumerate() {
+        if index.insert(h.to_ascii_lowercase(), k).is_some() {
+            return Err(DatasetError::DuplicateColumn {
+                column: h.to_string(),
+            }
+            .into());
+        }
+    }
+    let q_found = index
+        .keys()
+        .filter(|c| {
+            c.len() > 1
+                && c.starts_with('q')
+                && c[1..].bytes().all(|b| b.is_ascii_digit())
+                && !c[1..].starts_with('0')
+        })
+        .count();
+    if q_found != n_joints {
+        return Err(DatasetError::JointCount {
+            found: q_found,
+            expected: n_joints,
+        }
+        .into());
+    }
+    let need = |c: String| match index.get(&c) {
+        Some(&k) => Ok((k, c)),
+        None => Err(Failure::Missing(c)),
+    };
+    let q_cols = (1..=n_joints)
+        .map(|j| need(format!("q{j}")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let w_cols = if WRENCH.iter().any(|c| index.contains_key(*c)) {
+        Some(
+            WRENCH
+                .iter()
+                .map(|c| need(c.to_string()))
+                .collect::<Result<Vec<_>, _>>()?,
+        )
+    } else {
+        None
+    };
+    let mut layout = Layout::new();
+    let q_g = layout.group(CellKind::Float, q_cols);
+    let w_g = w_cols.map(|c| layout.group(CellKind::Float, c));
+    let mut table = reader.read(&layout, cancel)?;
+    let q = table.take_floats(q_g);
+    let wrench = w_g.map(|g| table.take_floats(g));
+    if q.is_empty() {
+        return Err(DatasetError::Empty.into());
+    }
+    // A measurement file's checks (finite, plausible for the unit): a pose in degrees or a
+    // load in the wrong unit is refused here as in `identify`, at the file's line.
+    crate::dataset::check_cells(n_joints, &q, wrench.as_deref(), None, None)
+        .map_err(|e| e.at_file_lines(&table))?;
+    Ok(PoseTable {
+        n_joints,
+        q,
+        wrench,
+    })
 }

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""The CLI ``predict vjm`` of a campaign-size pose table, next to the identification (issue 25:
+CLI ``predict`` ≤ 25× the in-memory ``identify`` of the same rows, ≤ 600 MB peak memory).
+
+The seeded campaign of ``benches/table_io.py`` (1e6 rows by default, 7 joints, with ``dx..dz``,
+``pose``, ``set``: a measurement file is a valid pose table) is written as CSV; a model is
+identified from it in memory (weightless, the reference of every ratio, median of ``--repeat``)
+and saved. Then, each in a fresh interpreter, median of ``--repeat`` runs:
+
+* ``robot-stiffness predict vjm MODEL.json POSES.csv --out PRED.csv`` (default: the sag columns
+  too, under standard gravity: the model records none) and with ``--no-gravity``;
+* with ``--parquet``, the same from a Parquet POSES file to a Parquet PRED file.
+
+Peak memory is the child's own ``ru_maxrss`` (``os.wait4``), the largest of the runs. Then the
+phases the command runs are timed one by one in this process (reading the table, ``predict``,
+``predict_sag``, writing PRED.csv), to say where the time goes. A markdown table goes to stdout.
+
+Usage (from the workspace root, with the release extension importable, e.g. after
+``bash /work/notes/dev_ext.sh`` and ``PYTHONPATH=crates/py-bindings/python``):
+    python benches/cli_predict.py                  # 1e6 rows, 3 runs each
+    python benches/cli_predict.py --rows 100000 --repeat 1 --parquet
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from table_io import campaign, median_time  # noqa: E402  (the same seeded generator)
+
+from robot_stiffness import _core  # noqa: E402
+from robot_stiffness.model import StiffnessModel  # noqa: E402
+from robot_stiffness.vjm import Robot  # noqa: E402
+
+
+def run_child(argv: List[str]) -> Tuple[float, float]:
+    """Wall time (s) and peak resident memory (MB) of one command, run to completion."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, env=os.environ.copy())
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} failed with exit status {proc.returncode}")
+    return wall, usage.ru_maxrss / 1024  # ru_maxrss is in KiB on Linux
+
+
+def median_child(repeat: int, argv: List[str]) -> Tuple[float, float]:
+    runs = [run_child(argv) for _ in range(repeat)]
+    return statistics.median(t for t, _ in runs), max(m for _, m in runs)
+
+
+def phases(robot: Robot, model_path: Path, poses: Path, out: Path, repeat: int) -> Dict[str, float]:
+    """The steps of ``cmd_predict_vjm``, timed one by one (median of ``repeat``)."""
+    from robot_stiffness import cli_model
+
+    model = StiffnessModel.load(model_path, robot)
+    times: Dict[str, float] = {}
+    times["read POSES.csv (`_core.vjm_read_poses`)"] = median_time(
+        repeat, lambda: _core.vjm_read_poses(str(poses), robot._inner))
+    q, wrench = _core.vjm_read_poses(str(poses), robot._inner)
+    times["`StiffnessModel.predict`"] = median_time(repeat, lambda: model.predict(q, wrench=wrench))
+    pred = model.predict(q, wrench=wrench)
+    times["`StiffnessModel.predict_sag`"] = median_time(repeat, lambda: model.predict_sag(q))
+    sag = model.predict_sag(q)
+    write: Callable[[], object] = lambda: out.write_text(  # noqa: E731
+        cli_model.predictions_csv(robot.n_joints, q, pred, sag))
+    times["write PRED.csv (`cli_model.predictions_csv`)"] = median_time(repeat, write)
+    return times
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rows", type=int, default=1_000_000, help="rows of the campaign (default 1e6)")
+    ap.add_argument("--repeat", type=int, default=3, help="timed runs of each step; the median is reported")
+    ap.add_argument("--parquet", action="store_true", help="also Parquet in and out (needs pyarrow)")
+    ap.add_argument("--no-phases", action="store_true", help="skip the in-process timing of the phases")
+    args = ap.parse_args(argv)
+
+    robot = Robot.bundled()
+    data = campaign(robot, args.rows)
+    with tempfile.TemporaryDirectory(prefix="cli-predict-") as tmp:
+        work = Path(tmp)
+        poses = work / "campaign.csv"
+        poses.write_text(data.to_csv_text())
+        size = poses.stat().st_size
+        robot.identify(data.q[:1000], data.wrench[:1000], data.displacement[:1000], gravity=None)  # warm-up
+        t_identify = median_time(
+            args.repeat, lambda: robot.identify(data.q, data.wrench, data.displacement, gravity=None))
+        model_path = work / "model.json"
+        robot.identify(data.q, data.wrench, data.displacement, gravity=None).save(model_path)
+
+        cli = [sys.executable, "-m", "robot_stiffness.cli", "predict", "vjm", str(model_path)]
+        runs: List[Tuple[str, float, float]] = []
+        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(work / "pred.csv"), "--force"])
+        runs.append(("CLI `predict vjm MODEL.json POSES.csv --out PRED.csv` (with the sag)", t, mem))
+        t, mem = median_child(
+            args.repeat, cli + [str(poses), "--out", str(work / "pred.csv"), "--force", "--no-gravity"])
+        runs.append(("  the same with `--no-gravity` (no sag columns)", t, mem))
+        if args.parquet:
+            from robot_stiffness._columnar import write_columns
+
+            names = [f"q{j + 1}" for j in range(robot.n_joints)] + ["fx", "fy", "fz", "mx", "my", "mz"]
+            cols = [data.q[:, j] for j in range(robot.n_joints)] + [data.wrench[:, k] for k in range(6)]
+            pq_poses = work / "poses.parquet"
+            write_columns(pq_poses, names, cols)
+            t, mem = median_child(
+                args.repeat, cli + [str(pq_poses), "--out", str(work / "pred.parquet"), "--force"])
+            runs.append(("CLI `predict vjm MODEL.json POSES.parquet --out PRED.parquet` (with the sag)", t, mem))
+        t_start = median_time(
+            args.repeat, lambda: subprocess.run([sys.executable, "-c", "import robot_stiffness.cli"], check=True))
+        steps = {} if args.no_phases else phases(robot, model_path, poses, work / "pred-phases.csv", args.repeat)
+
+    print(f"robot_stiffness {_core.__version__}; {args.rows:,} rows × {robot.n_joints} joints "
+          f"(+ dx..dz, pose, set), {size / 1e6:.0f} MB of CSV; weightless model; median of {args.repeat} runs; "
+          f"{os.cpu_count()} cores\n")
+    print("| step | time | ratio to in-memory identify | peak memory |")
+    print("| --- | ---: | ---: | ---: |")
+    print(f"| in-memory `Robot.identify` (weightless) | {t_identify * 1e3:,.0f} ms | 1.0× | |")
+    for name, t, mem in runs:
+        print(f"| {name} | {t * 1e3:,.0f} ms | {t / t_identify:.1f}× | {mem:,.0f} MB |")
+    print(f"| interpreter start-up + `import robot_stiffness.cli` | {t_start * 1e3:,.0f} ms | "
+          f"{t_start / t_identify:.1f}× | |")
+    for name, t in steps.items():
+        print(f"| phase: {name} | {t * 1e3:,.0f} ms | {t / t_identify:.1f}× | |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
