@@ -285,6 +285,15 @@ pub enum DatasetError {
     },
 }
 
+/// Whether a lower-cased column name is a joint position `q1`, `q2`, … (no leading zero), as a
+/// measurement file and a pose table name them.
+pub(crate) fn is_joint_column(name: &str) -> bool {
+    name.len() > 1
+        && name.starts_with('q')
+        && name[1..].bytes().all(|b| b.is_ascii_digit())
+        && !name[1..].starts_with('0')
+}
+
 impl From<TableError> for DatasetError {
     fn from(e: TableError) -> Self {
         match e {
@@ -893,10 +902,7 @@ impl<'a> Dataset<'a> {
                 || ROTATION_COLUMNS.contains(&name.as_str())
                 || name == "pose"
                 || name == "set";
-            let is_q = name.len() > 1
-                && name.starts_with('q')
-                && name[1..].bytes().all(|b| b.is_ascii_digit())
-                && !name[1..].starts_with('0');
+            let is_q = is_joint_column(&name);
             if !known && !is_q {
                 return Err(DatasetError::UnknownColumn {
                     column: h.to_string(),

@@ -16,7 +16,7 @@ use stiffness_core::table::{CellKind, CsvReader, Layout, TableError};
 use stiffness_core::Cancel;
 
 use super::ModelError;
-use crate::dataset::DatasetError;
+use crate::dataset::{is_joint_column, DatasetError};
 
 const WRENCH: [&str; 6] = ["fx", "fy", "fz", "mx", "my", "mz"];
 
@@ -126,15 +126,7 @@ fn read_table<R: Read>(
             .into());
         }
     }
-    let q_found = index
-        .keys()
-        .filter(|c| {
-            c.len() > 1
-                && c.starts_with('q')
-                && c[1..].bytes().all(|b| b.is_ascii_digit())
-                && !c[1..].starts_with('0')
-        })
-        .count();
+    let q_found = index.keys().filter(|c| is_joint_column(c)).count();
     if q_found != n_joints {
         return Err(DatasetError::JointCount {
             found: q_found,
