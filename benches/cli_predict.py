@@ -59,7 +59,7 @@ def median_child(repeat: int, argv: List[str]) -> Tuple[float, float]:
 
 def phases(robot: Robot, model_path: Path, poses: Path, out: Path, repeat: int) -> Dict[str, float]:
     """The steps of ``cmd_predict_vjm``, timed one by one (median of ``repeat``)."""
-    from robot_stiffness import cli_model
+    from robot_stiffness import _use_tables
 
     model = StiffnessModel.load(model_path, robot)
     times: Dict[str, float] = {}
@@ -70,9 +70,8 @@ def phases(robot: Robot, model_path: Path, poses: Path, out: Path, repeat: int) 
     pred = model.predict(q, wrench=wrench)
     times["`StiffnessModel.predict_sag`"] = median_time(repeat, lambda: model.predict_sag(q))
     sag = model.predict_sag(q)
-    write: Callable[[], object] = lambda: out.write_text(  # noqa: E731
-        cli_model.predictions_csv(robot.n_joints, q, pred, sag))
-    times["write PRED.csv (`cli_model.predictions_csv`)"] = median_time(repeat, write)
+    write: Callable[[], object] = lambda: _use_tables.write_predictions(out, out, q, pred, sag)  # noqa: E731
+    times["write PRED.csv (`_use_tables.write_predictions`, the core's writer)"] = median_time(repeat, write)
     return times
 
 

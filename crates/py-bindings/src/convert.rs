@@ -79,6 +79,27 @@ pub fn pose_ids<'a>(arr: &'a PyReadonlyArrayDyn<'_, i64>) -> PyResult<Cow<'a, [i
     numpy_copy(arr).map(Cow::Owned)
 }
 
+/// The values of a one-dimensional array of `rows` items (bool flags, int64 counts): borrowed
+/// if contiguous and aligned, one copy otherwise; the error names `name` and the shape.
+pub fn column<'a, T: numpy::Element + Copy>(
+    arr: &'a PyReadonlyArrayDyn<'_, T>,
+    name: &str,
+    rows: usize,
+) -> PyResult<Cow<'a, [T]>> {
+    if arr.shape() != [rows] {
+        return Err(shape_error(format!(
+            "{name} must have shape ({rows},), got {:?}",
+            arr.shape()
+        )));
+    }
+    if (arr.data() as usize).is_multiple_of(std::mem::align_of::<T>()) {
+        if let Ok(slice) = arr.as_slice() {
+            return Ok(Cow::Borrowed(slice));
+        }
+    }
+    numpy_copy(arr).map(Cow::Owned)
+}
+
 /// The values of `arr` in C order, copied by numpy into a new (aligned, contiguous) array first:
 /// the one way to read an unaligned buffer without `unsafe`.
 fn numpy_copy<T: numpy::Element + Copy>(arr: &PyReadonlyArrayDyn<'_, T>) -> PyResult<Vec<T>> {

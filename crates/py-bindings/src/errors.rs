@@ -7,7 +7,7 @@
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use pyo3::exceptions::{PyFileNotFoundError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
@@ -268,8 +268,25 @@ impl IntoPyErr for vjm::ModelError {
             | E::Edited { .. }
             | E::OtherRobot { .. } => Kind::ModelFile,
             E::Table { .. } => Kind::DataFile,
+            E::Cancelled => Kind::Cancelled,
             _ => Kind::Value,
         };
         error(kind, self.to_string())
+    }
+}
+
+/// A table the core writes: a failed write is an `OSError` with the system's errno (the
+/// Python caller words it for the output it stages), a bad shape `ShapeError`.
+impl IntoPyErr for stiffness_core::table::TableError {
+    fn into_py_err(self) -> PyErr {
+        use stiffness_core::table::TableError as E;
+        match self {
+            E::Io { source, .. } => {
+                PyOSError::new_err((source.raw_os_error().unwrap_or(0), source.to_string()))
+            }
+            E::Shape { .. } => error(Kind::Shape, self.to_string()),
+            E::Cancelled => error(Kind::Cancelled, self.to_string()),
+            other => error(Kind::DataFile, other.to_string()),
+        }
     }
 }

@@ -15,6 +15,7 @@ pub mod errors;
 pub mod gravity;
 pub mod identify_partial;
 pub mod interrupt;
+pub mod output_tables;
 pub mod results;
 pub mod so3;
 pub mod stiffness_model;
@@ -62,5 +63,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     vjm_data::register(m)?;
     stiffness_model::register(m)?;
     use_model::register(m)?;
+    output_tables::register(m)?;
     Ok(())
 }

@@ -42,6 +42,7 @@ pub mod engine;
 mod fast_math;
 pub mod lsq;
 pub mod num;
+pub mod row_blocks;
 pub mod so3;
 mod so3_error;
 pub mod stats;

@@ -15,6 +15,7 @@
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 use serde::Serialize;
+use stiffness_core::row_blocks::fill_row_blocks_pair;
 use stiffness_core::so3::{exp, log};
 
 use crate::chain::{check_finite, SerialChain};
@@ -486,7 +487,7 @@ pub fn compensate(
     load: Load<'_>,
     opts: &CompensateOptions,
 ) -> Result<Compensation, VjmError> {
-    let mut ws = CompensationWorkspace::new(chain, model)?;
+    let n = chain.n_joints().max(1);
     let mut q = vec![0.0; q_nominal.len()];
     let mut rows = vec![
         CompensatedRow {
@@ -499,10 +500,24 @@ pub fn compensate(
             inverse_condition: f64::NAN,
             limit_joint: None,
         };
-        q_nominal.len() / chain.n_joints().max(1)
+        q_nominal.len() / n
     ];
-    compensate_in_place(
-        chain, model, compliance, q_nominal, load, opts, &mut ws, &mut q, &mut rows,
+    // Every input checked once, on all rows (errors name the row), before any work.
+    check_inputs(chain, model, compliance, q_nominal, load, opts)?;
+    // Rows are independent (each starts from its nominal targets): fixed-size blocks on
+    // every core, each with its own workspace, give the serial run's values and first error
+    // whatever the number of threads.
+    fill_row_blocks_pair(
+        &mut rows,
+        &mut q,
+        n,
+        COMPENSATION_BLOCK_ROWS,
+        |range, rows, q| {
+            let mut ws = CompensationWorkspace::new(chain, model)?;
+            compensate_rows(
+                chain, model, compliance, q_nominal, load, opts, &mut ws, range, q, rows,
+            )
+        },
     )?;
     Ok(Compensation { q, rows })
 }
@@ -521,25 +536,8 @@ pub fn compensate_in_place(
     q_out: &mut [f64],
     rows_out: &mut [CompensatedRow],
 ) -> Result<(), VjmError> {
-    opts.check()?;
-    model.check_chain(chain)?;
+    let rows = check_inputs(chain, model, compliance, q_nominal, load, opts)?;
     let n = chain.n_joints();
-    let rows = q_nominal.len() / n;
-    if compliance.len() != model.n_params() {
-        return Err(VjmError::ShapeMismatch {
-            what: "compliance (one per spring)",
-            expected: model.n_params(),
-            got: compliance.len(),
-        });
-    }
-    check_finite("compliance", compliance, 0, 0)?;
-    if q_nominal.len() != rows * n || rows == 0 {
-        return Err(VjmError::ShapeMismatch {
-            what: "q_nominal (N×n row-major)",
-            expected: rows * n + n,
-            got: q_nominal.len(),
-        });
-    }
     if q_out.len() != rows * n {
         return Err(VjmError::ShapeMismatch {
             what: "corrected targets output (N×n)",
@@ -559,6 +557,53 @@ pub fn compensate_in_place(
             message: "the compensation workspace was built for another chain or model; create it with CompensationWorkspace::new(chain, model)".into(),
         });
     }
+    compensate_rows(
+        chain,
+        model,
+        compliance,
+        q_nominal,
+        load,
+        opts,
+        ws,
+        0..rows,
+        q_out,
+        rows_out,
+    )
+}
+
+/// Rows per block of a multi-threaded [`compensate`]: a Gauss–Newton solve per row costs
+/// tens of µs, so 256 rows amortise a block's workspace and balance well on 10³–10⁶ rows.
+const COMPENSATION_BLOCK_ROWS: usize = 256;
+
+/// Checks the inputs of a compensation (options, shapes, finite values of every row) and
+/// returns the number of rows N.
+fn check_inputs(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    q_nominal: &[f64],
+    load: Load<'_>,
+    opts: &CompensateOptions,
+) -> Result<usize, VjmError> {
+    opts.check()?;
+    model.check_chain(chain)?;
+    let n = chain.n_joints();
+    let rows = q_nominal.len() / n;
+    if compliance.len() != model.n_params() {
+        return Err(VjmError::ShapeMismatch {
+            what: "compliance (one per spring)",
+            expected: model.n_params(),
+            got: compliance.len(),
+        });
+    }
+    check_finite("compliance", compliance, 0, 0)?;
+    if q_nominal.len() != rows * n || rows == 0 {
+        return Err(VjmError::ShapeMismatch {
+            what: "q_nominal (N×n row-major)",
+            expected: rows * n + n,
+            got: q_nominal.len(),
+        });
+    }
     if let Load::Wrench(w) = load {
         if w.len() != 6 * rows {
             return Err(VjmError::ShapeMismatch {
@@ -574,14 +619,35 @@ pub fn compensate_in_place(
             check_finite("wrench", &w[6 * i..6 * i + 6], i, 0)?;
         }
     }
-    for i in 0..rows {
+    Ok(rows)
+}
+
+/// The rows `range` of checked inputs into their block of the outputs (`q_out` and
+/// `rows_out` hold those rows only).
+#[allow(clippy::too_many_arguments)]
+fn compensate_rows(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    q_nominal: &[f64],
+    load: Load<'_>,
+    opts: &CompensateOptions,
+    ws: &mut CompensationWorkspace,
+    range: std::ops::Range<usize>,
+    q_out: &mut [f64],
+    rows_out: &mut [CompensatedRow],
+) -> Result<(), VjmError> {
+    let n = chain.n_joints();
+    let first = range.start;
+    for i in range {
         let row_load = match load {
             Load::Wrench(w) => RowLoad::Wrench(w[6 * i..6 * i + 6].try_into().expect("6 values")),
             Load::Payload(pm) => RowLoad::Payload(pm),
         };
         let qn = &q_nominal[i * n..(i + 1) * n];
-        let q = &mut q_out[i * n..(i + 1) * n];
-        rows_out[i] = compensate_row(chain, model, compliance, qn, &row_load, opts, ws, q)?;
+        let k = i - first;
+        let q = &mut q_out[k * n..(k + 1) * n];
+        rows_out[k] = compensate_row(chain, model, compliance, qn, &row_load, opts, ws, q)?;
     }
     Ok(())
 }

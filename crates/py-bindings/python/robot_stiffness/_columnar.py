@@ -171,6 +171,11 @@ def read_columns(
 
 
 def _arrow_array(pa: Any, name: str, values: Any) -> Any:
+    if isinstance(values, np.ma.MaskedArray) and values.dtype.kind in "fiub":
+        # Masked cells are nulls (what an empty CSV cell is), e.g. "no joint" in COMP files.
+        if values.ndim != 1:
+            raise ShapeError(f"column '{name}' must be one-dimensional, got shape {values.shape}")
+        return pa.array(np.ascontiguousarray(values.data), mask=np.ma.getmaskarray(values))
     arr = np.asarray(values)
     if arr.ndim != 1:
         raise ShapeError(f"column '{name}' must be one-dimensional, got shape {arr.shape}")
@@ -191,7 +196,8 @@ def _arrow_array(pa: Any, name: str, values: Any) -> Any:
 def write_columns(
     path: PathLike, names: Sequence[str], arrays: Sequence[Any], *, fmt: Optional[str] = None
 ) -> None:
-    """Write numpy columns (float, int, bool, str) as a Parquet or Arrow IPC (file format) file.
+    """Write numpy columns (float, int, bool, str) as a Parquet or Arrow IPC (file format) file;
+    the masked cells of a ``numpy.ma`` column are nulls.
 
     ``fmt``: ``"parquet"`` or ``"arrow"``; None takes it from ``path``'s suffix. A caller that
     writes atomically passes its staging path with the final name's format:

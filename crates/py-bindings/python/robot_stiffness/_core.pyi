@@ -18,6 +18,9 @@ _CoreDiagnosis = Tuple[Dict[str, _CoreValue], Dict[str, npt.NDArray[np.generic]]
 
 __all__ = [
     "IdentificationPartial",
+    "VJM_COMPENSATION_COLUMNS",
+    "VJM_PREDICTION_COLUMNS",
+    "VJM_SAG_COLUMNS",
     "Robot",
     "StiffnessModel",
     "__version__",
@@ -57,9 +60,15 @@ __all__ = [
     "vjm_seed_study",
     "vjm_simulate",
     "vjm_to_csv",
+    "vjm_write_compensation",
+    "vjm_write_predictions",
 ]
 
 __version__: str
+# The columns of PRED.csv after q1..qn, its sag columns, and of COMP.csv after the targets.
+VJM_PREDICTION_COLUMNS: List[str]
+VJM_SAG_COLUMNS: List[str]
+VJM_COMPENSATION_COLUMNS: List[str]
 
 def _panic_for_tests() -> None: ...
 def so3_hat(w: _F64) -> _F64: ...
@@ -190,6 +199,24 @@ def vjm_identify_model(
     gravity: Optional[Tuple[float, float, float]] = None,
 ) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64]]: ...
+def vjm_write_predictions(
+    path: _Path,
+    q: _F64,
+    wrench: _F64,
+    deflection: _F64,
+    stddev: _F64,
+    identified: npt.NDArray[np.bool_],
+    sag: Optional[Tuple[_F64, _F64, npt.NDArray[np.bool_]]] = None,
+) -> None: ...
+def vjm_write_compensation(
+    path: _Path,
+    q: _F64,
+    q_nominal: _F64,
+    values: _F64,
+    iterations: npt.NDArray[np.int64],
+    limit_joint: npt.NDArray[np.int64],
+    status: List[str],
+) -> None: ...
 def vjm_model_file_robot(path: _Path) -> Optional[Tuple[Optional[str], str, str]]: ...
 def vjm_compensate(
     robot: Robot,

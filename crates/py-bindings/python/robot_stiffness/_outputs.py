@@ -54,9 +54,9 @@ import tempfile
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple, Union
+from typing import Callable, Dict, Iterable, List, Optional, Sequence, Set, Tuple, Union
 
-from ._errors import OutputPathError
+from ._errors import OutputPathError, StiffnessError
 from ._interrupt import signals_deferred
 
 __all__ = ["Outputs", "StagedFile", "StagedDirectory", "MANIFEST", "TMP_MARK", "KEY_FILE", "STATE_DIR_ENV",
@@ -292,6 +292,16 @@ class StagedFile:
 
     def write_text(self, text: str) -> None:
         self.write_chunks((text,))
+
+    def write_with(self, write: Callable[[Path], None]) -> None:
+        """Lets ``write(path)`` (a writer of the core) fill the staged file; an ``OSError`` it
+        raises is worded as :meth:`write_chunks` words one."""
+        try:
+            write(self.tmp)
+        except StiffnessError:
+            raise
+        except OSError as e:
+            raise OutputPathError(f"cannot write {self.label}: {_reason(e)}") from None
 
     def write_chunks(self, chunks: Iterable[str]) -> None:
         """Writes the pieces in order (a large output without holding all of it in memory)."""

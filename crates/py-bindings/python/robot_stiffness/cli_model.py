@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 from typing import Any, List, Optional, Tuple
@@ -39,6 +38,10 @@ relative to the rigid forward kinematics: sag_dx,sag_dy,sag_dz (m, base frame), 
 deviations sag_sd_dx,sag_sd_dy,sag_sd_dz and sag_identified (as identified, for the load the
 weight puts on the springs). The gravity is --gravity, else the one the model file records
 (identify vjm --save), else 9.80665 m/s² along −z; the URDF must give the link masses.
+
+Parquet (.parquet, .pq) or Arrow IPC (.arrow, .feather, .ipc) POSES and PRED files are read and
+written with pyarrow (the [parquet] extra), told by the file name, with the same columns: an
+empty CSV cell is NaN there.
 
 The robot defaults to the one recorded in the model file (its URDF path, base and tip); --urdf,
 --base, --tip override it. Either way the model file is checked against it (URDF SHA-256, links,
@@ -189,39 +192,8 @@ def _robot_for(args: argparse.Namespace) -> Any:
     return Robot.from_urdf(urdf, str(base), str(tip))
 
 
-def _cell(v: float) -> str:
-    return "" if not math.isfinite(v) else repr(float(v))
-
-
-#: The sag columns of PRED.csv (``predict vjm`` without ``--no-gravity``).
-SAG_COLUMNS = ["sag_dx", "sag_dy", "sag_dz", "sag_sd_dx", "sag_sd_dy", "sag_sd_dz", "sag_identified"]
-
-
-def predictions_csv(n_joints: int, q: np.ndarray, pred: Any, sag: Any = None) -> str:
-    """The PRED.csv text (see ``predict vjm --help``); with ``sag`` (a Prediction of
-    ``StiffnessModel.predict_sag``) its :data:`SAG_COLUMNS`."""
-    header = [f"q{j}" for j in range(1, n_joints + 1)]
-    header += ["fx", "fy", "fz", "mx", "my", "mz", "dx", "dy", "dz", "rx", "ry", "rz"]
-    header += ["sdx", "sdy", "sdz", "srx", "sry", "srz", "identified"]
-    if sag is not None:
-        header += SAG_COLUMNS
-    lines = [",".join(header)]
-    for i in range(q.shape[0]):
-        cells = [_cell(v) for v in q[i]]
-        cells += [_cell(v) for v in pred.wrench[i]]
-        cells += [_cell(v) for v in pred.deflection[i]]
-        cells += [_cell(v) for v in pred.stddev[i]]
-        cells.append("true" if pred.identified[i] else "false")
-        if sag is not None:
-            cells += [_cell(v) for v in sag.deflection[i, :3]]
-            cells += [_cell(v) for v in sag.stddev[i, :3]]
-            cells.append("true" if sag.identified[i] else "false")
-        lines.append(",".join(cells))
-    return "\n".join(lines) + "\n"
-
-
 def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
-    from . import _core
+    from ._use_tables import read_poses, rows_of, write_predictions
     from .model import StiffnessModel
 
     staged = out.file(args.out, "--out")
@@ -231,19 +203,19 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     robot = _robot_for(args)
     model = StiffnessModel.load(args.model_file, robot)
     # The long Rust calls run in a worker so that Ctrl-C ends the command at once (in_worker).
-    q, wrench = in_worker(_core.vjm_read_poses, args.data, robot._inner)
+    q, wrench = read_poses(args.data, robot)
     if payload is not None and wrench is not None:
         raise _CLI.CliError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
         raise _CLI.CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
-    with _CLI._data_file(args.data), reworded(PAYLOAD_NAMES):
+    with _CLI._data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
         pred = in_worker(model.predict, q, wrench=wrench, payload=payload,
                          allow_outside_limits=args.allow_outside_limits)
         gravity = _CLI._model_gravity(args)
         sag = None if gravity is None else in_worker(
             model.predict_sag, q, gravity=gravity, payload=payload, allow_outside_limits=args.allow_outside_limits)
-    staged.write_text(predictions_csv(robot.n_joints, q, pred, sag))
+    staged.write_with(lambda path: write_predictions(path, args.out, q, pred, sag))
     out.commit()
     n = q.shape[0]
     bad = np.flatnonzero(~pred.identified)

@@ -61,7 +61,10 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
         "write corrected targets q1..qn, the predicted remaining error and a status (converged, "
         "outside_limits, near_singular, not_converged, unstable). By default the tip's sag under the arm's "
         "own weight is corrected with the load's deflection, so that the tip reaches the rigid kinematics' "
-        "pose (the URDF must give the link masses); --load-only corrects the load's deflection only.",
+        "pose (the URDF must give the link masses); --load-only corrects the load's deflection only. "
+        "Parquet (.parquet, .pq) or Arrow IPC (.arrow, .feather, .ipc) TRAJ and COMP files are read and "
+        "written with pyarrow (the [parquet] extra), with the same columns (limit_joint is null there "
+        "when no joint leaves its limits).",
     )
     cv.add_argument("model_file", metavar="MODEL.json", help="model file written by identify vjm --save")
     cv.add_argument("data", metavar="TRAJ.csv", help="trajectory: q1..qn and fx,fy,fz,mx,my,mz (or --payload)")
@@ -113,22 +116,6 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
     return 0
 
 
-def _comp_csv(q: np.ndarray, comp: Any) -> str:
-    n = q.shape[1]
-    head = [f"q{j + 1}" for j in range(n)] + [f"q{j + 1}_nominal" for j in range(n)] + [
-        "position_error", "rotation_error", "deflection", "rotation_deflection", "inverse_condition",
-        "iterations", "limit_joint", "status"]
-    lines = [",".join(head)]
-    for i in range(q.shape[0]):
-        lim = int(comp.limit_joint[i])
-        vals = [repr(float(x)) for x in comp.q[i]] + [repr(float(x)) for x in q[i]] + [
-            repr(float(comp.position_error[i])), repr(float(comp.rotation_error[i])), repr(float(comp.deflection[i])),
-            repr(float(comp.rotation_deflection[i])), repr(float(comp.inverse_condition[i])),
-            str(int(comp.iterations[i])), "" if lim < 0 else str(lim + 1), comp.status[i]]
-        lines.append(",".join(vals))
-    return "\n".join(lines) + "\n"
-
-
 def plot_compensation(path: Any, comp: Any) -> None:
     """Predicted tip deflection along the trajectory before and after compensation (log scale)."""
     import matplotlib
@@ -152,11 +139,11 @@ def plot_compensation(path: Any, comp: Any) -> None:
 def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from pathlib import Path
 
-    from . import _core
     from ._errors import InvalidValueError, MissingFileError, reworded
     from . import cli_model  # its _CLI: the running CLI module (__main__ under python -m)
     from .cli import _check_input
     from .cli_model import PAYLOAD_NAMES, _parse_payload, _robot_for
+    from ._use_tables import read_poses, rows_of, write_compensation
     from .vjm import compensate_with_model_file
 
     for path, what in ((args.model_file, "MODEL.json"), (args.data, "TRAJ.csv")):
@@ -169,20 +156,20 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     plot_out = out.file(args.plot, "--plot") if args.plot is not None else None
     payload = None if args.payload is None else _parse_payload(args.payload)
     robot = _robot_for(args)  # the robot the model file records, unless --urdf/--base/--tip
-    q, wrench = in_worker(_core.vjm_read_poses, args.data, robot._inner)  # Ctrl-C stays prompt
+    q, wrench = read_poses(args.data, robot)
     if payload is not None and wrench is not None:
         raise InvalidValueError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
         raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
-    with cli_model._CLI._data_file(args.data), reworded(PAYLOAD_NAMES):
+    with cli_model._CLI._data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
         comp = in_worker(
             compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
             match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
             allow_outside_limits=args.allow_outside_limits, gravity=cli_model._CLI._model_gravity(args),
             load_only=args.load_only,
         )
-    comp_out.write_text(_comp_csv(q, comp))
+    comp_out.write_with(lambda path: write_compensation(path, args.out, q, comp))
     if plot_out is not None:
         plot_compensation(plot_out.tmp, comp)
     out.commit()

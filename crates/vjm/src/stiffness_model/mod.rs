@@ -39,6 +39,7 @@
 
 mod error;
 mod file;
+mod output_table;
 mod pose_table;
 mod predict;
 mod robust;
@@ -49,6 +50,10 @@ use stiffness_core::num::Short;
 
 pub use error::ModelError;
 pub use file::MODEL_SCHEMA;
+pub use output_table::{
+    status_from_name, CompensationTable, PredictionTable, SagColumns, COMPENSATION_COLUMNS,
+    PREDICTION_COLUMNS, SAG_COLUMNS,
+};
 pub use pose_table::PoseTable;
 pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
 pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};

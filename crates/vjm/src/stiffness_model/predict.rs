@@ -7,6 +7,7 @@ use crate::error::VjmError;
 use crate::kinematics::Workspace;
 use crate::regressor::{regressor_rows, Measured};
 use stiffness_core::num::Short;
+use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 /// Standard gravity, m/s² (acts along −z of the base frame for a [`PointMass`]).
 pub const GRAVITY: f64 = 9.80665;
@@ -135,6 +136,17 @@ pub struct Prediction {
     pub excitation: f64,
 }
 
+impl Prediction {
+    /// The placeholder of a row not yet predicted (every value NaN, not identified).
+    pub(crate) const UNSET: Prediction = Prediction {
+        deflection: [f64::NAN; 6],
+        stddev: [f64::NAN; 6],
+        wrench: [f64::NAN; 6],
+        identified: false,
+        excitation: f64::NAN,
+    };
+}
+
 impl StiffnessModel {
     /// Predicts the tip deflection for N rows: `q` is N×n row-major (rad), `load` the wrench
     /// per row or a payload. Linear in the compliances (no K_C), the model the identification
@@ -168,23 +180,28 @@ impl StiffnessModel {
         }
         let model = self.spring_model()?;
         let m = model.n_params();
-        let mut ws = Workspace::new(chain, &model)?;
-        let mut a = vec![0.0; 6 * m];
-        let mut out = Vec::with_capacity(rows);
-        for i in 0..rows {
-            let qi = &q[i * n..(i + 1) * n];
-            check_finite("q", qi, i, 0)?;
-            let wrench = match load {
-                Load::Wrench(w) => {
-                    let wi = &w[6 * i..6 * i + 6];
-                    check_finite("wrench", wi, i, 0)?;
-                    [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
-                }
-                Load::Payload(p) => p.wrench(chain, qi)?,
-            };
-            regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
-            out.push(self.predict_row(&a, wrench));
-        }
+        // Rows are independent: fixed-size blocks on every core, each with its own workspace,
+        // give the serial run's values and its first error whatever the number of threads.
+        let mut out = vec![Prediction::UNSET; rows];
+        fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
+            let mut ws = Workspace::new(chain, &model)?;
+            let mut a = vec![0.0; 6 * m];
+            for (i, o) in block.zip(out) {
+                let qi = &q[i * n..(i + 1) * n];
+                check_finite("q", qi, i, 0)?;
+                let wrench = match load {
+                    Load::Wrench(w) => {
+                        let wi = &w[6 * i..6 * i + 6];
+                        check_finite("wrench", wi, i, 0)?;
+                        [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
+                    }
+                    Load::Payload(p) => p.wrench(chain, qi)?,
+                };
+                regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
+                *o = self.predict_row(&a, wrench);
+            }
+            Ok::<_, ModelError>(())
+        })?;
         Ok(out)
     }
 

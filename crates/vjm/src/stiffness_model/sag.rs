@@ -5,6 +5,7 @@ use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::gravity::{gravity_sag, Gravity, GravityWorkspace};
 use crate::kinematics::Workspace;
+use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 impl StiffnessModel {
     /// The tip's static sag relative to the rigid forward kinematics at each of N
@@ -42,35 +43,42 @@ impl StiffnessModel {
         }
         let model = self.spring_model()?;
         let m = model.n_params();
-        let mut ws = Workspace::new(chain, &model)?;
-        let mut g = GravityWorkspace::new(chain, &model, gravity, payload)?;
-        let mut jac = vec![0.0; 6 * m];
-        let mut a = vec![0.0; 6 * m];
         // The exact equilibrium needs springs (compliances ≥ 0). The stored vector of a model
         // with aliased springs is the minimum-norm member of its family and may have negative
         // entries: then the sag is its first-order part, which is what the data determine.
         let physical = self.estimate.compliance.iter().all(|c| *c >= 0.0);
-        let mut out = Vec::with_capacity(rows);
-        for i in 0..rows {
-            let qi = &q[i * n..(i + 1) * n];
-            check_finite("q", qi, i, 0)?;
-            crate::kinematics::jacobian_in_place(chain, &model, qi, &mut ws, &mut jac)?;
-            g.evaluate(chain, qi)?;
-            // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
-            for (k, t) in g.torques().iter().enumerate() {
-                for r in 0..6 {
-                    a[r * m + k] = jac[6 * k + r] * t;
+        let axes = if self.noise.use_rotations { 6 } else { 3 };
+        // Rows are independent: fixed-size blocks on every core, each with its own workspaces,
+        // give the serial run's values and its first error whatever the number of threads.
+        // Built once here too, so that a missing inertial is an error even for no rows.
+        GravityWorkspace::new(chain, &model, gravity, payload)?;
+        let mut out = vec![Prediction::UNSET; rows];
+        fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
+            let mut ws = Workspace::new(chain, &model)?;
+            let mut g = GravityWorkspace::new(chain, &model, gravity, payload)?;
+            let mut jac = vec![0.0; 6 * m];
+            let mut a = vec![0.0; 6 * m];
+            for (i, o) in block.zip(out) {
+                let qi = &q[i * n..(i + 1) * n];
+                check_finite("q", qi, i, 0)?;
+                crate::kinematics::jacobian_in_place(chain, &model, qi, &mut ws, &mut jac)?;
+                g.evaluate(chain, qi)?;
+                // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
+                for (k, t) in g.torques().iter().enumerate() {
+                    for r in 0..6 {
+                        a[r * m + k] = jac[6 * k + r] * t;
+                    }
                 }
+                let mut p = self.predict_row(&a, [0.0; 6]);
+                if physical {
+                    let c = &self.estimate.compliance;
+                    let exact = gravity_sag(chain, &model, c, qi, gravity, payload)?;
+                    p.deflection[..axes].copy_from_slice(&exact[..axes]);
+                }
+                *o = p;
             }
-            let mut p = self.predict_row(&a, [0.0; 6]);
-            if physical {
-                let c = &self.estimate.compliance;
-                let exact = gravity_sag(chain, &model, c, qi, gravity, payload)?;
-                let axes = if self.noise.use_rotations { 6 } else { 3 };
-                p.deflection[..axes].copy_from_slice(&exact[..axes]);
-            }
-            out.push(p);
-        }
+            Ok::<_, ModelError>(())
+        })?;
         Ok(out)
     }
 }

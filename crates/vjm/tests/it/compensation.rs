@@ -556,3 +556,68 @@ fn model_file_compensation() {
     assert!(e.contains("another robot") && e.contains("tip"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `compensate` runs in fixed-size row blocks on every core: on 600 rows (three blocks) a
+/// one-thread and a four-thread pool give the serial `compensate_in_place` bit for bit, and a
+/// bad row in the last block is the error reported.
+#[test]
+fn blocked_compensation_is_the_serial_one_on_any_number_of_threads() {
+    use vjm::{compensate_in_place, CompensationWorkspace};
+    let chain = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let c = [2e-4, 1e-4, 2e-4, 1e-4, 3e-4, 3e-4, 5e-4];
+    let rows = 600;
+    let q = crate::strategies::random_configurations(&chain, rows, 7);
+    let w = crate::strategies::random_wrenches(rows, 8);
+    let mut opts = CompensateOptions::default();
+    opts.check_limits = false;
+    let mut ws = CompensationWorkspace::new(&chain, &model).unwrap();
+    let mut q_serial = vec![0.0; q.len()];
+    let mut rows_serial = compensate(&chain, &model, &c, &q[..7], Load::Wrench(&w[..6]), &opts)
+        .unwrap()
+        .rows
+        .repeat(rows);
+    compensate_in_place(
+        &chain,
+        &model,
+        &c,
+        &q,
+        Load::Wrench(&w),
+        &opts,
+        &mut ws,
+        &mut q_serial,
+        &mut rows_serial,
+    )
+    .unwrap();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for threads in [1, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let out = pool
+            .install(|| compensate(&chain, &model, &c, &q, Load::Wrench(&w), &opts))
+            .unwrap();
+        assert_eq!(bits(&out.q), bits(&q_serial), "{threads} threads: q");
+        for (i, (a, b)) in out.rows.iter().zip(&rows_serial).enumerate() {
+            assert_eq!(a.status, b.status, "row {i}");
+            assert_eq!(a.iterations, b.iterations, "row {i}");
+            assert_eq!(
+                bits(&[a.position_error, a.deflection, a.inverse_condition]),
+                bits(&[b.position_error, b.deflection, b.inverse_condition]),
+                "row {i}"
+            );
+        }
+        assert!(out
+            .rows
+            .iter()
+            .any(|r| r.status == CompensationStatus::Converged));
+        let mut bad = q.clone();
+        bad[7 * 550 + 2] = f64::NAN;
+        bad[7 * 590] = f64::NAN;
+        let err = pool
+            .install(|| compensate(&chain, &model, &c, &bad, Load::Wrench(&w), &opts))
+            .unwrap_err();
+        assert!(err.to_string().contains("row 550"), "{err}");
+    }
+}

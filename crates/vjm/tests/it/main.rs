@@ -23,6 +23,7 @@ mod urdf;
 
 mod dataset;
 mod diagnose;
+mod output_tables;
 mod outside;
 mod testbed;
 mod testbed_gravity;

@@ -556,3 +556,97 @@ fn robust(sm: StiffnessModel, chain: &SerialChain, data: &Dataset<'_>) -> Stiffn
     let d: Vec<f64> = train.iter().flat_map(|&i| data.displacement(i)).collect();
     sm.with_robust_covariance(chain, &q, &w, &d, None).unwrap()
 }
+
+/// `predict` and `predict_sag` run in fixed-size row blocks on every core: on 2 500 rows
+/// (three blocks) the values are bit for bit those of a one-thread pool, of a four-thread
+/// pool and of each row predicted alone, and a bad row in the last block is the error
+/// reported, also when a later row is bad too.
+#[test]
+fn batched_predictions_do_not_depend_on_threads_or_blocks() {
+    let (chain, extended, data) = panda_model();
+    // The traditional model's compliances are all ≥ 0: its sag is the exact equilibrium
+    // (the extended one's aliases make it the first-order part).
+    let (_, traditional) = fit(
+        &chain,
+        &VirtualJointModel::traditional(7),
+        &data,
+        &IdentifyOptions::default(),
+    );
+    for sm in [&extended, &traditional] {
+        batched_model_check(&chain, sm);
+    }
+}
+
+fn batched_model_check(chain: &SerialChain, sm: &StiffnessModel) {
+    use vjm::gravity::Gravity;
+    let chain = chain.clone();
+    let rows = 2_500;
+    let q = crate::strategies::random_configurations(&chain, rows, 41);
+    let w = crate::strategies::random_wrenches(rows, 42);
+    let g = Gravity::default();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            (
+                sm.predict(&chain, &q, Load::Wrench(&w)).unwrap(),
+                sm.predict_sag(&chain, &q, &g, None).unwrap(),
+            )
+        })
+    };
+    let (one, one_sag) = run(1);
+    let (four, four_sag) = run(4);
+    let bits = |p: &vjm::Prediction| -> Vec<u64> {
+        p.deflection
+            .iter()
+            .chain(&p.stddev)
+            .chain(&p.wrench)
+            .chain([&p.excitation])
+            .map(|v| v.to_bits())
+            .chain([p.identified as u64])
+            .collect()
+    };
+    assert_eq!(one.len(), rows);
+    assert_eq!(one_sag.len(), rows);
+    for i in 0..rows {
+        assert_eq!(bits(&one[i]), bits(&four[i]), "predict row {i}");
+        assert_eq!(bits(&one_sag[i]), bits(&four_sag[i]), "predict_sag row {i}");
+        assert!(
+            one[i].deflection[..3].iter().all(|v| v.is_finite()),
+            "row {i}"
+        );
+    }
+    for i in [0, 1023, 1024, 2047, 2048, rows - 1] {
+        let qi = &q[7 * i..7 * i + 7];
+        let alone = sm
+            .predict(&chain, qi, Load::Wrench(&w[6 * i..6 * i + 6]))
+            .unwrap();
+        let alone_sag = sm.predict_sag(&chain, qi, &g, None).unwrap();
+        assert_eq!(bits(&alone[0]), bits(&one[i]), "predict row {i} alone");
+        assert_eq!(
+            bits(&alone_sag[0]),
+            bits(&one_sag[i]),
+            "predict_sag row {i} alone"
+        );
+    }
+    let mut bad = q.clone();
+    bad[7 * 2100 + 3] = f64::NAN;
+    bad[7 * 2400] = f64::INFINITY;
+    for threads in [1, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let (e1, e2) = pool.install(|| {
+            (
+                sm.predict(&chain, &bad, Load::Wrench(&w)).unwrap_err(),
+                sm.predict_sag(&chain, &bad, &g, None).unwrap_err(),
+            )
+        });
+        for e in [e1, e2] {
+            assert!(e.to_string().contains("row 2100"), "{threads} threads: {e}");
+        }
+    }
+}
