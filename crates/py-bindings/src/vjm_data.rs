@@ -138,6 +138,7 @@ fn effect_keys(name: &str) -> Option<&'static [&'static str]> {
         "joint_tilt" => &["joint", "axis", "compliance"],
         "joint_torsion_nonlinear" => &["joint", "k1", "k2", "k3", "t1", "t2", "ratio"],
         "joint_backlash" => &["joint", "lost_motion"],
+        "link_translation" => &["joint", "axis", "compliance"],
         "joint_torsion_angle_dependent" => &["joint", "amplitude"],
         "wrench_bias" => &["bias"],
         "frame_misalignment" => &["rotation"],
@@ -176,6 +177,28 @@ fn in_range(
 /// 0.1 rad, far beyond any arm (nominal values are ~1e-6–1e-4).
 const MAX_EFFECT_COMPLIANCE: f64 = 1e-2;
 
+/// `d["axis"]` as a spring axis: `x` or `y`, and `z` when `z_allowed`; `what` names it in the
+/// error.
+fn spring_axis(
+    d: &Bound<'_, PyDict>,
+    i: usize,
+    what: &str,
+    z_allowed: bool,
+) -> PyResult<SpringAxis> {
+    let axis: String = get(d, i, "axis")?;
+    match (axis.as_str(), z_allowed) {
+        ("x", _) => Ok(SpringAxis::X),
+        ("y", _) => Ok(SpringAxis::Y),
+        ("z", true) => Ok(SpringAxis::Z),
+        (other, false) => Err(value_error(format!(
+            "effects[{i}]: {what} `{other}` must be x or y"
+        ))),
+        (other, true) => Err(value_error(format!(
+            "effects[{i}]: {what} `{other}` must be x, y or z"
+        ))),
+    }
+}
+
 /// Parses one effect: a dict with `effect` and its parameters (1-based `joint`, SI units).
 fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) -> PyResult<Effect> {
     let name: String = get(d, i, "effect")?;
@@ -185,16 +208,7 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
     Ok(match name.as_str() {
         "joint_tilt" => {
             let joint = joint0(i, get(d, i, "joint")?, n)?;
-            let axis: String = get(d, i, "axis")?;
-            let axis = match axis.as_str() {
-                "x" => SpringAxis::X,
-                "y" => SpringAxis::Y,
-                other => {
-                    return Err(value_error(format!(
-                        "effects[{i}]: tilt axis `{other}` must be x or y"
-                    )))
-                }
-            };
+            let axis = spring_axis(d, i, "tilt axis", false)?;
             Effect::JointTilt {
                 joint,
                 axis,
@@ -240,6 +254,15 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
             };
             Effect::TorsionNonlinear { joint, spring }
         }
+        "link_translation" => {
+            let joint = joint0(i, get(d, i, "joint")?, n)?;
+            let axis = spring_axis(d, i, "link_translation axis", true)?;
+            Effect::LinkTranslation {
+                joint,
+                axis,
+                compliance: in_range(d, i, &name, "compliance", false, 1e-3, "m/N")?,
+            }
+        }
         "joint_backlash" => Effect::Backlash {
             joint: joint0(i, get(d, i, "joint")?, n)?,
             lost_motion: in_range(d, i, &name, "lost_motion", false, 0.1, "rad")?,
@@ -277,7 +300,7 @@ fn parse_effect(d: &Bound<'_, PyDict>, i: usize, truth: &TrueModel, n: usize) ->
         },
         other => {
             return Err(value_error(format!(
-                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, joint_torsion_angle_dependent, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift, mount_compliance, tool_axial_compliance, sensor_crosstalk)"
+                "effects[{i}]: unknown effect `{other}` (joint_tilt, joint_torsion_nonlinear, joint_backlash, link_translation, joint_torsion_angle_dependent, wrench_bias, frame_misalignment, geometric_nonlinearity, pose_drift, mount_compliance, tool_axial_compliance, sensor_crosstalk)"
             )))
         }
     })
@@ -378,17 +401,21 @@ pub fn vjm_simulate<'py>(
     Ok(out)
 }
 
-/// The seed's study (Table I configurations, two wrenches each) with tilting springs of
-/// `tilt_ratio` × the torsional compliance, or (None) of the ratio calibrated to the seed's
-/// torsion share; returns its JSON with the ratio used as `tilt_ratio`.
+/// The seed's study (Table I configurations, two wrenches each). Joints only (`links` false):
+/// tilting springs of `tilt_ratio` × the torsional compliance, or (None) of the ratio
+/// calibrated to the seed's torsion share. With `links`: the structural truth whose links bend,
+/// at `link_share` (None: the share calibrated to the seed's extended-model error). Returns its
+/// JSON with the truth's `tilt_ratio` and `link_scale` (m/N, 0 without links).
 #[pyfunction]
-#[pyo3(signature = (robot, tilt_ratio = None, noise = true, seed = 0))]
+#[pyo3(signature = (robot, tilt_ratio = None, noise = true, seed = 0, links = false, link_share = None))]
 pub fn vjm_seed_study(
     py: Python<'_>,
     robot: &PyRobot,
     tilt_ratio: Option<f64>,
     noise: bool,
     seed: u64,
+    links: bool,
+    link_share: Option<f64>,
 ) -> PyResult<String> {
     let chain = &robot.chain;
     if let Some(r) = tilt_ratio {
@@ -397,23 +424,55 @@ pub fn vjm_seed_study(
                 "tilt_ratio must be finite and ≥ 0, got {r}"
             )));
         }
+        if links {
+            return Err(value_error(
+                "tilt_ratio applies to the joints-only truth; with links the tilts are calibrated \
+                 to the seed's torsion share",
+            ));
+        }
     }
-    let (study, ratio) = run(py, || -> Result<_, testbed::TestbedError> {
-        let (truth, ratio) = match tilt_ratio {
-            Some(r) => {
+    if let Some(share) = link_share {
+        if !links {
+            return Err(value_error("link_share needs links=True"));
+        }
+        if !(share > 0.0 && share < 1.0) {
+            return Err(value_error(format!(
+                "link_share must be within (0, 1), got {share}"
+            )));
+        }
+    }
+    let (study, ratio, scale) = run(py, || -> Result<_, testbed::TestbedError> {
+        let (truth, ratio, scale) = match (links, tilt_ratio) {
+            (true, _) => {
+                let share = match link_share {
+                    Some(s) => s,
+                    None => testbed::seed_structural_link_share(chain)?,
+                };
+                let t = testbed::seed_structural_truth(chain, share)?;
+                (t.truth, t.tilt_ratio, t.link_scale)
+            }
+            (false, Some(r)) => {
                 let torsion: Vec<f64> = (0..chain.n_joints())
                     .map(|j| testbed::NOMINAL_TORSION[j % 7])
                     .collect();
-                (TrueModel::with_tilts(&torsion, r), r)
+                (TrueModel::with_tilts(&torsion, r), r, 0.0)
             }
-            None => testbed::seed_truth(chain)?,
+            (false, None) => {
+                let (truth, r) = testbed::seed_truth(chain)?;
+                (truth, r, 0.0)
+            }
         };
-        Ok((testbed::seed_study(chain, &truth, noise, seed)?, ratio))
+        Ok((
+            testbed::seed_study(chain, &truth, noise, seed)?,
+            ratio,
+            scale,
+        ))
     })?
     .map_err(IntoPyErr::into_py_err)?;
     let mut json =
         serde_json::to_value(&study).map_err(|e| crate::errors::internal_error(e.to_string()))?;
     json["tilt_ratio"] = serde_json::json!(ratio);
+    json["link_scale"] = serde_json::json!(scale);
     Ok(json.to_string())
 }
 

@@ -51,3 +51,45 @@ def test_the_truth_has_the_seed_torsion_share(study: vjm.SeedStudy) -> None:
 def test_a_bad_tilt_ratio_is_named() -> None:
     with pytest.raises(ValueError, match="tilt_ratio"):
         vjm.seed_study(vjm.Robot.bundled(), tilt_ratio=-0.1)
+
+
+@pytest.fixture(scope="module")
+def structural() -> vjm.SeedStudy:
+    return vjm.seed_study(vjm.Robot.bundled(), links=True, noise=False)
+
+
+def test_the_full_model_is_reported_per_row(study: vjm.SeedStudy) -> None:
+    rows = study.rows
+    assert rows.full.shape == (26, 3)
+    d = np.linalg.norm(rows.measured, axis=1)
+    np.testing.assert_allclose(rows.full_vector_error, np.linalg.norm(rows.full - rows.measured, axis=1) / d,
+                               rtol=1e-12)
+    assert study.full.magnitude.all == pytest.approx(rows.full_magnitude_error.mean(), rel=1e-12)
+    assert study.extended_rank < study.full_rank <= 42
+    # A joints-only truth: no link share, no link scale.
+    assert study.link_share == 0.0 and study.link_scale == 0.0
+
+
+def test_links_that_bend_leave_the_extended_model_the_seed_residual(structural: vjm.SeedStudy) -> None:
+    s = structural
+    assert s.torsion_share == pytest.approx(0.765, abs=1e-6)
+    # Calibrated so that the noise-free extended model keeps the seed's 3.74 %.
+    assert s.extended.magnitude.all == pytest.approx(s.paper.extended_all, abs=1e-5)
+    assert 0.0 < s.link_share < 0.2 and s.link_scale > 0.0
+    # The full model contains links of this form: exact without noise.
+    assert s.full.vector.all < 1e-9
+    # The traditional model is not calibrated: it lands within 1.5 points of the seed's 7.75 %.
+    assert abs(s.traditional.magnitude.all - s.paper.traditional_all) < 0.015
+
+
+def test_a_chosen_link_share_is_met_and_bad_ones_are_named() -> None:
+    s = vjm.seed_study(vjm.Robot.bundled(), links=True, link_share=0.05, noise=False)
+    assert s.link_share == pytest.approx(0.05, abs=1e-6)
+    with pytest.raises(ValueError, match="link_share"):
+        vjm.seed_study(vjm.Robot.bundled(), link_share=0.05)
+    with pytest.raises(ValueError, match="link_share"):
+        vjm.seed_study(vjm.Robot.bundled(), links=True, link_share=1.5)
+    with pytest.raises(ValueError, match="tilt_ratio"):
+        vjm.seed_study(vjm.Robot.bundled(), links=True, tilt_ratio=0.2)
+    with pytest.raises(ValueError, match="the most is"):
+        vjm.seed_study(vjm.Robot.bundled(), links=True, link_share=0.9)

@@ -24,6 +24,19 @@ pub enum SpringAxis {
     Y,
 }
 
+impl SpringAxis {
+    /// Position of the axis within a joint's springs, joint-major `[z, x, y]`: spring
+    /// `3·joint + axis.index()` of the 3n (the order of the extended model and of the testbed's
+    /// compliances).
+    pub fn index(self) -> usize {
+        match self {
+            SpringAxis::Z => 0,
+            SpringAxis::X => 1,
+            SpringAxis::Y => 2,
+        }
+    }
+}
+
 impl fmt::Display for SpringAxis {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {

@@ -262,7 +262,14 @@ def vjm_design(
     moment: float = 3.0,
     progress: Optional[Callable[[str, int, int], Any]] = None,
 ) -> str: ...
-def vjm_seed_study(robot: Robot, tilt_ratio: Optional[float] = None, noise: bool = True, seed: int = 0) -> str: ...
+def vjm_seed_study(
+    robot: Robot,
+    tilt_ratio: Optional[float] = None,
+    noise: bool = True,
+    seed: int = 0,
+    links: bool = False,
+    link_share: Optional[float] = None,
+) -> str: ...
 def vjm_diagnose(
     robot: Robot,
     q: _F64,

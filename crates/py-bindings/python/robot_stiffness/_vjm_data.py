@@ -377,6 +377,9 @@ class SeedStudyRows:
     traditional_vector_error: Array
     extended_magnitude_error: Array
     extended_vector_error: Array
+    full: Array
+    full_magnitude_error: Array
+    full_vector_error: Array
 
 
 @dataclass(frozen=True)
@@ -403,17 +406,23 @@ class SeedPaperFigures:
 
 @dataclass(frozen=True)
 class SeedStudy:
-    """Result of :func:`seed_study`: both models under both metrics, the per-row table, the
-    extended model's identification rank, the truth's torsion share (mean over the 13
-    configurations under the seed's Section IV-B load of ‖d_torsion‖/‖d‖), the tilt ratio of
-    the truth, the clipped angles and the seed's own figures."""
+    """Result of :func:`seed_study`: the traditional, extended and full models under both
+    metrics, the per-row table, the extended and full models' identification ranks, the
+    truth's torsion share (mean over the 13 configurations under the seed's Section IV-B load
+    of ‖d_torsion‖/‖d‖) and link share (the same with the links' translations), the truth's
+    tilt ratio and link scale (the longest link's bending compliance, m/N; 0 without links),
+    the clipped angles and the seed's own figures."""
 
     traditional: SeedModelErrors
     extended: SeedModelErrors
+    full: SeedModelErrors
     rows: SeedStudyRows
     extended_rank: int
+    full_rank: int
     torsion_share: float
+    link_share: float
     tilt_ratio: float
+    link_scale: float
     clipped: List[SeedClippedAngle]
     paper: SeedPaperFigures
 
@@ -432,6 +441,7 @@ class SeedStudy:
         return cls(
             traditional=model(d["traditional"]),
             extended=model(d["extended"]),
+            full=model(d["full"]),
             rows=SeedStudyRows(
                 test=col("test", np.int64),
                 configuration=col("configuration", np.int64),
@@ -444,20 +454,39 @@ class SeedStudy:
                 traditional_vector_error=col("traditional_vector_error", np.float64),
                 extended_magnitude_error=col("extended_magnitude_error", np.float64),
                 extended_vector_error=col("extended_vector_error", np.float64),
+                full=col("full", np.float64).reshape(-1, 3),
+                full_magnitude_error=col("full_magnitude_error", np.float64),
+                full_vector_error=col("full_vector_error", np.float64),
             ),
             extended_rank=int(d["extended_rank"]),
+            full_rank=int(d["full_rank"]),
             torsion_share=float(d["torsion_share"]),
+            link_share=float(d["link_share"]),
             tilt_ratio=float(d["tilt_ratio"]),
+            link_scale=float(d["link_scale"]),
             clipped=[SeedClippedAngle(**c) for c in d["clipped"]],
             paper=SeedPaperFigures(**d["paper"]),
         )
 
 
 @checked
-def seed_study(robot: Robot, *, tilt_ratio: Optional[float] = None, noise: bool = True, seed: int = 0) -> SeedStudy:
+def seed_study(
+    robot: Robot,
+    *,
+    tilt_ratio: Optional[float] = None,
+    links: bool = False,
+    link_share: Optional[float] = None,
+    noise: bool = True,
+    seed: int = 0,
+) -> SeedStudy:
     """The seed paper's study on ``robot`` (7 joints): Table I configurations clipped to the
-    joint limits, two wrenches each, a true model with tilting springs of ``tilt_ratio`` × the
-    torsional compliance (None: the ratio that gives the seed's torsion share, 76.5 %). Returns
-    the traditional and extended models' errors as the magnitude error (the seed's metric; it
-    reports 7.75 % → 3.74 %) and the vector error, per row and as means (docs/diagnose.md)."""
-    return SeedStudy._from_json(_core.vjm_seed_study(robot._inner, tilt_ratio, noise, seed))
+    joint limits, two wrenches each, and three models fitted on the 16 identification rows:
+    traditional (7 torsions), extended (21 rotational springs) and full (plus 21 link
+    translations). The truth has torsional and tilting springs, tilts of ``tilt_ratio`` × the
+    torsional compliance (None: the ratio that gives the seed's torsion share, 76.5 %). With
+    ``links=True`` its links also bend (cantilevers across each link, docs/diagnose.md), with
+    ``link_share`` of the deflection (None: the share at which the extended model keeps the
+    seed's 3.74 % noise-free) and the tilts calibrated to 76.5 % torsion around them. Errors
+    are the magnitude error (the seed's metric; it reports 7.75 % → 3.74 %) and the vector
+    error, per row and as means."""
+    return SeedStudy._from_json(_core.vjm_seed_study(robot._inner, tilt_ratio, noise, seed, links, link_share))

@@ -259,6 +259,18 @@ pub fn spring_column(row: &RowKinematics, s: usize) -> [f64; 3] {
     scale3(col3(&row.jacobian, s), row.tau[s])
 }
 
+/// The raw 3-vector of the translational spring of the link after joint `s / 3` along spring
+/// axis `s % 3` (`[z, x, y]`) for a row: `a (a·f)`, with a the spring's unit axis (the angular
+/// part of the Jacobian's column s) and f the recorded force; the parameter is the compliance,
+/// m/N. A load at the tip sends its whole force through every link, so the link moves by
+/// `c (a·f)` along a and carries the tip with it.
+pub fn link_translation_column(row: &RowKinematics, s: usize) -> [f64; 3] {
+    let j = &row.jacobian;
+    let a = [j[(3, s)], j[(4, s)], j[(5, s)]];
+    let f = &row.wrench;
+    scale3(a, a[0] * f[0] + a[1] * f[1] + a[2] * f[2])
+}
+
 /// Raw columns of `cand` for one row: one 3-vector per parameter.
 ///
 /// - `joint_tilt (j, a)`: `J_t[:, ja] · τ_ja`;
@@ -285,12 +297,7 @@ pub fn candidate_columns(
 ) {
     match *cand {
         Candidate::JointTilt { joint, axis } => {
-            let k = match axis {
-                SpringAxis::Z => 0,
-                SpringAxis::X => 1,
-                SpringAxis::Y => 2,
-            };
-            out.push(spring_column(row, 3 * joint + k));
+            out.push(spring_column(row, 3 * joint + axis.index()));
         }
         Candidate::JointTorsionNonlinear { joint } => {
             // Odd hinge functions sign(τ)·max(|τ| − t_k, 0) at t_k = TORSION_KNOTS · s_j: with

@@ -63,7 +63,7 @@ use crate::chain::SerialChain;
 use crate::dataset::{Dataset, DatasetError, SetLabel};
 use crate::error::VjmError;
 use crate::gravity::GravityWorkspace;
-use crate::model::{SpringAxis, VirtualJointModel};
+use crate::model::VirtualJointModel;
 use candidates::{catalogue, Alternative, Candidate, Linearisation, RowKinematics};
 use problem::{Term, VjmProblem, Whitening};
 use report::{
@@ -264,14 +264,6 @@ pub fn diagnose_monitored(
     )
 }
 
-fn axis_index(a: SpringAxis) -> usize {
-    match a {
-        SpringAxis::Z => 0,
-        SpringAxis::X => 1,
-        SpringAxis::Y => 2,
-    }
-}
-
 fn check_options(opts: &DiagnoseOptions) -> Result<(), DiagnoseError> {
     let bad =
         |name: &'static str, message: String| Err(DiagnoseError::InvalidOption { name, message });
@@ -360,7 +352,7 @@ fn prepare<'a>(
     let base_terms: Vec<Term> = baseline_model
         .springs()
         .iter()
-        .map(|s| Term::Spring(3 * s.joint + axis_index(s.axis)))
+        .map(|s| Term::Spring(3 * s.joint + s.axis.index()))
         .collect();
     let mut in_model = vec![false; m];
     for t in &base_terms {

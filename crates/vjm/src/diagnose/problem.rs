@@ -738,7 +738,7 @@ impl Problem for VjmProblem<'_> {
         match term {
             Term::Spring(s) => s..s + 1,
             Term::Cand(Candidate::JointTilt { joint, axis }) => {
-                let s = 3 * joint + super::axis_index(axis);
+                let s = 3 * joint + axis.index();
                 s..s + 1
             }
             Term::Cand(c) => self

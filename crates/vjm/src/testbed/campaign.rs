@@ -169,6 +169,21 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
                 }
                 Some(*joint)
             }
+            Effect::LinkTranslation {
+                joint, compliance, ..
+            } => {
+                if !(compliance.is_finite() && *compliance >= 0.0) {
+                    return Err(TestbedError::InvalidTruth {
+                        message: format!(
+                            "link_translation after joint {}: compliance must be finite and ≥ 0 \
+                             m/N, got {}",
+                            joint + 1,
+                            stiffness_core::num::Short(*compliance)
+                        ),
+                    });
+                }
+                Some(*joint)
+            }
             Effect::TorsionNonlinear { joint, spring } => {
                 if !(spring.k1 > 0.0
                     && spring.k2 > 0.0

@@ -27,9 +27,10 @@ pub use campaign::{
 };
 pub use effects::{ForceSensorNoise, HarmonicDriveSpring, TrackerNoise};
 pub use seed_study::{
-    magnitude_error, seed_study, seed_tilt_ratio, seed_torsion_share, seed_truth, vector_error,
-    ClippedAngle, ErrorSummary, ModelErrors, SeedPaperFigures, SeedStudy, SeedStudyRow, SEED_PAPER,
-    SEED_TABLE_I_DEG, SEED_TORSION_SHARE, SEED_WRENCHES,
+    magnitude_error, seed_link_compliances, seed_link_share, seed_structural_link_share,
+    seed_structural_truth, seed_study, seed_tilt_ratio, seed_torsion_share, seed_truth,
+    vector_error, ClippedAngle, ErrorSummary, ModelErrors, SeedPaperFigures, SeedStudy,
+    SeedStudyRow, StructuralTruth, SEED_PAPER, SEED_TABLE_I_DEG, SEED_TORSION_SHARE, SEED_WRENCHES,
 };
 pub use truth::{Effect, RestUnderGravity, TrueModel, MAX_GRAVITY_ITERATIONS, NOMINAL_TORSION};
 

@@ -40,6 +40,21 @@ pub enum Effect {
         /// The torque → deflection curve.
         spring: HarmonicDriveSpring,
     },
+    /// A translational spring in the link after `joint` (the full VJM's 6-D link spring has
+    /// three rotations, the joint's torsion and tilts, and three translations): the link, and
+    /// everything it carries, moves by `compliance·(a·f)·a` along its unit axis a under the
+    /// force f it transmits, which for a load at the tip is the applied force. The axis is the
+    /// joint's spring axis ([`SpringAxis`]: `Z` the joint axis, `X`, `Y` the tilt axes), so the
+    /// frame is the joint's child frame, as deflected. Compliance in m/N.
+    LinkTranslation {
+        /// 0-based joint (written 1-based): the link after it.
+        #[serde(serialize_with = "one_based")]
+        joint: usize,
+        /// `Z`, `X` or `Y`.
+        axis: SpringAxis,
+        /// Compliance, m/N.
+        compliance: f64,
+    },
     /// Lost motion: the joint moves an extra `½·lost_motion·sign(τ)` (rad) under load.
     #[serde(rename = "joint_backlash")]
     Backlash {
@@ -237,12 +252,7 @@ impl TrueModel {
                 compliance,
             } = e
             {
-                let k = match axis {
-                    SpringAxis::Z => 0,
-                    SpringAxis::X => 1,
-                    SpringAxis::Y => 2,
-                };
-                c[3 * joint + k] += compliance;
+                c[3 * joint + axis.index()] += compliance;
             }
         }
         let mut theta: Vec<f64> = c.iter().zip(tau).map(|(c, t)| c * t).collect();
@@ -274,6 +284,37 @@ impl TrueModel {
         theta
     }
 
+    /// Whether the model carries [`Effect::LinkTranslation`]s.
+    fn has_link_translations(&self) -> bool {
+        self.effects
+            .iter()
+            .any(|e| matches!(e, Effect::LinkTranslation { .. }))
+    }
+
+    /// The tip's displacement by the links' translational springs (m, base frame) under the
+    /// applied force of `wrench`: Σ c·(a·f)·a over the [`Effect::LinkTranslation`]s, each axis a
+    /// the angular part of its spring's column of `jacobian` (6×3n, the chain as deflected).
+    /// A translation carries the link and everything beyond it rigidly; the springs' torques
+    /// are those of the untranslated chain (the translation changes a lever arm by c·|f|, a
+    /// second-order term like the geometric non-linearity's).
+    fn link_translations(&self, jacobian: &DMatrix<f64>, wrench: &[f64; 6]) -> Vector3<f64> {
+        let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
+        let mut d = Vector3::zeros();
+        for e in &self.effects {
+            if let Effect::LinkTranslation {
+                joint,
+                axis,
+                compliance,
+            } = e
+            {
+                let s = 3 * joint + axis.index();
+                let a = Vector3::new(jacobian[(3, s)], jacobian[(4, s)], jacobian[(5, s)]);
+                d += a * (compliance * a.dot(&f));
+            }
+        }
+        d
+    }
+
     /// The true tip displacement (m, base frame) at `q` under the applied wrench `wrench`
     /// (base frame, at the tip point), before any measurement effect or noise, and the unloaded
     /// tip point. With [`Effect::GeometricNonlinearity`] the equilibrium
@@ -284,6 +325,10 @@ impl TrueModel {
     /// The out-of-catalogue effects act on top, exactly: a [`Effect::ToolAxialCompliance`]
     /// adds `c·(f·z)·z` (z from the unloaded tip frame), then a [`Effect::MountCompliance`]
     /// moves the loaded tip point rigidly with the mount, `d = t + exp(hat φ)(p₀ + d_arm) − p₀`.
+    ///
+    /// Link translations ([`Effect::LinkTranslation`]) add `c·(a·f)·a`, a taken on the chain
+    /// as deflected (under gravity: at rest under the weight, where the reference was taken;
+    /// the weight the link carries loads it alike unloaded and loaded, so only f remains).
     ///
     /// The arm is weightless here: "unloaded" is θ = 0, the rigid forward kinematics. Under
     /// gravity "unloaded" is the arm at rest under its own weight, and the springs respond to
@@ -392,7 +437,11 @@ impl TrueModel {
                 let load: Vec<f64> = (pose.jacobian.transpose() * &w).iter().cloned().collect();
                 rest.torque(th, &load)
             })?;
-            deflected_tip(chain, q, &theta) - rest.tip
+            let mut d = deflected_tip(chain, q, &theta) - rest.tip;
+            if self.has_link_translations() {
+                d += self.link_translations(&deflected_pose(chain, q, &theta).jacobian, wrench);
+            }
+            d
         } else {
             // Linear in the load about the sagged pose, where the reference was taken: the
             // sag turns the Jacobian by as much as K_G changes the springs' torques (both first
@@ -403,7 +452,7 @@ impl TrueModel {
                 self.settle(rest.theta.clone(), q, "loaded", |th| rest.torque(th, &load))?;
             let delta: Vec<f64> = theta.iter().zip(&rest.theta).map(|(a, b)| a - b).collect();
             let d = sagged.jacobian.rows(0, 3) * DVector::from_column_slice(&delta);
-            Vector3::new(d[0], d[1], d[2])
+            Vector3::new(d[0], d[1], d[2]) + self.link_translations(&sagged.jacobian, wrench)
         };
         let d = self.outside_effects(chain, q, wrench, d, rest.tip, &rest.theta);
         Ok((d, rest.tip))
@@ -499,7 +548,9 @@ impl TrueModel {
         if !self.geometric() {
             let jt = pose0.jacobian.rows(0, 3);
             let d = jt * DVector::from_column_slice(&theta);
-            return (Vector3::new(d[0], d[1], d[2]), pose0.tip);
+            let d =
+                Vector3::new(d[0], d[1], d[2]) + self.link_translations(&pose0.jacobian, wrench);
+            return (d, pose0.tip);
         }
         // |C·K_C| is of order |W|·reach·c ≈ 1e-2, so the iteration contracts fast.
         for _ in 0..100 {
@@ -518,7 +569,11 @@ impl TrueModel {
             }
         }
         let tip = deflected_tip(chain, q, &theta);
-        (tip - pose0.tip, pose0.tip)
+        let mut d = tip - pose0.tip;
+        if self.has_link_translations() {
+            d += self.link_translations(&deflected_pose(chain, q, &theta).jacobian, wrench);
+        }
+        (d, pose0.tip)
     }
 
     /// Applies the measurement-side effects to a true displacement and applied wrench:
