@@ -679,6 +679,7 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
   tool_axial_compliance:compliance=1e-4               tool compliant along its axis, m/N
   sensor_crosstalk:coupling=0.05                      F/T cross-axis sensitivity (0.05 = 5 %)
   joint_torsion_angle_dependent:joint=2,amplitude=0.4 torsion compliance c·(1 + amplitude·sin q_joint)
+  link_translation:joint=4,axis=z,compliance=4e-6     the link after joint 4 translates along its z, m/N
 """,
     )
     sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")

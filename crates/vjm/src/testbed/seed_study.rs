@@ -566,12 +566,29 @@ pub fn seed_structural_link_share(chain: &SerialChain) -> Result<f64, TestbedErr
     };
     // Chain errors (wrong joint count, bad limits) surface here rather than as "no bracket".
     seed_structural_truth(chain, 0.01)?;
-    crossing(
+    let share = crossing(
         0.01,
         1e-6,
         |share| share < 1.0 && error_at(share).is_some_and(|e| e < target),
         "link share",
-    )
+    )?;
+    // Where links large enough are impossible (they would take the torsion share below the
+    // seed's), the bisection stops at the largest possible share: refuse rather than return a
+    // truth that misses the target.
+    match error_at(share) {
+        Some(e) if (e - target).abs() <= 1e-4 * target => Ok(share),
+        reached => Err(TestbedError::Fit {
+            message: format!(
+                "no link share leaves the extended model the seed's {:.2} % with the seed's \
+                 torsion share on this chain: the most is {} at a link share of {share:.4}",
+                100.0 * target,
+                reached.map_or("not computable".to_string(), |e| format!(
+                    "{:.2} %",
+                    100.0 * e
+                ))
+            ),
+        }),
+    }
 }
 
 /// One column of a study model: a rotational spring or a link translation, index into the 3n.
