@@ -33,6 +33,8 @@ pub enum Hidden {
     Mount(f64),
     /// Tool compliant along its axis, k_tool in N/m.
     Tool(f64),
+    /// The link after joint 2 translates along its x axis, k in N/m (issue 23's compliant link).
+    LinkTranslation(f64),
     /// Pose drift, per-axis σ in µm.
     Drift(f64),
     /// Force-sensor cross-axis sensitivity, in % (outside the catalogue).
@@ -58,7 +60,8 @@ impl Hidden {
             Hidden::Misalignment(_) => "frame_misalignment".into(),
             Hidden::Geometric(_) => "geometric_nonlinearity".into(),
             Hidden::Mount(_) => "mount_translation/rotation".into(),
-            Hidden::Tool(_) => "tool axial compliance (outside)".into(),
+            Hidden::Tool(_) => "tool axial compliance".into(),
+            Hidden::LinkTranslation(_) => "link_translation J2x".into(),
             Hidden::Drift(_) => "pose drift (outside)".into(),
             Hidden::Crosstalk(_) => "F/T cross-talk (outside)".into(),
             Hidden::Pair(a, b) => format!("{} + {}", a.family(), b.family()),
@@ -76,7 +79,7 @@ impl Hidden {
             Hidden::Misalignment(m) => format!("{m} mrad"),
             Hidden::Geometric(s) => format!("loads × {s}"),
             Hidden::Mount(k) => format!("k = {k:.1e} N/m"),
-            Hidden::Tool(k) => format!("k = {k:.1e} N/m"),
+            Hidden::Tool(k) | Hidden::LinkTranslation(k) => format!("k = {k:.1e} N/m"),
             Hidden::Drift(s) => format!("σ = {s} µm"),
             Hidden::Crosstalk(c) => format!("{c} %"),
             Hidden::Pair(a, b) => format!("{}; {}", a.magnitude(), b.magnitude()),
@@ -85,12 +88,10 @@ impl Hidden {
 
     /// Whether the effect is outside the catalogue (detected = `unexplained: true`). The
     /// compliant mount joined the catalogue with the shared engine (`mount_translation`,
-    /// `mount_rotation`).
+    /// `mount_rotation`), the compliant tool with the link translations (issue 23: a tool
+    /// compliant along its axis is a translation of the last link along it).
     pub fn outside(&self) -> bool {
-        matches!(
-            self,
-            Hidden::Tool(_) | Hidden::Drift(_) | Hidden::Crosstalk(_)
-        )
+        matches!(self, Hidden::Drift(_) | Hidden::Crosstalk(_))
     }
 
     /// The campaign spec: the study's defaults, loads scaled for K_C.
@@ -164,6 +165,11 @@ impl Hidden {
                 translation: 1.0 / k,
                 rotation: 1.0 / k,
             }],
+            Hidden::LinkTranslation(k) => vec![Effect::LinkTranslation {
+                joint: j,
+                axis: SpringAxis::X,
+                compliance: 1.0 / k,
+            }],
             Hidden::Tool(k) => vec![Effect::ToolAxialCompliance {
                 compliance: 1.0 / k,
             }],
@@ -182,8 +188,11 @@ impl Hidden {
     /// Whether `d` detects the effect: a catalogue effect is named (finding or alias, right
     /// joint and axis; a torsion non-linearity also counts when backlash at the joint is named
     /// with the torsion candidate as its alias, as in the crate's property test); an effect
-    /// outside the catalogue is flagged `unexplained`; a pair needs both.
-    pub fn detected(&self, d: &Diagnosis) -> bool {
+    /// outside the catalogue is flagged `unexplained`; a pair needs both. A compliant tool is
+    /// named when a `link_translation` along one of `tool_axes` (1-based joint, axis: the
+    /// spring axes that stay parallel to the tool's axis, [`tool_axis_translations`]) is, or
+    /// flagged `unexplained`.
+    pub fn detected(&self, d: &Diagnosis, tool_axes: &[(usize, String)]) -> bool {
         let jj = Some(EFFECT_JOINT + 1);
         match self {
             Hidden::Clean => d.findings.is_empty() && !d.unexplained,
@@ -205,8 +214,15 @@ impl Hidden {
             Hidden::Mount(_) => {
                 named(d, "mount_translation", None, None) || named(d, "mount_rotation", None, None)
             }
-            Hidden::Tool(_) | Hidden::Drift(_) | Hidden::Crosstalk(_) => d.unexplained,
-            Hidden::Pair(a, b) => a.detected(d) && b.detected(d),
+            Hidden::LinkTranslation(_) => named(d, "link_translation", jj, Some("x")),
+            Hidden::Tool(_) => {
+                d.unexplained
+                    || tool_axes
+                        .iter()
+                        .any(|(j, a)| named(d, "link_translation", Some(*j), Some(a)))
+            }
+            Hidden::Drift(_) | Hidden::Crosstalk(_) => d.unexplained,
+            Hidden::Pair(a, b) => a.detected(d, tool_axes) && b.detected(d, tool_axes),
         }
     }
 }
@@ -219,6 +235,34 @@ pub fn named(d: &Diagnosis, effect: &str, joint: Option<usize>, axis: Option<&st
                 .iter()
                 .any(|a| a.effect == effect && a.joint == joint && a.axis.as_deref() == axis)
     })
+}
+
+/// The link translations along the tool's axis: every (1-based joint, spring axis) whose axis
+/// is parallel to the tip frame's z (the testbed's tool axis) at every configuration of
+/// `q_rows`. Their column a (a·f) is the compliant tool's exactly: the diagnosis may name any.
+pub fn tool_axis_translations(chain: &SerialChain, q_rows: &[Vec<f64>]) -> Vec<(usize, String)> {
+    let mut out = Vec::new();
+    for (j, joint) in chain.joints().iter().enumerate() {
+        for (k, axis) in [SpringAxis::Z, SpringAxis::X, SpringAxis::Y]
+            .iter()
+            .enumerate()
+        {
+            let parallel = q_rows.iter().all(|q| {
+                let frames = chain.joint_frames(q).expect("q matches the chain");
+                let a = frames[j].rotation * vjm::spring_axes(joint.axis())[k];
+                let tool = chain
+                    .forward_kinematics(q)
+                    .expect("q matches the chain")
+                    .rotation
+                    * nalgebra::Vector3::z();
+                (a.dot(&tool).abs() - 1.0).abs() < 1e-9
+            });
+            if parallel && !q_rows.is_empty() {
+                out.push((j + 1, axis.to_string()));
+            }
+        }
+    }
+    out
 }
 
 /// RMS over rows of joint `j`'s torsion torque `J_z(q)ᵀ W` under the applied wrenches, N·m.
@@ -249,6 +293,7 @@ pub fn catalogue_grid() -> Vec<Hidden> {
     v.extend([1.0, 2.0, 5.0, 10.0].map(Hidden::Misalignment));
     v.extend([0.5, 1.0, 1.5, 2.0].map(Hidden::Geometric));
     v.extend([1e6, 5e5, 2.5e5, 1e5].map(Hidden::Mount));
+    v.extend([1e7, 3e6, 1e6, 3e5].map(Hidden::LinkTranslation));
     v
 }
 

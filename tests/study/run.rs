@@ -11,7 +11,7 @@ use vjm::diagnose::report::Diagnosis;
 use vjm::diagnose::{diagnose, DiagnoseOptions};
 use vjm::testbed::{simulate, CampaignSpec, ForceSensorNoise, TrackerNoise, TrueModel};
 
-use super::effects::{rms_torque, Hidden, EFFECT_JOINT};
+use super::effects::{rms_torque, tool_axis_translations, Hidden, EFFECT_JOINT};
 use super::robots::StudyRobot;
 use super::stats::clopper_pearson;
 
@@ -191,6 +191,10 @@ pub fn run_cell(
         };
         let truth = hidden.truth(&robot.torsion, rms);
         let campaign = simulate(chain, &truth, &spec).map_err(sim_err)?;
+        let q_rows: Vec<Vec<f64>> = (0..campaign.dataset.len().min(8))
+            .map(|i| campaign.dataset.q(i).to_vec())
+            .collect();
+        let tool_axes = tool_axis_translations(chain, &q_rows);
         for (k, given) in [false, true].into_iter().enumerate() {
             let mut opts = DiagnoseOptions::default();
             if given {
@@ -206,7 +210,7 @@ pub fn run_cell(
                 })?;
             let r = &mut out[k];
             r.runs += 1;
-            r.detected += hidden.detected(&d) as usize;
+            r.detected += hidden.detected(&d, &tool_axes) as usize;
             r.any_finding += (!d.findings.is_empty()) as usize;
             r.unexplained += d.unexplained as usize;
             r.alarm += (!d.findings.is_empty() || d.unexplained) as usize;

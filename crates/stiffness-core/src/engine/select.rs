@@ -129,6 +129,16 @@ pub fn select<P: Problem>(
     let mut rejected_on_holdout = Vec::new();
     let mut explained_by_guard = Vec::new();
     let mut scores = first_scores.clone();
+    // The guard test is a family too: with many guarded candidates (VJM: the mount's and every
+    // link's translations), one that only noise separates from its guard passes at
+    // `alias_alpha` by chance. Bonferroni over that family keeps the chance that any does at
+    // `alias_alpha`.
+    let n_guarded = pool
+        .iter()
+        .filter(|c| !problem.guard(**c).is_empty())
+        .count()
+        .max(1);
+    let guard_alpha = opts.alias_alpha / n_guarded as f64;
     for step in 1..=opts.max_findings {
         let testable: Vec<&Score<P::Term>> = scores.iter().filter(|s| s.rank > 0).collect();
         let mut p: Vec<f64> = testable.iter().map(|s| s.f_test.p_value).collect();
@@ -164,7 +174,7 @@ pub fn select<P: Problem>(
                 .collect();
             if !guard.is_empty() {
                 let given = score_given(problem, &current, &guard, &[s.cand])?;
-                if given[0].rank == 0 || given[0].f_test.p_value > opts.alias_alpha {
+                if given[0].rank == 0 || given[0].f_test.p_value > guard_alpha {
                     explained_by_guard.push(s.cand);
                     pool.retain(|c| *c != s.cand);
                     continue;

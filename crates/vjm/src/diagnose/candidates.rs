@@ -42,6 +42,15 @@ pub enum Candidate {
     /// The arm's mount translates under the load: `δ = diag(c_x, c_y, c_z) f` (3 parameters,
     /// m/N, base frame).
     MountTranslation,
+    /// A translational spring of the link after `joint` along its spring axis `axis` (`Z`, `X`
+    /// or `Y`, the joint's child frame): the full VJM's 6-D link spring beyond its rotations
+    /// (1 parameter, m/N).
+    LinkTranslation {
+        /// 0-based joint: the link after it.
+        joint: usize,
+        /// `Z`, `X` or `Y`.
+        axis: SpringAxis,
+    },
     /// The arm's mount rotates about the base origin under the moment the load exerts there:
     /// `φ = diag(c_x, c_y, c_z) (m + p × f)`, moving the tip by `φ × p` (3 parameters,
     /// rad/(N·m), base frame).
@@ -59,6 +68,7 @@ impl Candidate {
             Candidate::FrameMisalignment => "frame_misalignment",
             Candidate::GeometricNonlinearity => "geometric_nonlinearity",
             Candidate::MountTranslation => "mount_translation",
+            Candidate::LinkTranslation { .. } => "link_translation",
             Candidate::MountRotation => "mount_rotation",
         }
     }
@@ -67,16 +77,19 @@ impl Candidate {
     pub fn joint(&self) -> Option<usize> {
         match self {
             Candidate::JointTilt { joint, .. }
+            | Candidate::LinkTranslation { joint, .. }
             | Candidate::JointTorsionNonlinear { joint }
             | Candidate::JointBacklash { joint } => Some(*joint),
             _ => None,
         }
     }
 
-    /// Tilt axis, for `joint_tilt`.
+    /// Spring axis, for `joint_tilt` and `link_translation`.
     pub fn axis(&self) -> Option<SpringAxis> {
         match self {
-            Candidate::JointTilt { axis, .. } => Some(*axis),
+            Candidate::JointTilt { axis, .. } | Candidate::LinkTranslation { axis, .. } => {
+                Some(*axis)
+            }
             _ => None,
         }
     }
@@ -121,7 +134,7 @@ impl Candidate {
             Candidate::WrenchBias => "N, N·m",
             Candidate::FrameMisalignment => "rad",
             Candidate::GeometricNonlinearity => "1 (1 = the physical K_C)",
-            Candidate::MountTranslation => "m/N",
+            Candidate::MountTranslation | Candidate::LinkTranslation { .. } => "m/N",
             Candidate::MountRotation => "rad/(N·m)",
         }
     }
@@ -129,7 +142,7 @@ impl Candidate {
 
 /// The full catalogue for a model whose springs are `in_model` (flags over the 3n springs,
 /// joint-major `[z, x, y]`): tilts not in the model, torsion non-linearity and backlash at every
-/// joint whose torsion spring is modelled, and the three global effects.
+/// joint whose torsion spring is modelled, the links' translations, and the global effects.
 pub fn catalogue(in_model: &[bool]) -> Vec<Candidate> {
     let n = in_model.len() / 3;
     let mut out = Vec::new();
@@ -144,6 +157,11 @@ pub fn catalogue(in_model: &[bool]) -> Vec<Candidate> {
         if in_model[3 * joint] {
             out.push(Candidate::JointTorsionNonlinear { joint });
             out.push(Candidate::JointBacklash { joint });
+        }
+    }
+    for joint in 0..n {
+        for axis in [SpringAxis::Z, SpringAxis::X, SpringAxis::Y] {
+            out.push(Candidate::LinkTranslation { joint, axis });
         }
     }
     out.push(Candidate::WrenchBias);
@@ -274,6 +292,7 @@ pub fn link_translation_column(row: &RowKinematics, s: usize) -> [f64; 3] {
 /// Raw columns of `cand` for one row: one 3-vector per parameter.
 ///
 /// - `joint_tilt (j, a)`: `J_t[:, ja] · τ_ja`;
+/// - `link_translation (j, a)`: `a (a·f)`, [`link_translation_column`];
 /// - `joint_torsion_nonlinear (j)`: `J_t[:, jz] · (h_k(τ_g + τ) − h_k(τ_g))` with the hinge
 ///   `h_k(t) = sign(t)·max(|t| − t_k, 0)` for the knots `t_k = TORSION_KNOTS[k] · s_j`, `s_j`
 ///   the RMS of the total torque τ_g + τ_jz over the training rows, τ_g the weight's preload
@@ -298,6 +317,9 @@ pub fn candidate_columns(
     match *cand {
         Candidate::JointTilt { joint, axis } => {
             out.push(spring_column(row, 3 * joint + axis.index()));
+        }
+        Candidate::LinkTranslation { joint, axis } => {
+            out.push(link_translation_column(row, 3 * joint + axis.index()));
         }
         Candidate::JointTorsionNonlinear { joint } => {
             // Odd hinge functions sign(τ)·max(|τ| − t_k, 0) at t_k = TORSION_KNOTS · s_j: with

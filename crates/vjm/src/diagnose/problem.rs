@@ -854,9 +854,14 @@ impl Problem for VjmProblem<'_> {
 
     fn guard(&self, cand: Term) -> Vec<Term> {
         match cand {
-            Term::Cand(Candidate::MountTranslation | Candidate::MountRotation) => {
-                (0..self.m).map(Term::Spring).collect()
-            }
+            // A link translation must stand against every rotational spring too: near the
+            // wrist, where lever arms are short, tilts missing from the model mimic a
+            // translation (the seed's tilted truth named one at J6x without this guard).
+            Term::Cand(
+                Candidate::MountTranslation
+                | Candidate::MountRotation
+                | Candidate::LinkTranslation { .. },
+            ) => (0..self.m).map(Term::Spring).collect(),
             _ => Vec::new(),
         }
     }

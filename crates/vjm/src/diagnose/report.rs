@@ -174,7 +174,7 @@ pub struct Diagnosis {
     pub scores: Vec<CandidateScore>,
     /// Candidates significant on the training rows but not confirmed on the held-out rows.
     pub rejected_on_holdout: Vec<String>,
-    /// Global candidates (mount compliance) significant against the model but not against
+    /// Mount compliances and link translations significant against the model but not against
     /// every joint spring: a few springs missing from the model mimic them.
     pub explained_by_springs: Vec<String>,
     /// Per-pose errors.
