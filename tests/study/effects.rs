@@ -39,6 +39,9 @@ pub enum Hidden {
     Drift(f64),
     /// Force-sensor cross-axis sensitivity, in % (outside the catalogue).
     Crosstalk(f64),
+    /// Joint 2's torsion compliance varies with its angle, c·(1 + a·sin q₂), a the relative
+    /// amplitude (outside the catalogue; issue 23's pose-dependent compliance).
+    AngleDependent(f64),
     /// Two effects at once.
     Pair(Box<Hidden>, Box<Hidden>),
 }
@@ -64,6 +67,7 @@ impl Hidden {
             Hidden::LinkTranslation(_) => "link_translation J2x".into(),
             Hidden::Drift(_) => "pose drift (outside)".into(),
             Hidden::Crosstalk(_) => "F/T cross-talk (outside)".into(),
+            Hidden::AngleDependent(_) => "torsion varying with the angle J2 (outside)".into(),
             Hidden::Pair(a, b) => format!("{} + {}", a.family(), b.family()),
         }
     }
@@ -82,6 +86,7 @@ impl Hidden {
             Hidden::Tool(k) | Hidden::LinkTranslation(k) => format!("k = {k:.1e} N/m"),
             Hidden::Drift(s) => format!("σ = {s} µm"),
             Hidden::Crosstalk(c) => format!("{c} %"),
+            Hidden::AngleDependent(a) => format!("± {} %", 100.0 * a),
             Hidden::Pair(a, b) => format!("{}; {}", a.magnitude(), b.magnitude()),
         }
     }
@@ -91,7 +96,10 @@ impl Hidden {
     /// `mount_rotation`), the compliant tool with the link translations (issue 23: a tool
     /// compliant along its axis is a translation of the last link along it).
     pub fn outside(&self) -> bool {
-        matches!(self, Hidden::Drift(_) | Hidden::Crosstalk(_))
+        matches!(
+            self,
+            Hidden::Drift(_) | Hidden::Crosstalk(_) | Hidden::AngleDependent(_)
+        )
     }
 
     /// The campaign spec: the study's defaults, loads scaled for K_C.
@@ -177,6 +185,10 @@ impl Hidden {
             Hidden::Crosstalk(c) => vec![Effect::SensorCrosstalk {
                 coupling: c / 100.0,
             }],
+            Hidden::AngleDependent(a) => vec![Effect::TorsionAngleDependent {
+                joint: j,
+                amplitude: *a,
+            }],
             Hidden::Pair(a, b) => {
                 let mut v = a.effects(torsion, rms_torque);
                 v.extend(b.effects(torsion, rms_torque));
@@ -221,7 +233,7 @@ impl Hidden {
                         .iter()
                         .any(|(j, a)| named(d, "link_translation", Some(*j), Some(a)))
             }
-            Hidden::Drift(_) | Hidden::Crosstalk(_) => d.unexplained,
+            Hidden::Drift(_) | Hidden::Crosstalk(_) | Hidden::AngleDependent(_) => d.unexplained,
             Hidden::Pair(a, b) => a.detected(d, tool_axes) && b.detected(d, tool_axes),
         }
     }
@@ -304,6 +316,7 @@ pub fn outside_grid() -> Vec<Hidden> {
     v.extend([1e6, 1e5, 3e4, 1e4].map(Hidden::Tool));
     v.extend([3.0, 5.0, 10.0, 20.0].map(Hidden::Drift));
     v.extend([1.0, 2.0, 5.0, 10.0].map(Hidden::Crosstalk));
+    v.extend([0.05, 0.1, 0.2, 0.4].map(Hidden::AngleDependent));
     v
 }
 

@@ -111,7 +111,7 @@ fn find_under(root: &Path, file: &str) -> Option<PathBuf> {
 /// its clean truth.
 #[derive(Debug, Clone)]
 pub struct StudyRobot {
-    /// Short name (`panda`, `xarm7`, `ur5`, `kinova`).
+    /// Short name (`panda`, `xarm7`, `ur5`, `kinova`, `ur10`).
     pub name: &'static str,
     /// Where the chain comes from, e.g. `xarm7.urdf link_base → link_eef`.
     pub source: String,
@@ -122,7 +122,7 @@ pub struct StudyRobot {
 }
 
 /// The robots the study knows, in table order.
-pub const ROBOTS: [&str; 4] = ["panda", "xarm7", "ur5", "kinova"];
+pub const ROBOTS: [&str; 5] = ["panda", "xarm7", "ur5", "kinova", "ur10"];
 
 /// Torsional compliances (rad/(N·m)) assumed for each robot. The Panda's are the testbed's
 /// nominal ones (docs/diagnose.md): 10 kN·m/rad on the 87 N·m joints down to 2 kN·m/rad at the
@@ -138,6 +138,9 @@ pub fn torsion_of(name: &str) -> Option<Vec<f64>> {
         "ur5" => vec![1.0e-4, 1.0e-4, 1.0e-4, 3.0e-4, 3.0e-4, 3.0e-4],
         // Kinova j2s6s200: efforts 40, 80, 40, 20, 20, 20 N·m.
         "kinova" => vec![2.0e-4, 1.5e-4, 2.0e-4, 4.0e-4, 4.0e-4, 4.0e-4],
+        // UR10: 330 N·m (size-4) joints 1–2, 150 N·m (size-3) joint 3, 56 N·m (size-2) wrist,
+        // scaled from the UR5's 1e-4 at 150 N·m and 3e-4 at 28 N·m by the rated torque.
+        "ur10" => vec![4.5e-5, 4.5e-5, 1.0e-4, 1.5e-4, 1.5e-4, 1.5e-4],
         _ => return None,
     };
     Some(t)
@@ -160,6 +163,7 @@ pub fn load_robot(name: &str) -> Result<StudyRobot, RobotError> {
         }
         "xarm7" => ("xarm7", "xarm7.urdf", "link_base", "link_eef"),
         "ur5" => ("ur5", "ur5_robot.urdf", "base_link", "tool0"),
+        "ur10" => ("ur10", "ur10_robot.urdf", "base_link", "tool0"),
         "kinova" => (
             "kinova",
             "kinova.urdf",

@@ -70,7 +70,8 @@ pub use compensate::{
     CompensationStatus, CompensationWorkspace,
 };
 pub use design::plan::{
-    design, design_monitored, predicted_stderr, NoiseModel, Plan, PlanSpec, PlannedCombination,
+    design, design_monitored, pose_compliance_wrenches, predicted_stderr, NoiseModel, Plan,
+    PlanSpec, PlannedCombination,
 };
 pub use design::{dexterity, select_configurations, Selection};
 pub use error::VjmError;

@@ -53,6 +53,9 @@ class Plan:
     worst_stderr: float
     #: The noise model assumed (tracker, force sensor, prior compliance).
     noise: Dict[str, Any]
+    #: Fewest wrenches per pose with which diagnose's ``pose_compliance`` block (compliance
+    #: that changes from pose to pose) can test a pose: 3W > 3 + n (4 for 6 or 7 joints).
+    pose_compliance_wrenches: int
 
     def csv_text(self) -> str:
         """The plan as a VJM measurement file with empty ``dx,dy,dz`` (fill them in)."""
@@ -265,4 +268,5 @@ def design(
         combinations=combos,
         worst_stderr=float(doc["worst_stderr"]) if math.isfinite(doc["worst_stderr"]) else math.inf,
         noise=doc["noise"],
+        pose_compliance_wrenches=int(doc["pose_compliance_wrenches"]),
     )

@@ -222,9 +222,15 @@ def simulate(
     * ``{"effect": "wrench_bias", "bias": [fx, fy, fz, mx, my, mz]}`` (N, N·m, base frame);
     * ``{"effect": "frame_misalignment", "rotation": [rx, ry, rz]}`` (rad);
     * ``{"effect": "geometric_nonlinearity"}``;
-    * ``{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 0.4}``: the
-      torsion compliance is c·(1 + amplitude·sin q_joint), amplitude in (−1, 1) (outside
-      ``diagnose``'s catalogue: it must say ``unexplained``).
+    * ``{"effect": "link_translation", "joint": 4, "axis": "z", "compliance": 4e-6}``: the link
+      after joint 4 translates along its spring axis (z, x or y) under the force, m/N;
+    * ``{"effect": "mount_compliance", "translation": 4e-6, "rotation": 1e-5}`` (m/N, rad/(N·m));
+    * outside ``diagnose``'s catalogue (it must say ``unexplained``):
+      ``{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 0.4}`` (the
+      torsion compliance is c·(1 + amplitude·sin q_joint), amplitude in (−1, 1)),
+      ``{"effect": "pose_drift", "sigma": 5e-5}`` (m), ``{"effect": "sensor_crosstalk",
+      "coupling": 0.05}``; and ``{"effect": "tool_axial_compliance", "compliance": 1e-4}``
+      (m/N), which ``diagnose`` names as a link translation along the tool's axis.
 
     Poses are drawn inside the joint limits away from singularities; forces and moments are
     random; laser-tracker and F/T-sensor noise are added when ``noise``. Same seed, same data.

@@ -674,12 +674,12 @@ effects (--effect NAME:key=value,...; joints are 1-based, base → tip; SI units
   frame_misalignment:rotation=0.01/-0.005/0           tracker frame rotation vector, rad
   geometric_nonlinearity                              load-dependent Jacobian (K_C)
   mount_compliance:translation=4e-6,rotation=1e-5     compliant mount, m/N and rad/(N·m)
+  link_translation:joint=4,axis=z,compliance=4e-6     the link after joint 4 translates along its z, m/N
+  tool_axial_compliance:compliance=1e-4               tool compliant along its axis, m/N (named as a link translation)
 effects outside diagnose's catalogue (diagnose must say `unexplained`):
   pose_drift:sigma=5e-5                               an independent offset per pose, m
-  tool_axial_compliance:compliance=1e-4               tool compliant along its axis, m/N
   sensor_crosstalk:coupling=0.05                      F/T cross-axis sensitivity (0.05 = 5 %)
   joint_torsion_angle_dependent:joint=2,amplitude=0.4 torsion compliance c·(1 + amplitude·sin q_joint)
-  link_translation:joint=4,axis=z,compliance=4e-6     the link after joint 4 translates along its z, m/N
 """,
     )
     sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")

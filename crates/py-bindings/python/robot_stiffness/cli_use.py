@@ -113,6 +113,13 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
     for c in plan.combinations:
         print(f"  {c.label:<40} {c.stderr:.3e}")
     print(f"worst: {plan.worst_stderr:.3e}; written {args.out}")
+    need = plan.pose_compliance_wrenches
+    if args.wrenches_per_pose >= need:
+        print(f"diagnose can test whether the compliance changes from pose to pose (pose_compliance block: "
+              f"≥ {need} wrenches per pose).")
+    else:
+        print(f"note: with {args.wrenches_per_pose} wrenches per pose diagnose cannot test whether the compliance "
+              f"changes from pose to pose (pose_compliance block); plan ≥ {need} (--wrenches-per-pose {need}).")
     return 0
 
 

@@ -123,6 +123,17 @@ pub struct Plan {
     pub worst_stderr: f64,
     /// The noise model the prediction assumes.
     pub noise: NoiseModel,
+    /// Fewest wrenches per pose with which diagnose's `pose_compliance` block (compliance
+    /// that changes from pose to pose) can test a pose: [`pose_compliance_wrenches`].
+    pub pose_compliance_wrenches: usize,
+}
+
+/// Fewest wrenches per pose with which diagnose's `pose_compliance` lack-of-fit block can
+/// test a pose of an arm with `n_joints` joints. Within a pose the block frees 3 offsets and
+/// a scale of each joint's torsion response; the pose's 3W equations must keep at least one
+/// degree of freedom beyond those, 3W > 3 + n, so W = ⌊(3 + n)/3⌋ + 1 (4 for 6 or 7 joints).
+pub fn pose_compliance_wrenches(n_joints: usize) -> usize {
+    (3 + n_joints) / 3 + 1
 }
 
 /// Translation rows of the regressor `A[r][k] = J[r][k]·(J_kᵀ W)` (3×m) and the displacement
@@ -724,6 +735,7 @@ pub fn design_monitored(
         rank: plan_rank,
         combinations,
         worst_stderr,
+        pose_compliance_wrenches: pose_compliance_wrenches(n),
         noise: noise.clone(),
     })
 }

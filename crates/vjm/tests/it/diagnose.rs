@@ -1586,3 +1586,30 @@ fn a_compliant_link_is_named_as_a_link_translation_at_its_link_or_an_alias() {
         assert!(single >= 14, "{single}/20");
     }
 }
+
+#[test]
+fn design_states_the_wrenches_per_pose_the_pose_compliance_block_needs() {
+    // 3W equations per pose against 3 offsets and n torsion scales: W = ⌊(3 + n)/3⌋ + 1.
+    assert_eq!(vjm::pose_compliance_wrenches(7), 4);
+    assert_eq!(vjm::pose_compliance_wrenches(6), 4);
+    assert_eq!(vjm::pose_compliance_wrenches(2), 2);
+    // Checked against the diagnosis itself: on the Panda the block has degrees of freedom
+    // (its F test a finite p) with 4 wrenches per pose and none with 3.
+    let chain = SerialChain::bundled();
+    for (w, testable) in [(3, false), (4, true)] {
+        let spec = CampaignSpec {
+            seed: 77,
+            wrenches_per_pose: w,
+            ..Default::default()
+        };
+        let c = simulate(&chain, &TrueModel::nominal(7), &spec).unwrap();
+        let d = diagnose(&chain, &c.dataset, &DiagnoseOptions::default()).unwrap();
+        let b = pose_compliance(&d);
+        println!("W = {w}: pose_compliance {:?}", b.f_test);
+        assert_eq!(
+            b.f_test.df_num > 0.0 && b.f_test.df_den > 0.0,
+            testable,
+            "W = {w}"
+        );
+    }
+}
