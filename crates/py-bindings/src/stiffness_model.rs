@@ -155,7 +155,7 @@ impl PyStiffnessModel {
     /// Returns a dict of arrays: deflection (N, 6), stddev (N, 6), wrench (N, 6),
     /// identified (N,), excitation (N,). The inputs get identify's checks (joint angles inside
     /// the URDF limits unless `allow_outside_limits`).
-    #[pyo3(signature = (q, wrench = None, payload = None, allow_outside_limits = false))]
+    #[pyo3(signature = (q, wrench = None, payload = None, allow_outside_limits = false, gravity = None))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
@@ -163,6 +163,7 @@ impl PyStiffnessModel {
         wrench: Option<PyReadonlyArrayDyn<'py, f64>>,
         payload: Option<(f64, f64, f64, f64)>,
         allow_outside_limits: bool,
+        gravity: Option<[f64; 3]>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let n = self.chain.n_joints();
         let q = batch(&q, "q", &[n])?;
@@ -174,7 +175,12 @@ impl PyStiffnessModel {
         let load = crate::use_model::load_of(&q, w.as_ref(), payload)?;
         crate::use_model::check_inputs(py, &self.chain, &q, load, allow_outside_limits)?;
         let (model, chain) = (&self.model, &self.chain);
-        let pred = run(py, || model.predict(chain, &q.data, load))?.py()?;
+        let gravity = gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
+        let pred = run(py, || match &gravity {
+            Some(g) => model.predict_under_gravity(chain, &q.data, load, g),
+            None => model.predict(chain, &q.data, load),
+        })?
+        .py()?;
         predictions_dict(py, &pred)
     }
 

@@ -404,6 +404,7 @@ class StiffnessModel:
         wrench: Optional[_F64] = None,
         payload: Optional[Tuple[float, float, float, float]] = None,
         allow_outside_limits: bool = False,
+        gravity: Optional[Tuple[float, float, float]] = None,
     ) -> Dict[str, Any]: ...
     def predict_sag(
         self,

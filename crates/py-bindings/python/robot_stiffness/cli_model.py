@@ -28,7 +28,8 @@ the tip point, base frame) or --payload. Other columns (dx, pose, set, ...) are 
 measurement file works.
 
 PRED.csv: q1..qn, the wrench used fx..mz, the predicted deflection dx,dy,dz (m) and rx,ry,rz (rad)
-in the base frame, their standard deviations sdx,sdy,sdz,srx,sry,srz, and identified. The standard
+in the base frame (under the gravity below unless --no-gravity: the load's deflection from the arm
+at rest under its own weight, as identify under gravity fits it), their standard deviations sdx,sdy,sdz,srx,sry,srz, and identified. The standard
 deviations are those of the predicted true deflection (parameter uncertainty), not of a new
 measurement. Rotations are empty when the model was identified without rotations. A row with
 identified=false excites a direction the identification data could not see: its values are a
@@ -210,9 +211,9 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
         raise _CLI.CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
     with _CLI._data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
-        pred = in_worker(model.predict, q, wrench=wrench, payload=payload,
-                         allow_outside_limits=args.allow_outside_limits)
         gravity = _CLI._model_gravity(args)
+        pred = in_worker(model.predict, q, wrench=wrench, payload=payload,
+                         allow_outside_limits=args.allow_outside_limits, gravity=gravity)
         sag = None if gravity is None else in_worker(
             model.predict_sag, q, gravity=gravity, payload=payload, allow_outside_limits=args.allow_outside_limits)
     staged.write_with(lambda path: write_predictions(path, args.out, q, pred, sag))

@@ -213,6 +213,7 @@ class StiffnessModel:
         wrench: Any = None,
         payload: Optional[Payload] = None,
         allow_outside_limits: bool = False,
+        gravity: ModelGravity = RECORDED_GRAVITY,
     ) -> Prediction:
         """Predicted tip deflections and their standard deviations.
 
@@ -227,7 +228,17 @@ class StiffnessModel:
         within two turns (else degrees?) and inside the URDF limits —
         ``allow_outside_limits=True`` to accept those — forces up to 1e5 N and moments up to
         1e4 N·m, a payload whose weight and moment stay within those.
+
+        ``gravity`` (m/s², base frame; default ``"recorded"``: :attr:`gravity`, the one the
+        model was identified under, weightless when it records none; None: weightless): under
+        gravity the deflection is the load's from the arm at rest under its own weight — what
+        a measurement under gravity records and ``identify(gravity=...)`` fits — taken at the
+        sagged pose with gravity's stiffness coupling into the load's torque (docs/gravity.md);
+        the URDF must then give the link masses.
         """
+        g = model_gravity(gravity, self.gravity)
+        if isinstance(gravity, str) and self.gravity is None:
+            g = None  # a weightless identification predicts weightless
         arr = f64(q, "q")
         if arr.ndim == 1:
             arr = arr.reshape(1, -1)
@@ -237,7 +248,8 @@ class StiffnessModel:
             if w.ndim == 1:
                 w = np.broadcast_to(w.reshape(1, -1), (arr.shape[0], w.shape[0])).copy()
         p = None if payload is None else _payload(payload)
-        d = self._inner.predict(arr, wrench=w, payload=p, allow_outside_limits=bool(allow_outside_limits))
+        d = self._inner.predict(arr, wrench=w, payload=p, allow_outside_limits=bool(allow_outside_limits),
+                                gravity=g)
         return Prediction(
             deflection=d["deflection"],
             stddev=d["stddev"],

@@ -4,7 +4,9 @@ use super::{ModelError, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::dataset::{MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
 use crate::error::VjmError;
+use crate::gravity::{Gravity, GravityWorkspace, RowFrame};
 use crate::kinematics::Workspace;
+use crate::model::VirtualJointModel;
 use crate::regressor::{regressor_rows, Measured};
 use stiffness_core::num::Short;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
@@ -150,12 +152,44 @@ impl Prediction {
 impl StiffnessModel {
     /// Predicts the tip deflection for N rows: `q` is N×n row-major (rad), `load` the wrench
     /// per row or a payload. Linear in the compliances (no K_C), the model the identification
-    /// fitted. Errors name the row (0-based) and column of a bad value.
+    /// fitted, for a weightless arm. Errors name the row (0-based) and column of a bad value.
     pub fn predict(
         &self,
         chain: &SerialChain,
         q: &[f64],
         load: Load<'_>,
+    ) -> Result<Vec<Prediction>, ModelError> {
+        self.predict_rows(chain, q, load, None)
+    }
+
+    /// [`predict`](Self::predict) for an arm under `gravity` (base frame, m/s²): the load's
+    /// deflection from the arm at rest under its own weight, what a measurement under gravity
+    /// records (loaded − unloaded) and what [`identify`](crate::identify) with
+    /// [`IdentifyOptions::gravity`](crate::IdentifyOptions::gravity) fits. Each row is moved
+    /// to the sagged pose θ₀ ([`GravityWorkspace::sag`]: its Jacobian there) and the load's
+    /// torque gets gravity's coupling, τ_eff = τ + K_G Δθ
+    /// ([`GravityWorkspace::effective_torques`]): `d = J(θ₀) C τ_eff`, linear in the load.
+    /// `stddev`, `identified` and `excitation` are the weightless prediction's: the
+    /// identification's row space is that of the weightless regressor, and the weight moves a
+    /// row's regressor by ‖C K_G‖ ≈ 1e-2 of it, which would flag rows of a rank-deficient model
+    /// that the data do determine. The link masses come from the chain's inertials (an error
+    /// naming a link without one).
+    pub fn predict_under_gravity(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        load: Load<'_>,
+        gravity: &Gravity,
+    ) -> Result<Vec<Prediction>, ModelError> {
+        self.predict_rows(chain, q, load, Some(gravity))
+    }
+
+    fn predict_rows(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        load: Load<'_>,
+        gravity: Option<&Gravity>,
     ) -> Result<Vec<Prediction>, ModelError> {
         self.check_robot(chain, "<model>")?;
         let n = chain.n_joints();
@@ -180,12 +214,19 @@ impl StiffnessModel {
         }
         let model = self.spring_model()?;
         let m = model.n_params();
+        // Built once here too, so that a missing inertial is an error even for no rows.
+        if let Some(g) = gravity {
+            GravityWorkspace::new(chain, &model, g, None)?;
+        }
         // Rows are independent: fixed-size blocks on every core, each with its own workspace,
         // give the serial run's values and its first error whatever the number of threads.
         let mut out = vec![Prediction::UNSET; rows];
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
             let mut ws = Workspace::new(chain, &model)?;
             let mut a = vec![0.0; 6 * m];
+            let mut weight = gravity
+                .map(|g| SaggedRow::new(chain, &model, g))
+                .transpose()?;
             for (i, o) in block.zip(out) {
                 let qi = &q[i * n..(i + 1) * n];
                 check_finite("q", qi, i, 0)?;
@@ -199,6 +240,19 @@ impl StiffnessModel {
                 };
                 regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
                 *o = self.predict_row(&a, wrench);
+                if let Some(sagged) = weight.as_mut() {
+                    // The identification's row space is the weightless regressor's: `identified`,
+                    // `stddev` and `excitation` stay its; the deflection is the sagged one.
+                    let c = &self.estimate.compliance;
+                    sagged
+                        .regressor(chain, qi, &wrench, c, &mut ws, &mut a)
+                        .map_err(|e| at_row(e, i))?;
+                    for (r, d) in o.deflection.iter_mut().enumerate() {
+                        if d.is_finite() {
+                            *d = dot(&a[r * m..(r + 1) * m], c);
+                        }
+                    }
+                }
             }
             Ok::<_, ModelError>(())
         })?;
@@ -266,4 +320,78 @@ impl StiffnessModel {
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// A numerical error of row `i` under gravity, with the row named.
+fn at_row(e: VjmError, i: usize) -> VjmError {
+    match e {
+        VjmError::Numerical { message } => VjmError::Numerical {
+            message: format!("row {i}, under gravity: {message}"),
+        },
+        other => other,
+    }
+}
+
+/// Per-thread scratch of [`StiffnessModel::predict_under_gravity`]: the weight's workspace and
+/// the row's Jacobian, torques and preload.
+struct SaggedRow {
+    weight: GravityWorkspace,
+    jac: Vec<f64>,
+    tau: Vec<f64>,
+    effective: Vec<f64>,
+    preload: Vec<f64>,
+}
+
+impl SaggedRow {
+    fn new(
+        chain: &SerialChain,
+        model: &VirtualJointModel,
+        gravity: &Gravity,
+    ) -> Result<Self, VjmError> {
+        let m = model.n_params();
+        Ok(SaggedRow {
+            weight: GravityWorkspace::new(chain, model, gravity, None)?,
+            jac: vec![0.0; 6 * m],
+            tau: vec![0.0; m],
+            effective: vec![0.0; m],
+            preload: vec![0.0; m],
+        })
+    }
+
+    /// The row-major 6×m regressor of a row under gravity at compliances `c`:
+    /// `a[r][k] = J(θ₀)[r][k] · τ_eff,k` (see [`StiffnessModel::predict_under_gravity`]).
+    fn regressor(
+        &mut self,
+        chain: &SerialChain,
+        q: &[f64],
+        wrench: &[f64; 6],
+        c: &[f64],
+        ws: &mut Workspace,
+        a: &mut [f64],
+    ) -> Result<(), VjmError> {
+        let m = self.tau.len();
+        ws.evaluate(chain, q);
+        ws.write_jacobian(&mut self.jac);
+        let mut tip = ws.p;
+        let mut tip_rotation = ws.tip_rotation(chain);
+        self.weight.evaluate(chain, q)?;
+        let frame = RowFrame {
+            jacobian: &mut self.jac,
+            tip: &mut tip,
+            tip_rotation: &mut tip_rotation,
+        };
+        self.weight.sag(c, frame, &mut self.preload)?;
+        for k in 0..m {
+            let col = &self.jac[6 * k..6 * k + 6];
+            self.tau[k] = (0..6).map(|r| col[r] * wrench[r]).sum();
+        }
+        self.weight
+            .effective_torques(c, &self.tau, &mut self.effective)?;
+        for k in 0..m {
+            for r in 0..6 {
+                a[r * m + k] = self.jac[6 * k + r] * self.effective[k];
+            }
+        }
+        Ok(())
+    }
 }

@@ -210,3 +210,92 @@ fn a_model_predicts_the_sag_under_its_own_weight() {
         "the weight excites the aliased J1x − J2z direction"
     );
 }
+
+/// Under gravity a model predicts what a measurement records (loaded − unloaded, both at rest
+/// under the weight): against the exact static equilibrium (`gravity::deflection_under_gravity`,
+/// Newton on the deflected chain's torques, another code path than the sag and coupling the
+/// prediction uses) with the model's own compliances, to the load's geometric non-linearity
+/// (small loads), while the weightless prediction misses by gravity's share.
+#[test]
+fn a_model_predicts_the_load_deflection_under_its_own_weight() {
+    use vjm::gravity::{deflection_under_gravity, Gravity};
+    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+    use vjm::{identify, DataSource, IdentifyOptions, Load, StiffnessModel};
+    let chain = SerialChain::bundled();
+    let spec = CampaignSpec {
+        n_poses: 30,
+        noise: false,
+        ..Default::default()
+    };
+    let data = simulate(&chain, &TrueModel::nominal(7), &spec)
+        .unwrap()
+        .dataset;
+    let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
+    let opts = IdentifyOptions::default();
+    let model = VirtualJointModel::traditional(7);
+    let id = identify(&chain, &model, q, w, d, None, &opts).unwrap();
+    let sm = StiffnessModel::from_identification(
+        &id,
+        &chain,
+        &model,
+        &opts,
+        DataSource::in_memory(data.len()),
+    )
+    .unwrap();
+    let c = sm.estimate().compliance.clone();
+    let g = Gravity::default();
+    let poses = random_configurations(&chain, 6, 11);
+    let wrench: Vec<f64> = (0..6)
+        .flat_map(|i| {
+            let s = 1.0 + 0.1 * i as f64;
+            [1.5 * s, -s, 2.0 * s, 0.1, -0.2 * s, 0.15]
+        })
+        .collect();
+    // The worst relative error (translation) over the rows at load scale `lambda`.
+    let errors = |lambda: f64| {
+        let wrench: Vec<f64> = wrench.iter().map(|v| v * lambda).collect();
+        let under = sm
+            .predict_under_gravity(&chain, &poses, Load::Wrench(&wrench), &g)
+            .unwrap();
+        let weightless = sm.predict(&chain, &poses, Load::Wrench(&wrench)).unwrap();
+        let (mut worst_g, mut worst_w) = (0.0f64, 0.0f64);
+        for i in 0..6 {
+            let qi = &poses[7 * i..7 * i + 7];
+            let wi: [f64; 6] = wrench[6 * i..6 * i + 6].try_into().unwrap();
+            let exact = deflection_under_gravity(&chain, &model, &c, qi, &wi, &g, None).unwrap();
+            let size = exact[..3].iter().map(|v| v * v).sum::<f64>().sqrt();
+            let err = |p: &[f64; 6]| {
+                (0..3)
+                    .map(|r| (p[r] - exact[r]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    / size
+            };
+            worst_g = worst_g.max(err(&under[i].deflection));
+            worst_w = worst_w.max(err(&weightless[i].deflection));
+            // Identified and standard deviations: the weightless regressor's (the
+            // identification's row space), so a determined row is not flagged for the weight.
+            assert!(under[i].identified && under[i].stddev[0].is_finite());
+            assert_eq!(under[i].stddev[..3], weightless[i].stddev[..3]);
+        }
+        (worst_g, worst_w)
+    };
+    let (worst_g, worst_w) = errors(1.0);
+    let (half_g, half_w) = errors(0.5);
+    println!(
+        "relative error against the exact equilibrium: under gravity {worst_g:.2e} (half load \
+         {half_g:.2e}), weightless {worst_w:.2e} (half load {half_w:.2e})"
+    );
+    assert!(worst_g < 1e-3, "under gravity {worst_g:e}");
+    assert!(
+        worst_w > 10.0 * worst_g,
+        "weightless {worst_w:e} vs {worst_g:e}"
+    );
+    // What remains is the load's own non-linearity: it halves with the load, while the
+    // weightless prediction's error (gravity's share) does not.
+    assert!(
+        (1.6..2.4).contains(&(worst_g / half_g)),
+        "{worst_g:e} / {half_g:e}"
+    );
+    assert!(half_w > 0.8 * worst_w, "{half_w:e} vs {worst_w:e}");
+}
