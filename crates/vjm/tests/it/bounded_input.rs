@@ -8,10 +8,10 @@ use vjm::bounded::{
     TextLimitError, MODEL_FILE_MAX_BYTES, MODEL_FILE_MAX_DEPTH, URDF_MAX_BYTES, URDF_MAX_DEPTH,
 };
 use vjm::dataset::Dataset;
-use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+use vjm::testbed::CampaignSpec;
 use vjm::{
-    identify, DataSource, IdentifyOptions, ModelError, SerialChain, StiffnessModel,
-    VirtualJointModel, VjmError, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_URDF,
+    identify, IdentifyOptions, ModelError, SerialChain, StiffnessModel, VirtualJointModel,
+    VjmError, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_URDF,
 };
 
 /// A scratch directory of this test binary (removed and recreated per test name).
@@ -158,21 +158,7 @@ fn panda_model() -> (SerialChain, StiffnessModel) {
         seed: 9,
         ..Default::default()
     };
-    let data: Dataset<'static> = simulate(&chain, &TrueModel::nominal(7), &spec)
-        .unwrap()
-        .dataset;
-    let model = VirtualJointModel::extended(7);
-    let opts = IdentifyOptions::default();
-    let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
-    let id = identify(&chain, &model, q, w, d, None, &opts).unwrap();
-    let sm = StiffnessModel::from_identification(
-        &id,
-        &chain,
-        &model,
-        &opts,
-        DataSource::in_memory(data.len()),
-    )
-    .unwrap();
+    let sm = crate::strategies::identified_model(&chain, &VirtualJointModel::extended(7), &spec);
     (chain, sm)
 }
 

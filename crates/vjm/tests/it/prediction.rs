@@ -219,29 +219,16 @@ fn a_model_predicts_the_sag_under_its_own_weight() {
 #[test]
 fn a_model_predicts_the_load_deflection_under_its_own_weight() {
     use vjm::gravity::{deflection_under_gravity, Gravity};
-    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
-    use vjm::{identify, DataSource, IdentifyOptions, Load, StiffnessModel};
+    use vjm::testbed::CampaignSpec;
+    use vjm::Load;
     let chain = SerialChain::bundled();
     let spec = CampaignSpec {
         n_poses: 30,
         noise: false,
         ..Default::default()
     };
-    let data = simulate(&chain, &TrueModel::nominal(7), &spec)
-        .unwrap()
-        .dataset;
-    let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
-    let opts = IdentifyOptions::default();
     let model = VirtualJointModel::traditional(7);
-    let id = identify(&chain, &model, q, w, d, None, &opts).unwrap();
-    let sm = StiffnessModel::from_identification(
-        &id,
-        &chain,
-        &model,
-        &opts,
-        DataSource::in_memory(data.len()),
-    )
-    .unwrap();
+    let sm = crate::strategies::identified_model(&chain, &model, &spec);
     let c = sm.estimate().compliance.clone();
     let g = Gravity::default();
     let poses = random_configurations(&chain, 6, 11);

@@ -144,3 +144,21 @@ pub fn nominal_panda_campaign(
         .expect("the bundled Panda simulates");
     (chain, c.dataset)
 }
+
+/// A stiffness model of `model`'s springs identified (weightless) from a campaign simulated on
+/// `chain` with the nominal torsion-only truth: `spec` sets poses, seed and noise.
+pub fn identified_model(
+    chain: &SerialChain,
+    model: &vjm::VirtualJointModel,
+    spec: &vjm::testbed::CampaignSpec,
+) -> vjm::StiffnessModel {
+    use vjm::testbed::{simulate, TrueModel};
+    use vjm::{identify, DataSource, IdentifyOptions, StiffnessModel};
+    let truth = TrueModel::nominal(chain.n_joints());
+    let data = simulate(chain, &truth, spec).unwrap().dataset;
+    let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
+    let opts = IdentifyOptions::default();
+    let id = identify(chain, model, q, w, d, None, &opts).unwrap();
+    StiffnessModel::from_identification(&id, chain, model, &opts, DataSource::in_memory(data.len()))
+        .unwrap()
+}
