@@ -14,6 +14,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
+from ._equality import FieldEq
 from . import _core
 from ._arguments import DEFAULT_GRAVITY, RECORDED_GRAVITY, ModelGravity, checked, gravity_vector, model_gravity
 from ._arrays import f64
@@ -23,8 +24,8 @@ Array = npt.NDArray[np.float64]
 ModelSpec = Union[str, Sequence[str]]
 
 
-@dataclass(frozen=True)
-class PlannedCombination:
+@dataclass(frozen=True, eq=False)
+class PlannedCombination(FieldEq):
     """One identifiable combination of compliances and its predicted standard error."""
 
     #: As the identification prints it, e.g. ``J1y + 1.000000*J2z``.
@@ -35,8 +36,8 @@ class PlannedCombination:
     terms: Tuple[Tuple[str, float], ...]
 
 
-@dataclass(frozen=True)
-class Plan:
+@dataclass(frozen=True, eq=False)
+class Plan(FieldEq):
     """A planned VJM campaign (rows = poses × wrenches per pose)."""
 
     #: Joint positions per row, (rows, n), rad.
@@ -68,8 +69,8 @@ class Plan:
         return "\n".join(lines) + "\n"
 
 
-@dataclass(frozen=True)
-class Compensation:
+@dataclass(frozen=True, eq=False)
+class Compensation(FieldEq):
     """Corrected joint targets and per-row outcome of :func:`compensate`."""
 
     #: Corrected joint targets, (N, n), rad.

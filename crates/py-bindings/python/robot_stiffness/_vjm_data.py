@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence,
 import numpy as np
 import numpy.typing as npt
 
+from ._equality import FieldEq
 from . import _core
 from ._arguments import DEFAULT_GRAVITY, check_path, checked, gravity_vector
 from ._arrays import f64
@@ -27,8 +28,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 ProgressCallback = Callable[[str, int, int], None]
 
 
-@dataclass
-class Measurements:
+@dataclass(eq=False)
+class Measurements(FieldEq):
     """A validated VJM measurement table (one loaded measurement per row, base frame, SI).
 
     ``q`` (N, n) rad; ``wrench`` (N, 6) N and N·m at the tip point; ``displacement`` (N, 3) m;
@@ -178,8 +179,8 @@ def as_measurements(data: Any, n_joints: int) -> Measurements:
     )
 
 
-@dataclass
-class Campaign:
+@dataclass(eq=False)
+class Campaign(FieldEq):
     """A simulated measurement campaign: what the instruments recorded (``measurements``,
     ``csv``) and the hidden truth (``true_displacement`` (N, 3) m, ``applied_wrench`` (N, 6),
     ``tip`` (N, 3) unloaded tip points m, ``truth`` the true model (its effects' joints
@@ -345,8 +346,8 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
     )
 
 
-@dataclass(frozen=True)
-class SeedErrors:
+@dataclass(frozen=True, eq=False)
+class SeedErrors(FieldEq):
     """One error metric of one model over the seed's 26 tests, as fractions: means over the
     16 identification tests, the 10 verification tests and all 26, and the largest verification
     error with its test number (1–26)."""
@@ -358,8 +359,8 @@ class SeedErrors:
     verification_max_test: int
 
 
-@dataclass(frozen=True)
-class SeedModelErrors:
+@dataclass(frozen=True, eq=False)
+class SeedModelErrors(FieldEq):
     """Both metrics of one model: ``magnitude`` = |‖d_pred‖ − ‖d‖| / ‖d‖ (the seed's "total
     deformation" error), ``vector`` = ‖d_pred − d‖ / ‖d‖."""
 
@@ -367,8 +368,8 @@ class SeedModelErrors:
     vector: SeedErrors
 
 
-@dataclass(frozen=True)
-class SeedStudyRows:
+@dataclass(frozen=True, eq=False)
+class SeedStudyRows(FieldEq):
     """The 26 tests in the seed's order (configuration c under load l is test 2(c − 1) + l):
     arrays of length 26, vectors (26, 3) in m, errors as fractions."""
 
@@ -388,8 +389,8 @@ class SeedStudyRows:
     full_vector_error: Array
 
 
-@dataclass(frozen=True)
-class SeedClippedAngle:
+@dataclass(frozen=True, eq=False)
+class SeedClippedAngle(FieldEq):
     """A Table I angle moved inside the joint limits (1-based configuration and joint, rad)."""
 
     configuration: int
@@ -398,8 +399,8 @@ class SeedClippedAngle:
     used: float
 
 
-@dataclass(frozen=True)
-class SeedPaperFigures:
+@dataclass(frozen=True, eq=False)
+class SeedPaperFigures(FieldEq):
     """What the seed paper reports, as fractions (magnitude metric)."""
 
     traditional_all: float
@@ -410,8 +411,8 @@ class SeedPaperFigures:
     torsion_share: float
 
 
-@dataclass(frozen=True)
-class SeedStudy:
+@dataclass(frozen=True, eq=False)
+class SeedStudy(FieldEq):
     """Result of :func:`seed_study`: the traditional, extended and full models under both
     metrics, the per-row table, the extended and full models' identification ranks, the
     truth's torsion share (mean over the 13 configurations under the seed's Section IV-B load

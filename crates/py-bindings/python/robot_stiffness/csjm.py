@@ -30,6 +30,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
+from ._equality import FieldEq
 from . import _core
 from ._arguments import check_path, checked
 from ._arrays import f64
@@ -57,8 +58,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 _ORTHOGONALITY_TOL = 5e-3
 
 
-@dataclass(frozen=True)
-class StiffnessFit:
+@dataclass(frozen=True, eq=False)
+class StiffnessFit(FieldEq):
     """The identified stiffness at the reference pose R₀ (all in frame A at R₀).
 
     ``K`` (3, 3) N·m/rad, ``K_D`` the slope ∂τ/∂Δζ, ``K_L`` the connection term,
@@ -239,8 +240,8 @@ def identify_csv(path: PathLike, *, order: int = 1, project: bool = False) -> St
         return StiffnessFit._from_core(_core.csjm_identify_csv(path, order=order, project=project))
 
 
-@dataclass(frozen=True)
-class Campaign:
+@dataclass(frozen=True, eq=False)
+class Campaign(FieldEq):
     """A simulated CSJM campaign: the measurement file text ``csv`` (columns ``r11..r33,
     tx,ty,tz,ref``) and the truth at the reference pose: ``true_K`` (covariant, symmetric) and
     ``true_K_D`` (N·m/rad, frame A at R₀), ``true_R0`` (ᴮ_A R₀)."""

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Un
 import numpy as np
 import numpy.typing as npt
 
+from ._equality import FieldEq
 from . import _core
 from ._arguments import RECORDED_GRAVITY, ModelGravity, checked, model_gravity, real
 from ._arrays import f64
@@ -73,8 +74,8 @@ def recorded_urdf(robot: Optional[Dict[str, Any]]) -> Optional[str]:
 Payload = Union[float, Sequence[float]]
 
 
-@dataclass(frozen=True)
-class Prediction:
+@dataclass(frozen=True, eq=False)
+class Prediction(FieldEq):
     """Predicted tip deflections, one row per pose (base frame).
 
     ``deflection`` (N, 6): ``[dx, dy, dz, rx, ry, rz]`` in m and rad (rotation vector); the
@@ -156,6 +157,14 @@ class StiffnessModel:
     def to_json(self) -> str:
         """The model file's text."""
         return str(self._inner.to_json())
+
+    def __eq__(self, other: object) -> bool:
+        # The model file's text is the model (it names the robot by its URDF hash, base and tip).
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.to_json() == other.to_json()  # type: ignore[attr-defined]
+
+    __hash__ = None  # type: ignore[assignment]
 
     def __reduce__(self) -> Tuple[Any, ...]:
         # Pickled as the model file's text and the robot (which pickles its URDF text): no

@@ -30,6 +30,8 @@ from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Union
 import numpy as np
 import numpy.typing as npt
 
+from ._equality import same
+
 __all__ = [
     "Diagnosis",
     "Finding",
@@ -110,12 +112,7 @@ class _Result:
         return out
 
 
-def _same(a: object, b: object) -> bool:
-    if isinstance(a, float) and isinstance(b, float):
-        return a == b or (math.isnan(a) and math.isnan(b))
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return type(a) is type(b) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    return bool(a == b)
+_same = same
 
 
 def _model_of(obj: object) -> Optional[str]:

@@ -37,6 +37,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import numpy.typing as npt
 
+from ._equality import FieldEq
 from . import _core
 from ._arguments import DEFAULT_GRAVITY, checked, gravity_vector
 from ._arrays import f64
@@ -220,8 +221,8 @@ def _json_combination(c: _CoreCombination) -> Dict[str, object]:
     }
 
 
-@dataclass(frozen=True)
-class Identification:
+@dataclass(frozen=True, eq=False)
+class Identification(FieldEq):
     """The result of :meth:`Robot.identify`.
 
     Per parameter (model order, arrays of shape (m,)): ``compliance`` in rad/(N·m), NaN where the
