@@ -253,23 +253,31 @@ pub fn named(d: &Diagnosis, effect: &str, joint: Option<usize>, axis: Option<&st
 /// is parallel to the tip frame's z (the testbed's tool axis) at every configuration of
 /// `q_rows`. Their column a (a·f) is the compliant tool's exactly: the diagnosis may name any.
 pub fn tool_axis_translations(chain: &SerialChain, q_rows: &[Vec<f64>]) -> Vec<(usize, String)> {
+    if q_rows.is_empty() {
+        return Vec::new();
+    }
+    // Per configuration: the joints' frames and the tool axis, computed once.
+    let poses: Vec<_> = q_rows
+        .iter()
+        .map(|q| {
+            let frames = chain.joint_frames(q).expect("q matches the chain");
+            let tool = chain
+                .forward_kinematics(q)
+                .expect("q matches the chain")
+                .rotation
+                * nalgebra::Vector3::z();
+            (frames, tool)
+        })
+        .collect();
     let mut out = Vec::new();
     for (j, joint) in chain.joints().iter().enumerate() {
-        for (k, axis) in [SpringAxis::Z, SpringAxis::X, SpringAxis::Y]
-            .iter()
-            .enumerate()
-        {
-            let parallel = q_rows.iter().all(|q| {
-                let frames = chain.joint_frames(q).expect("q matches the chain");
-                let a = frames[j].rotation * vjm::spring_axes(joint.axis())[k];
-                let tool = chain
-                    .forward_kinematics(q)
-                    .expect("q matches the chain")
-                    .rotation
-                    * nalgebra::Vector3::z();
-                (a.dot(&tool).abs() - 1.0).abs() < 1e-9
+        let local = vjm::spring_axes(joint.axis());
+        for (e, axis) in local.iter().zip(SpringAxis::ALL) {
+            let parallel = poses.iter().all(|(frames, tool)| {
+                let a = frames[j].rotation * e;
+                (a.dot(tool).abs() - 1.0).abs() < 1e-9
             });
-            if parallel && !q_rows.is_empty() {
+            if parallel {
                 out.push((j + 1, axis.to_string()));
             }
         }

@@ -496,15 +496,13 @@ fn correct_for_gravity(
                         tip: &mut tip,
                         tip_rotation: &mut tip_rotation,
                     };
-                    s.weight.sag(c, frame, &mut s.preload).map_err(at_row(i))?;
-                    for k in 0..m {
-                        let (c0, c1) = (&s.jac0[6 * k..6 * k + 6], &s.jac[6 * k..6 * k + 6]);
-                        s.tau0[k] = (0..6).map(|a| c0[a] * f[a]).sum();
-                        s.tau[k] = (0..6).map(|a| c1[a] * f[a]).sum();
-                    }
                     s.weight
-                        .effective_torques(c, &s.tau, &mut s.effective)
+                        .sagged_load(c, frame, f, &mut s.preload, &mut s.tau, &mut s.effective)
                         .map_err(at_row(i))?;
+                    for k in 0..m {
+                        let c0 = &s.jac0[6 * k..6 * k + 6];
+                        s.tau0[k] = (0..6).map(|a| c0[a] * f[a]).sum();
+                    }
                     for row in 0..rows_per {
                         let shift: f64 = (0..m)
                             .map(|k| {

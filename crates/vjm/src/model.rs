@@ -25,6 +25,9 @@ pub enum SpringAxis {
 }
 
 impl SpringAxis {
+    /// The three axes in a joint's spring order, `[z, x, y]` ([`SpringAxis::index`]).
+    pub const ALL: [SpringAxis; 3] = [SpringAxis::Z, SpringAxis::X, SpringAxis::Y];
+
     /// Position of the axis within a joint's springs, joint-major `[z, x, y]`: spring
     /// `3·joint + axis.index()` of the 3n (the order of the extended model and of the testbed's
     /// compliances).
@@ -156,7 +159,7 @@ impl VirtualJointModel {
     pub fn extended(n_joints: usize) -> Self {
         let springs = (0..n_joints)
             .flat_map(|joint| {
-                [SpringAxis::Z, SpringAxis::X, SpringAxis::Y]
+                SpringAxis::ALL
                     .into_iter()
                     .map(move |axis| Spring { joint, axis })
             })

@@ -103,15 +103,19 @@ ModelGravity = Union[Sequence[float], None, str]
 
 
 def model_gravity(value: Any, recorded: Optional[Tuple[float, float, float]],
-                  name: str = "gravity") -> Optional[Tuple[float, float, float]]:
+                  name: str = "gravity",
+                  unrecorded: Optional[Tuple[float, float, float]] = DEFAULT_GRAVITY,
+                  ) -> Optional[Tuple[float, float, float]]:
     """The gravity of a call through a stiffness model: ``value`` as a vector (None: weightless),
-    or for :data:`RECORDED_GRAVITY` the model's ``recorded`` one, else :data:`DEFAULT_GRAVITY`."""
+    or for :data:`RECORDED_GRAVITY` the model's ``recorded`` one, else ``unrecorded``
+    (:data:`DEFAULT_GRAVITY`; None for a call that should stay weightless then, as ``predict``,
+    which predicts what a weightless identification fitted)."""
     if isinstance(value, str):
         if value != RECORDED_GRAVITY:
             raise InvalidValueError(
                 f"{name} must be 3 numbers (gx, gy, gz) in m/s², None (weightless) or {RECORDED_GRAVITY!r} "
                 f"(the model's own), got {quote(value)}")
-        return DEFAULT_GRAVITY if recorded is None else recorded
+        return unrecorded if recorded is None else recorded
     return None if value is None else gravity_vector(value, name)
 
 

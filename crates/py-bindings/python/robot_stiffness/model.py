@@ -245,9 +245,7 @@ class StiffnessModel:
         sagged pose with gravity's stiffness coupling into the load's torque (docs/gravity.md);
         the URDF must then give the link masses.
         """
-        g = model_gravity(gravity, self.gravity)
-        if isinstance(gravity, str) and self.gravity is None:
-            g = None  # a weightless identification predicts weightless
+        g = model_gravity(gravity, self.gravity, unrecorded=None)
         arr = f64(q, "q")
         if arr.ndim == 1:
             arr = arr.reshape(1, -1)

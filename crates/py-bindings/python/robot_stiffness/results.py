@@ -30,7 +30,7 @@ from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Union
 import numpy as np
 import numpy.typing as npt
 
-from ._equality import same
+from ._equality import FieldEq
 
 __all__ = [
     "Diagnosis",
@@ -77,19 +77,11 @@ def _key(f: "dataclasses.Field[object]") -> str:
     return str(f.metadata.get("key", f.name))
 
 
-class _Result:
+class _Result(FieldEq):
     """Shared behaviour: ``obj["key"]`` reads a field by its JSON key (the dict access of
     earlier versions keeps working), ``to_dict`` gives the JSON form, and ``==`` compares field
     by field with NaN equal to NaN (a result equals its pickled copy, or the same diagnosis run
     elsewhere, even where a statistic is undefined)."""
-
-    def __eq__(self, other: object) -> bool:
-        if type(other) is not type(self):
-            return NotImplemented
-        return all(_same(getattr(self, f.name), getattr(other, f.name))
-                   for f in dataclasses.fields(self) if f.compare)  # type: ignore[arg-type]
-
-    __hash__ = None  # type: ignore[assignment]  # mutable lists inside: not hashable
 
     def __getitem__(self, key: str) -> object:
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
@@ -112,7 +104,6 @@ class _Result:
         return out
 
 
-_same = same
 
 
 def _model_of(obj: object) -> Optional[str]:

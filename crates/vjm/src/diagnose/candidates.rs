@@ -160,7 +160,7 @@ pub fn catalogue(in_model: &[bool]) -> Vec<Candidate> {
         }
     }
     for joint in 0..n {
-        for axis in [SpringAxis::Z, SpringAxis::X, SpringAxis::Y] {
+        for axis in SpringAxis::ALL {
             out.push(Candidate::LinkTranslation { joint, axis });
         }
     }

@@ -230,6 +230,45 @@ impl GravityWorkspace {
         );
         Ok(())
     }
+
+    /// A load's torques on the springs of a row measured under the weight, at the last
+    /// evaluation: [`sag`](Self::sag) moves `frame` to the sagged pose θ₀ (`preload` receives
+    /// τ₀), `tau` receives the load's torque there, `J(θ₀)ᵀ W` for `wrench` (base frame, at the
+    /// tip point), and `effective` that torque with gravity's coupling
+    /// ([`effective_torques`](Self::effective_torques)). The row's deflection under the load
+    /// is then `J(θ₀) C τ_eff`: what `identify` fits under gravity and `predict` returns.
+    pub fn sagged_load(
+        &mut self,
+        compliance: &[f64],
+        frame: RowFrame<'_>,
+        wrench: &[f64],
+        preload: &mut [f64],
+        tau: &mut [f64],
+        effective: &mut [f64],
+    ) -> Result<(), VjmError> {
+        let jacobian: &[f64] = {
+            let RowFrame {
+                jacobian,
+                tip,
+                tip_rotation,
+            } = frame;
+            self.sag(
+                compliance,
+                RowFrame {
+                    jacobian: &mut *jacobian,
+                    tip,
+                    tip_rotation,
+                },
+                preload,
+            )?;
+            jacobian
+        };
+        for (k, t) in tau.iter_mut().enumerate() {
+            let col = &jacobian[6 * k..6 * k + 6];
+            *t = (0..6).map(|a| col[a] * wrench[a]).sum();
+        }
+        self.effective_torques(compliance, tau, effective)
+    }
 }
 
 /// A measurement row's kinematics for [`GravityWorkspace::sag`]: the 6×m virtual-joint

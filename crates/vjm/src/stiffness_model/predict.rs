@@ -245,7 +245,7 @@ impl StiffnessModel {
                     // `stddev` and `excitation` stay its; the deflection is the sagged one.
                     let c = &self.estimate.compliance;
                     sagged
-                        .regressor(chain, qi, &wrench, c, &mut ws, &mut a)
+                        .regressor(chain, qi, &wrench, c, &ws, &mut a)
                         .map_err(|e| at_row(e, i))?;
                     for (r, d) in o.deflection.iter_mut().enumerate() {
                         if d.is_finite() {
@@ -360,18 +360,18 @@ impl SaggedRow {
 
     /// The row-major 6×m regressor of a row under gravity at compliances `c`:
     /// `a[r][k] = J(θ₀)[r][k] · τ_eff,k` (see [`StiffnessModel::predict_under_gravity`]).
+    /// `ws` holds the row's kinematics at θ = 0, as [`regressor_rows`] left it for `q`.
     fn regressor(
         &mut self,
         chain: &SerialChain,
         q: &[f64],
         wrench: &[f64; 6],
         c: &[f64],
-        ws: &mut Workspace,
+        ws: &Workspace,
         a: &mut [f64],
     ) -> Result<(), VjmError> {
         let m = self.tau.len();
-        ws.evaluate(chain, q);
-        ws.write_jacobian(&mut self.jac);
+        self.jac.copy_from_slice(&ws.jac);
         let mut tip = ws.p;
         let mut tip_rotation = ws.tip_rotation(chain);
         self.weight.evaluate(chain, q)?;
@@ -380,13 +380,14 @@ impl SaggedRow {
             tip: &mut tip,
             tip_rotation: &mut tip_rotation,
         };
-        self.weight.sag(c, frame, &mut self.preload)?;
-        for k in 0..m {
-            let col = &self.jac[6 * k..6 * k + 6];
-            self.tau[k] = (0..6).map(|r| col[r] * wrench[r]).sum();
-        }
-        self.weight
-            .effective_torques(c, &self.tau, &mut self.effective)?;
+        self.weight.sagged_load(
+            c,
+            frame,
+            wrench,
+            &mut self.preload,
+            &mut self.tau,
+            &mut self.effective,
+        )?;
         for k in 0..m {
             for r in 0..6 {
                 a[r * m + k] = self.jac[6 * k + r] * self.effective[k];

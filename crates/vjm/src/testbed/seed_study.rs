@@ -238,7 +238,7 @@ impl TrueModel {
     /// compliances add nothing.
     pub fn with_link_translations(mut self, links: &[[f64; 3]]) -> Self {
         for (joint, c) in links.iter().enumerate() {
-            for (axis, &compliance) in [SpringAxis::Z, SpringAxis::X, SpringAxis::Y].iter().zip(c) {
+            for (axis, &compliance) in SpringAxis::ALL.iter().zip(c) {
                 if compliance != 0.0 {
                     self.effects.push(Effect::LinkTranslation {
                         joint,
