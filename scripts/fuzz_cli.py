@@ -86,9 +86,9 @@ TEMPLATES: List[Tuple[str, List[str]]] = [
     ("csjm", ["identify", "csjm", "DATA", "--project", "--json", "k.json"]),
     ("vjm", ["diagnose", "vjm", "DATA", "--quiet", "--json", "d.json"]),
     ("vjm", ["diagnose", "vjm", "DATA", "--quiet", "--report", "report", "--split-seed", "3"]),
-    ("", ["simulate", "vjm", "sim.csv", "--poses", "3", "--wrenches-per-pose", "1", "--seed", "1",
+    ("", ["simulate", "vjm", "--out", "sim.csv", "--poses", "3", "--wrenches-per-pose", "1", "--seed", "1",
           "--effect", "joint_tilt:joint=3,axis=x,compliance=5e-5", "--truth", "truth.json"]),
-    ("", ["simulate", "csjm", "sim.csv", "--increments", "4", "--seed", "2"]),
+    ("", ["simulate", "csjm", "--out", "sim.csv", "--increments", "4", "--seed", "2"]),
     # A saved model (MODEL: a seed of tests/fuzz/corpus/model) used on a mutated pose file; the
     # --payload forms get the file without its fx..mz columns (see make_case).
     ("vjm", ["predict", "vjm", "MODEL", "DATA", "--out", "pred.csv"]),
@@ -435,14 +435,14 @@ WALL_FACTOR = 5.0
 
 
 def _named_outputs(argv: List[str]) -> set:
-    """Files the command line names as outputs (``--json F``, ``--truth F``, simulate's OUT):
+    """Files the command line names as outputs (``--json F``, ``--truth F``, ``--out F``, simulate's deprecated positional OUT):
     replacing one of those when the command succeeds with ``--force`` is what the user asked
     for (without ``--force`` an existing file is never replaced)."""
     if "--force" not in argv:
         return set()
-    named = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a in ("--json", "--truth")}
-    if argv[:1] == ["simulate"] and len(argv) > 2:
-        named.add(argv[2])
+    named = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a in ("--json", "--truth", "--out")}
+    if argv[:1] == ["simulate"] and len(argv) > 2 and not argv[2].startswith("-"):
+        named.add(argv[2])  # the deprecated positional OUT.csv
     return {os.path.normpath(n) for n in named if n}
 
 

@@ -4,6 +4,8 @@
 //! derive from both `StiffnessError` and the natural built-in (`ValueError`, `FileNotFoundError`);
 //! this module looks them up by name. Every heavy call runs through [`run`], which releases the
 //! GIL and turns a panic of the core into `InternalError`, so a panic never reaches Python.
+//! Advice in a core message is given in the Python API's words (`allow_outside_limits=True`,
+//! `gravity=None`), never as a command-line flag.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -54,9 +56,38 @@ impl Kind {
     }
 }
 
-/// A Python exception of the given kind carrying `message`.
+/// Advice of the core that names a command-line flag or no option at all (the core serves both
+/// front ends), as the Python API spells it. The command line words these back into its flags
+/// (`CLI_NAMES` in `robot_stiffness/cli.py`).
+const PYTHON_WORDS: &[(&str, &str)] = &[
+    (
+        "pass allow_outside_limits=True in Python or --allow-outside-limits on the command line",
+        "pass allow_outside_limits=True",
+    ),
+    (
+        "identify again with --save",
+        "identify again and save the model (Identification.save)",
+    ),
+    (
+        "or turn gravity off",
+        "or pass gravity=None for a weightless arm",
+    ),
+];
+
+/// `message` in the Python API's terms (see [`PYTHON_WORDS`]).
+fn python_words(message: String) -> String {
+    let mut message = message;
+    for (core, python) in PYTHON_WORDS {
+        if message.contains(core) {
+            message = message.replace(core, python);
+        }
+    }
+    message
+}
+
+/// A Python exception of the given kind carrying `message` (in the Python API's terms).
 pub fn error(kind: Kind, message: impl Into<String>) -> PyErr {
-    let message = message.into();
+    let message = python_words(message.into());
     Python::attach(|py| {
         let class = py
             .import("robot_stiffness._errors")

@@ -64,6 +64,12 @@ impl PyStiffnessModel {
         self.model.to_json()
     }
 
+    /// The text of the model file at `path`: `to_json` with the URDF's path relative to the
+    /// folder of `path` (`urdf_relative`); `path` is not opened.
+    fn to_json_at(&self, path: std::path::PathBuf) -> String {
+        self.model.to_json_at(&path)
+    }
+
     /// The model's records as a dict (the `model` object of the file).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let text = serde_json::to_string(&*self.model).map_err(|e| {
@@ -101,6 +107,13 @@ impl PyStiffnessModel {
     #[getter]
     fn rank(&self) -> usize {
         self.model.identification().rank
+    }
+
+    /// What the data determine: the stored compliances without their weak directions
+    /// (`vjm::StiffnessModel::determined_compliance`), rad/(N·m), parameter order.
+    #[getter]
+    fn determined_compliance(&self) -> PyResult<Vec<f64>> {
+        self.model.determined_compliance().py()
     }
 
     /// Standard deviations of a new measurement's noise `[dx..rz]` under the noise model.
@@ -285,7 +298,8 @@ pub fn vjm_identify_model<'py>(
     Ok((result, PyStiffnessModel::new(built, robot.chain.clone())))
 }
 
-/// Reads a pose table (q1..qn, optional fx..mz) for `robot`: `(q (N, n), wrench (N, 6) or None)`.
+/// Reads a pose table (q1..qn, optional fx..mz, optional pose) for `robot`:
+/// `(q (N, n), wrench (N, 6) or None, pose ids or None)`.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 pub fn vjm_read_poses<'py>(
@@ -295,6 +309,7 @@ pub fn vjm_read_poses<'py>(
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Option<Bound<'py, PyArrayDyn<f64>>>,
+    Option<Vec<i64>>,
 )> {
     let n = robot.chain.n_joints();
     let table = run(py, || vjm::stiffness_model::PoseTable::read_csv(&path, n))?.py()?;
@@ -304,19 +319,31 @@ pub fn vjm_read_poses<'py>(
         .wrench
         .map(|w| to_numpy(py, w, &[rows, 6]))
         .transpose()?;
-    Ok((q, w))
+    Ok((q, w, table.pose))
 }
 
-/// `(urdf, base, tip)` recorded in the model file at `path`, or `None` when the file has no
+/// `(urdf, base, tip, found, tried)` of the model file at `path`: the recorded URDF path,
+/// base and tip, the URDF file to load (`None` when none of the places tried holds it) and the
+/// places tried in order (`vjm::stiffness_model::RecordedRobot`); `None` when the file has no
 /// readable robot record. The file is read with the loader's bounds (size, nesting), so the
 /// CLI never hands an unbounded text to Python's recursive `json`.
 #[pyfunction]
+#[allow(clippy::type_complexity)]
 pub fn vjm_model_file_robot(
     py: Python<'_>,
     path: std::path::PathBuf,
-) -> PyResult<Option<(Option<String>, String, String)>> {
-    let record = run(py, || vjm::StiffnessModel::robot_of_file(&path))?;
-    Ok(record.map(|r| (r.urdf, r.base, r.tip)))
+) -> PyResult<Option<(Option<String>, String, String, Option<String>, Vec<String>)>> {
+    let recorded = run(py, || vjm::StiffnessModel::recorded_robot(&path))?;
+    let shown = |p: std::path::PathBuf| p.to_string_lossy().into_owned();
+    Ok(recorded.map(|r| {
+        (
+            r.record.urdf,
+            r.record.base,
+            r.record.tip,
+            r.urdf.map(shown),
+            r.tried.into_iter().map(shown).collect(),
+        )
+    }))
 }
 
 /// Registers the class and functions on `m`.

@@ -274,19 +274,6 @@ pub(crate) fn compensate_with_model<'py>(
     if opts.gravity.is_some() {
         // Before the work: a URDF without masses is named at once.
         chain.mass_model().py()?;
-        // The sag is the springs' static equilibrium under the weight: a spring set, which the
-        // minimum-norm member of an aliased family (negative entries) is not.
-        let compliance = &model.estimate().compliance;
-        if let Some(k) = compliance.iter().position(|c| *c < 0.0) {
-            return Err(value_error(format!(
-                "the model's spring {} has a negative compliance ({} rad/(N·m): springs that alias \
-                 are stored as the minimum-norm member of their family), which cannot hold the arm \
-                 under its weight: correct the load only (load_only=True), or use a model whose \
-                 springs do not alias (such as the traditional one)",
-                model.springs().labels[k],
-                stiffness_core::num::Short(compliance[k])
-            )));
-        }
     }
     let out = run(py, || model.compensate(chain, q, load, &opts))?.py()?;
     arrays(py, out, chain.n_joints())

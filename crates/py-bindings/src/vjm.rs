@@ -25,21 +25,17 @@ pub struct PyRobot {
     urdf: Arc<str>,
 }
 
-/// Parses a model spec: `"traditional"`, `"extended"`, or a sequence of spring labels such as
-/// `["J1z", "J2x"]` (1-based joint, axis z|x|y), listed base → tip.
+/// Parses a model spec: a string in the one model vocabulary ([`VirtualJointModel::parse`]:
+/// `"traditional"`, `"extended"`, `"traditional + joint_tilt(J3x)"`, `"J1z,J2x"`), or a
+/// sequence of spring labels such as `["J1z", "J2x"]` (1-based joint, axis z|x|y), listed
+/// base → tip.
 pub fn parse_model(n_joints: usize, spec: &Bound<'_, PyAny>) -> PyResult<VirtualJointModel> {
     if spec.is_instance_of::<PyString>() {
-        let name: String = spec.extract()?;
-        return match name.as_str() {
-            "traditional" => Ok(VirtualJointModel::traditional(n_joints)),
-            "extended" => Ok(VirtualJointModel::extended(n_joints)),
-            other => Err(value_error(format!(
-                "unknown model `{other}`: expected \"traditional\", \"extended\" or a list of spring labels like [\"J1z\", \"J2x\"]"
-            ))),
-        };
+        let text: String = spec.extract()?;
+        return VirtualJointModel::parse(n_joints, &text).py();
     }
     let labels: Vec<String> = spec.extract().map_err(|_| {
-        value_error("model must be \"traditional\", \"extended\" or a list of spring labels like [\"J1z\", \"J2x\"]")
+        value_error("model must be \"traditional\", \"extended\", a spec like \"traditional + joint_tilt(J3x)\" or a list of spring labels like [\"J1z\", \"J2x\"]")
     })?;
     let mut springs = Vec::with_capacity(labels.len());
     for (i, label) in labels.iter().enumerate() {

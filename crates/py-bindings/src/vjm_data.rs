@@ -328,9 +328,13 @@ fn true_model(
 
 /// Simulates a measurement campaign; returns a dict with the dataset arrays, the CSV text and
 /// the hidden truth (`true_displacement`, `applied_wrench`, `truth` as JSON).
+///
+/// With `plan` = `(q (N, n), wrench (N, 6), pose (N,))` the rows are measured at those joint
+/// angles and wrenches (a plan of `design`) instead of random ones; `n_poses`,
+/// `wrenches_per_pose`, `force_max` and `moment_max` are then not used.
 #[pyfunction]
-#[pyo3(signature = (robot, effects, n_poses = 40, wrenches_per_pose = 4, seed = 0, noise = true, torsion = None, force_max = None, moment_max = None, test_fraction = None, gravity = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (robot, effects, n_poses = 40, wrenches_per_pose = 4, seed = 0, noise = true, torsion = None, force_max = None, moment_max = None, test_fraction = None, gravity = None, plan = None))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn vjm_simulate<'py>(
     py: Python<'py>,
     robot: &PyRobot,
@@ -344,6 +348,11 @@ pub fn vjm_simulate<'py>(
     moment_max: Option<f64>,
     test_fraction: Option<f64>,
     gravity: Option<[f64; 3]>,
+    plan: Option<(
+        PyReadonlyArrayDyn<'py, f64>,
+        PyReadonlyArrayDyn<'py, f64>,
+        PyReadonlyArrayDyn<'py, i64>,
+    )>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let chain = &robot.chain;
     let truth = true_model(chain.n_joints(), torsion, effects)?;
@@ -369,8 +378,15 @@ pub fn vjm_simulate<'py>(
     if let Some(t) = test_fraction {
         spec.test_fraction = t;
     }
-    let campaign = run_interruptible(py, None, |monitor| {
-        testbed::simulate_monitored(chain, &truth, &spec, monitor)
+    let planned = plan
+        .as_ref()
+        .map(|(q, w, p)| planned_rows(chain.n_joints(), q, w, p))
+        .transpose()?;
+    let campaign = run_interruptible(py, None, |monitor| match &planned {
+        None => testbed::simulate_monitored(chain, &truth, &spec, monitor),
+        Some((q, w, p)) => {
+            testbed::simulate_planned_monitored(chain, &truth, q, w, p, &spec, monitor)
+        }
     })?
     .map_err(IntoPyErr::into_py_err)?;
     let out = dataset_to_dict(py, &campaign.dataset)?;
@@ -399,6 +415,36 @@ pub fn vjm_simulate<'py>(
         serde_json::to_string(&spec).map_err(|e| crate::errors::internal_error(e.to_string()))?,
     )?;
     Ok(out)
+}
+
+/// A plan's rows, checked for shape and row count: joint angles (N·n), wrenches, pose ids.
+#[allow(clippy::type_complexity)]
+fn planned_rows(
+    n: usize,
+    q: &PyReadonlyArrayDyn<'_, f64>,
+    wrench: &PyReadonlyArrayDyn<'_, f64>,
+    pose: &PyReadonlyArrayDyn<'_, i64>,
+) -> PyResult<(Vec<f64>, Vec<[f64; 6]>, Vec<i64>)> {
+    let q = batch(q, "plan q", &[n])?;
+    let w = batch(wrench, "plan wrench", &[6])?;
+    let p = pose_ids(pose)?;
+    if w.rows != q.rows || p.len() != q.rows {
+        return Err(value_error(format!(
+            "the plan's q, wrench and pose have {}, {} and {} rows: they must describe the same rows",
+            q.rows,
+            w.rows,
+            p.len()
+        )));
+    }
+    if q.rows == 0 {
+        return Err(value_error("the plan has no rows"));
+    }
+    let wrenches = w
+        .data
+        .chunks_exact(6)
+        .map(|c| [c[0], c[1], c[2], c[3], c[4], c[5]])
+        .collect();
+    Ok((q.data.into_owned(), wrenches, p.into_owned()))
 }
 
 /// The seed's study (Table I configurations, two wrenches each). Joints only (`links` false):

@@ -58,7 +58,7 @@ def deep_urdf(levels: int) -> str:
 def work(tmp_path_factory) -> Path:
     """A campaign, a model file of it, a pose table and a 20 000-level URDF."""
     d = tmp_path_factory.mktemp("bounded")
-    proc = run_cli(["simulate", "vjm", "data.csv", "--poses", "12", "--seed", "1"], cwd=d)
+    proc = run_cli(["simulate", "vjm", "--out", "data.csv", "--poses", "12", "--seed", "1"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     proc = run_cli(["identify", "vjm", "data.csv", "--save", "m.json"], cwd=d)
     assert proc.returncode == 0, proc.stderr
@@ -113,7 +113,7 @@ ROBOT = ["--urdf", "deep.urdf", "--base", "panda_link0", "--tip", "panda_link8"]
         ["compensate", "vjm", "m.json", "poses.csv", "--out", "comp.csv", *ROBOT],
         ["design", "vjm", *ROBOT, "--out", "plan.csv"],
         ["diagnose", "vjm", "data.csv", *ROBOT, "--report", "rep", "--json", "d.json"],
-        ["simulate", "vjm", "sim.csv", *ROBOT],
+        ["simulate", "vjm", "--out", "sim.csv", *ROBOT],
     ],
     ids=lambda a: a[0],
 )

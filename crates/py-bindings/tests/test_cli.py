@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import listing, run_cli
+from test_demo_plot import assert_residuals_drawn
 from test_csjm import synthetic, write_csv
 from test_vjm import PLANAR_2R
 
@@ -20,7 +21,7 @@ from test_vjm import PLANAR_2R
 def campaign(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("campaign")
     proc = run_cli(
-        ["simulate", "vjm", "c.csv", "--poses", "30", "--seed", "11",
+        ["simulate", "vjm", "--out", "c.csv", "--poses", "30", "--seed", "11",
          "--effect", "joint_tilt:joint=3,axis=x,compliance=5e-5", "--truth", "truth.json"],
         cwd=d,
     )
@@ -52,6 +53,8 @@ def test_demo_tells_the_story_and_writes_a_report(tmp_path):
     assert "lower than the baseline's" in report
     for png in ("residuals.png", "errors_per_pose.png", "effects.png", "verdict.png"):
         assert (out / "report" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # Its pixels, not its header: the demo once wrote axes without a single residual bar.
+    assert_residuals_drawn(out / "report" / "residuals.png")
     result = json.loads((out / "diagnosis.json").read_text())
     assert result["extended"]["test_mean_rel_error"] <= 0.6 * result["baseline"]["test_mean_rel_error"]
     assert not [p for p in tmp_path.rglob(".*tmp-*")], "temporary files left behind"
@@ -166,7 +169,7 @@ def test_installed_console_script():
 
 
 def test_csjm_simulate_diagnose_and_report(tmp_path):
-    proc = run_cli(["simulate", "csjm", "c.csv", "--effect", "cable_hysteresis:friction=2", "--seed", "3",
+    proc = run_cli(["simulate", "csjm", "--out", "c.csv", "--effect", "cable_hysteresis:friction=2", "--seed", "3",
                     "--truth", "t.json"], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     truth = json.loads((tmp_path / "t.json").read_text())

@@ -132,7 +132,7 @@ def _read(path: Path):
 
 def test_cli_predict_writes_the_sag_columns(campaign, tmp_path):
     robot, _ = campaign
-    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "8", "--seed", "2"], cwd=tmp_path).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "8", "--seed", "2"], cwd=tmp_path).returncode == 0
     proc = run_cli(["identify", "vjm", "c.csv", "--save", "m.json"], cwd=tmp_path)
     assert proc.returncode == 0 and "under gravity 0,0,-9.80665" in proc.stdout, proc.stderr
     proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "p.csv"], cwd=tmp_path)
@@ -174,7 +174,7 @@ def test_cli_predict_writes_the_sag_columns(campaign, tmp_path):
 
 
 def test_cli_compensate_load_only(tmp_path):
-    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "4", "--seed", "6"], cwd=tmp_path).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "4", "--seed", "6"], cwd=tmp_path).returncode == 0
     assert run_cli(["identify", "vjm", "c.csv", "--save", "m.json"], cwd=tmp_path).returncode == 0
     both = run_cli(["compensate", "vjm", "m.json", "c.csv", "--out", "a.csv"], cwd=tmp_path)
     load = run_cli(["compensate", "vjm", "m.json", "c.csv", "--out", "b.csv", "--load-only"], cwd=tmp_path)
@@ -189,14 +189,14 @@ def test_cli_compensate_load_only(tmp_path):
 def test_cli_without_inertials_one_line_naming_the_link_and_no_gravity_round_trip(tmp_path):
     (tmp_path / "arm.urdf").write_text(PLANAR_2R)
     before = listing(tmp_path)
-    for args in (["simulate", "vjm", "s.csv", *ARM, "--poses", "6"],):
+    for args in (["simulate", "vjm", "--out", "s.csv", *ARM, "--poses", "6"],):
         proc = run_cli(args, cwd=tmp_path)
         lines = proc.stderr.strip().splitlines()
         assert proc.returncode == 1 and len(lines) == 1, proc.stderr
         assert "link `l1`" in lines[0] and "--no-gravity" in lines[0], lines[0]
         assert listing(tmp_path) == before
     # Weightless, end to end.
-    proc = run_cli(["simulate", "vjm", "c.csv", *ARM, "--poses", "6", "--no-gravity"], cwd=tmp_path)
+    proc = run_cli(["simulate", "vjm", "--out", "c.csv", *ARM, "--poses", "6", "--no-gravity"], cwd=tmp_path)
     assert proc.returncode == 0 and "weightless" in proc.stdout, proc.stderr
     before = listing(tmp_path)
     for args in (["identify", "vjm", "c.csv", *ARM, "--save", "m.json"],
@@ -213,7 +213,8 @@ def test_cli_without_inertials_one_line_naming_the_link_and_no_gravity_round_tri
         proc = run_cli([verb, "vjm", "m.json", "c.csv", "--out", f"{verb}.csv"], cwd=tmp_path)
         assert proc.returncode == 1 and "link `l1`" in proc.stderr and "--no-gravity" in proc.stderr, proc.stderr
         assert not (tmp_path / f"{verb}.csv").exists()
-        proc = run_cli([verb, "vjm", "m.json", "c.csv", "--out", f"{verb}.csv", "--no-gravity"], cwd=tmp_path)
+        go_on = ["--keep-going"] if verb == "compensate" else []  # a two-joint arm: near-singular rows
+        proc = run_cli([verb, "vjm", "m.json", "c.csv", "--out", f"{verb}.csv", "--no-gravity", *go_on], cwd=tmp_path)
         assert proc.returncode == 0, proc.stderr
     assert "sag_dx" not in (tmp_path / "predict.csv").read_text().splitlines()[0]
 
@@ -230,18 +231,22 @@ def test_compensating_the_sag_through_a_model_file_uses_its_gravity(campaign, tm
     np.testing.assert_array_equal(a.q, trad.stiffness_model.compensate(q, payload=(2.0,), gravity=G).q)
     ceiling = trad.stiffness_model.compensate(q, payload=(2.0,), gravity=(0.0, 0.0, 9.80665))
     assert np.max(np.abs(ceiling.q - a.q)) > 1e-4
-    # An extended model's aliased springs (negative minimum-norm members) cannot hold the weight.
+    # An extended model's aliased springs are stored as the minimum-norm member of their family
+    # (negative entries): the sag is the equilibrium of what the data determine, which every
+    # member shares to first order (before: refused). It agrees with the traditional model's,
+    # which sees the same torsions, to a small fraction of the sag.
     ext = robot.identify(m.q, m.wrench, m.displacement, model="extended")
     assert np.nanmin(ext.stiffness_model.to_dict()["estimate"]["compliance"]) < 0
-    with pytest.raises(InvalidValueError, match="negative compliance.*load_only=True"):
-        ext.stiffness_model.compensate(q, payload=(2.0,))
+    e = ext.stiffness_model.compensate(q, payload=(2.0,))
+    assert set(e.status) == {"converged"}
+    np.testing.assert_allclose(e.deflection, a.deflection, rtol=0.1)
     ext.save(tmp_path / "e.json")
     write = "\n".join([",".join([f"q{j}" for j in range(1, 8)] + ["fx", "fy", "fz", "mx", "my", "mz"])]
                       + [",".join(repr(float(x)) for x in [*qi, 0, 0, -20, 0, 0, 0]) for qi in q]) + "\n"
     (tmp_path / "traj.csv").write_text(write)
     proc = run_cli(["compensate", "vjm", "e.json", "traj.csv", "--out", "c.csv"], cwd=tmp_path)
-    assert proc.returncode == 1 and "--load-only" in proc.stderr and not (tmp_path / "c.csv").exists()
-    assert run_cli(["compensate", "vjm", "e.json", "traj.csv", "--out", "c.csv", "--load-only"],
+    assert proc.returncode == 0 and "converged 4" in proc.stdout, proc.stdout + proc.stderr
+    assert run_cli(["compensate", "vjm", "e.json", "traj.csv", "--out", "c2.csv", "--load-only"],
                    cwd=tmp_path).returncode == 0
 
 

@@ -169,7 +169,7 @@ def test_rotations_need_a_model_identified_with_rotations(panda):
 @pytest.fixture(scope="module")
 def saved(tmp_path_factory):
     d = tmp_path_factory.mktemp("model-cli")
-    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "16", "--seed", "3"], cwd=d).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "16", "--seed", "3"], cwd=d).returncode == 0
     proc = run_cli(["identify", "vjm", "c.csv", "--model", "extended", "--save", "m.json"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d
@@ -279,7 +279,7 @@ def test_cli_predict_uses_the_robot_recorded_in_the_model(tmp_path):
     if urdf is None:
         pytest.skip("example-robot-data's ur5_robot.urdf not found")
     robot = ["--urdf", str(urdf), "--base", "base_link", "--tip", "tool0"]
-    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "12", "--seed", "2", *robot], cwd=tmp_path).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "12", "--seed", "2", *robot], cwd=tmp_path).returncode == 0
     proc = run_cli(["identify", "vjm", "c.csv", "--model", "extended", "--save", "m.json", *robot], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     rec = json.loads((tmp_path / "m.json").read_text())["model"]["robot"]

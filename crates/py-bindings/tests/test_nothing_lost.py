@@ -59,7 +59,7 @@ def one_error_line(proc: subprocess.CompletedProcess) -> str:
 def small(tmp_path_factory) -> Path:
     """A small VJM campaign (fast to diagnose)."""
     d = tmp_path_factory.mktemp("small")
-    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "12", "--seed", "5",
+    proc = run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "12", "--seed", "5",
                     "--effect", "joint_tilt:joint=3,axis=x,compliance=5e-5"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d / "c.csv"
@@ -68,7 +68,7 @@ def small(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def csjm_csv(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("csjm")
-    proc = run_cli(["simulate", "csjm", "m.csv", "--seed", "2"], cwd=d)
+    proc = run_cli(["simulate", "csjm", "--out", "m.csv", "--seed", "2"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d / "m.csv"
 
@@ -243,7 +243,7 @@ def test_unwritable_json_names_the_users_path_and_the_reason(small, tmp_path):
 
 
 def test_one_path_for_two_outputs_is_refused(tmp_path):
-    proc = run_cli(["simulate", "vjm", "o.csv", "--poses", "3", "--truth", "./o.csv"], cwd=tmp_path)
+    proc = run_cli(["simulate", "vjm", "--out", "o.csv", "--poses", "3", "--truth", "./o.csv"], cwd=tmp_path)
     assert proc.returncode == 1 and "given as two different outputs" in one_error_line(proc)
     assert list(tmp_path.iterdir()) == []
 
@@ -256,8 +256,8 @@ def test_input_problems_name_the_input(small, tmp_path):
         (["identify", "vjm", "adir"], "DATA.csv adir is a folder"),
         (["identify", "vjm", "nope.csv"], "DATA.csv nope.csv: no such file"),
         (["identify", "vjm", "empty.csv"], "DATA.csv empty.csv is empty"),
-        (["simulate", "vjm", "o.csv", "--urdf", "nope.urdf", "--base", "a", "--tip", "b"], "--urdf nope.urdf: no such"),
-        (["simulate", "vjm", "o.csv", "--urdf", "adir", "--base", "a", "--tip", "b"], "--urdf adir is a folder"),
+        (["simulate", "vjm", "--out", "o.csv", "--urdf", "nope.urdf", "--base", "a", "--tip", "b"], "--urdf nope.urdf: no such"),
+        (["simulate", "vjm", "--out", "o.csv", "--urdf", "adir", "--base", "a", "--tip", "b"], "--urdf adir is a folder"),
         (["identify", "csjm", "wrong.csv"], "wrong.csv: missing column"),
         (["diagnose", "vjm", "wrong.csv"], "wrong.csv: "),
         (["identify", "vjm", str(small), "--json="], "--json: empty file name"),
@@ -304,7 +304,7 @@ def test_outputs_are_checked_before_the_data_is_read(small, tmp_path):
 def big(tmp_path_factory) -> Path:
     """A campaign whose diagnosis takes a few seconds of CPU (≈ 3 s on the 2-core dev box)."""
     d = tmp_path_factory.mktemp("big")
-    proc = run_cli(["simulate", "vjm", "big.csv", "--poses", "5000", "--wrenches-per-pose", "8", "--seed", "3",
+    proc = run_cli(["simulate", "vjm", "--out", "big.csv", "--poses", "5000", "--wrenches-per-pose", "8", "--seed", "3",
                     "--effect", "joint_tilt:joint=3,axis=x,compliance=5e-5"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d / "big.csv"
@@ -371,21 +371,21 @@ def test_interrupt_mid_run_leaves_nothing_behind(big, tmp_path, sig, status, sec
 @pytest.mark.parametrize(
     "args, flag",
     [
-        (["simulate", "vjm", "o.csv", "--poses", "-5"], "--poses"),
-        (["simulate", "vjm", "o.csv", "--poses", "0"], "--poses"),
-        (["simulate", "vjm", "o.csv", "--poses", "1e9"], "--poses"),
-        (["simulate", "vjm", "o.csv", "--poses", "100000000"], "--poses"),
-        (["simulate", "vjm", "o.csv", "--seed", "-1"], "--seed"),
-        (["simulate", "vjm", "o.csv", "--seed", str(2**64)], "--seed"),
-        (["simulate", "vjm", "o.csv", "--wrenches-per-pose", "0"], "--wrenches-per-pose"),
-        (["simulate", "vjm", "o.csv", "--force-max", "1e9"], "--force-max"),
-        (["simulate", "vjm", "o.csv", "--force-max", "nan"], "--force-max"),
-        (["simulate", "vjm", "o.csv", "--force-max", "inf"], "--force-max"),
-        (["simulate", "vjm", "o.csv", "--force-max", "0"], "--force-max"),
-        (["simulate", "vjm", "o.csv", "--moment-max", "-1"], "--moment-max"),
-        (["simulate", "csjm", "o.csv", "--increments", "0"], "--increments"),
-        (["simulate", "csjm", "o.csv", "--max-increment", "-inf"], "--max-increment"),
-        (["simulate", "csjm", "o.csv", "--seed", "x"], "--seed"),
+        (["simulate", "vjm", "--out", "o.csv", "--poses", "-5"], "--poses"),
+        (["simulate", "vjm", "--out", "o.csv", "--poses", "0"], "--poses"),
+        (["simulate", "vjm", "--out", "o.csv", "--poses", "1e9"], "--poses"),
+        (["simulate", "vjm", "--out", "o.csv", "--poses", "100000000"], "--poses"),
+        (["simulate", "vjm", "--out", "o.csv", "--seed", "-1"], "--seed"),
+        (["simulate", "vjm", "--out", "o.csv", "--seed", str(2**64)], "--seed"),
+        (["simulate", "vjm", "--out", "o.csv", "--wrenches-per-pose", "0"], "--wrenches-per-pose"),
+        (["simulate", "vjm", "--out", "o.csv", "--force-max", "1e9"], "--force-max"),
+        (["simulate", "vjm", "--out", "o.csv", "--force-max", "nan"], "--force-max"),
+        (["simulate", "vjm", "--out", "o.csv", "--force-max", "inf"], "--force-max"),
+        (["simulate", "vjm", "--out", "o.csv", "--force-max", "0"], "--force-max"),
+        (["simulate", "vjm", "--out", "o.csv", "--moment-max", "-1"], "--moment-max"),
+        (["simulate", "csjm", "--out", "o.csv", "--increments", "0"], "--increments"),
+        (["simulate", "csjm", "--out", "o.csv", "--max-increment", "-inf"], "--max-increment"),
+        (["simulate", "csjm", "--out", "o.csv", "--seed", "x"], "--seed"),
         (["diagnose", "vjm", "d.csv", "--fdr", "2"], "--fdr"),
         (["diagnose", "vjm", "d.csv", "--fdr", "0"], "--fdr"),
         (["diagnose", "vjm", "d.csv", "--split-seed", "-3"], "--split-seed"),
@@ -403,7 +403,7 @@ def test_bad_flags_give_one_line_naming_the_flag(tmp_path, args, flag):
 
 
 def test_too_many_simulated_rows_are_refused_before_the_run(tmp_path):
-    proc = run_cli(["simulate", "vjm", "o.csv", "--poses", "100000", "--wrenches-per-pose", "1000"], cwd=tmp_path)
+    proc = run_cli(["simulate", "vjm", "--out", "o.csv", "--poses", "100000", "--wrenches-per-pose", "1000"], cwd=tmp_path)
     assert proc.returncode == 1
     line = one_error_line(proc)
     assert "--poses 100000" in line and "--wrenches-per-pose 1000" in line and "2000000" in line, line
@@ -434,7 +434,7 @@ def test_help_documents_the_caps(tmp_path):
     ],
 )
 def test_bad_effect_specs_name_the_effect_argument(tmp_path, spec, words):
-    proc = run_cli(["simulate", "vjm", "o.csv", "--poses", "2", "--effect", spec], cwd=tmp_path)
+    proc = run_cli(["simulate", "vjm", "--out", "o.csv", "--poses", "2", "--effect", spec], cwd=tmp_path)
     assert proc.returncode == 1
     line = one_error_line(proc)
     assert f"--effect {spec!r}" in line, line

@@ -53,7 +53,7 @@ def two_arm(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("two")
     (d / "two.urdf").write_text(TWO_JOINTS.format(xyz="0 0 0.1"))
     # Weightless (--no-gravity): the URDF has no inertials.
-    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "6", "--seed", "3", "--urdf", "two.urdf", *ARM,
+    proc = run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "6", "--seed", "3", "--urdf", "two.urdf", *ARM,
                     "--no-gravity"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d
@@ -78,9 +78,9 @@ def identify_arm(cwd: Path, urdf: str) -> str:
 def panda_world(tmp_path_factory) -> Path:
     """The bundled arm: a campaign c.csv, its model m.json, and a CSJM campaign k.csv."""
     d = tmp_path_factory.mktemp("panda")
-    for args in (["simulate", "vjm", "c.csv", "--poses", "12", "--seed", "4"],
+    for args in (["simulate", "vjm", "--out", "c.csv", "--poses", "12", "--seed", "4"],
                  ["identify", "vjm", "c.csv", "--save", "m.json"],
-                 ["simulate", "csjm", "k.csv", "--seed", "2"]):
+                 ["simulate", "csjm", "--out", "k.csv", "--seed", "2"]):
         proc = run_cli(args, cwd=d)
         assert proc.returncode == 0, proc.stderr
     return d
@@ -104,7 +104,8 @@ def test_an_output_onto_the_urdf_the_model_names_is_refused(arm, recorded, comma
     for an absolute record, absolute for a relative one): compared by identity, not text."""
     urdf = arm / "two.urdf"
     rec = identify_arm(arm, str(urdf) if recorded == "absolute" else "two.urdf")
-    assert rec == (str(urdf) if recorded == "absolute" else "two.urdf")
+    # The model records the URDF by absolute path whichever way it was typed (issue 24).
+    assert rec == str(urdf)
     target = "./two.urdf" if recorded == "absolute" else str(urdf)
     outputs = {"--out": target} if flag == "--out" else {"--out": "comp.csv", "--plot": target}
     args = [command, "vjm", "m.json", "c.csv", *[x for kv in outputs.items() for x in kv], "--no-gravity"]
@@ -200,9 +201,9 @@ def test_the_tools_own_file_in_a_folder_is_kept_while_it_is_an_input(tmp_path):
 
 # Every command that writes a file; X is the output under test.
 WRITERS = {
-    "simulate-vjm": ["simulate", "vjm", "X", "--poses", "3"],
-    "simulate-vjm-truth": ["simulate", "vjm", "o.csv", "--poses", "3", "--truth", "X"],
-    "simulate-csjm": ["simulate", "csjm", "X", "--increments", "5"],
+    "simulate-vjm": ["simulate", "vjm", "--out", "X", "--poses", "3"],
+    "simulate-vjm-truth": ["simulate", "vjm", "--out", "o.csv", "--poses", "3", "--truth", "X"],
+    "simulate-csjm": ["simulate", "csjm", "--out", "X", "--increments", "5"],
     "identify-vjm-json": ["identify", "vjm", "c.csv", "--json", "X"],
     "identify-vjm-save": ["identify", "vjm", "c.csv", "--save", "X"],
     "identify-csjm-json": ["identify", "csjm", "k.csv", "--json", "X"],

@@ -184,7 +184,7 @@ def test_truth_counts_joints_from_one(panda, campaign, tmp_path):
     assert campaign.truth["effects"][0]["joint"] == 3
     from robot_stiffness.cli import main
 
-    code = main(["simulate", "vjm", str(tmp_path / "c.csv"), "--poses", "4", "--effect",
+    code = main(["simulate", "vjm", "--out", str(tmp_path / "c.csv"), "--poses", "4", "--effect",
                  "joint_backlash:joint=7,lost_motion=2e-4", "--truth", str(tmp_path / "t.json")])
     assert code == 0
     truth = json.loads((tmp_path / "t.json").read_text())["truth"]

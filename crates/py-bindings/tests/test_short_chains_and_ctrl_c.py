@@ -43,7 +43,7 @@ def test_every_verb_on_a_short_chain_fails_cleanly_or_works(tmp_path, base, tip,
     if joints == 0:
         # No joint between the links (base == tip, or only a fixed joint): every verb names it.
         (tmp_path / "s.csv").write_text("q1,fx,fy,fz,mx,my,mz,dx,dy,dz\n0,1,0,0,0,0,0,0,0,0\n")
-        for args in (["simulate", "vjm", "new.csv"], ["design", "vjm", "--out", "p.csv"],
+        for args in (["simulate", "vjm", "--out", "new.csv"], ["design", "vjm", "--out", "p.csv"],
                      ["identify", "vjm", "s.csv"], ["diagnose", "vjm", "s.csv"]):
             proc = run_cli([*args, *chain], cwd=tmp_path)
             clean(proc, args[0])
@@ -51,7 +51,7 @@ def test_every_verb_on_a_short_chain_fails_cleanly_or_works(tmp_path, base, tip,
         return
     weightless = "--no-gravity"  # arm2.urdf has no inertials
     verbs: List[List[str]] = [
-        ["simulate", "vjm", "s.csv", "--poses", "30", *chain, weightless],
+        ["simulate", "vjm", "--out", "s.csv", "--poses", "30", *chain, weightless],
         ["design", "vjm", "--out", "p.csv", *chain],
         ["identify", "vjm", "s.csv", "--save", "m.json", *chain, weightless],
         ["diagnose", "vjm", "s.csv", "--json", "d.json", *chain, weightless],
@@ -73,7 +73,7 @@ def test_a_model_used_with_a_degenerate_chain_is_refused_cleanly(tmp_path):
     (tmp_path / "arm2.urdf").write_text(ARM2)
     chain = ["--urdf", "arm2.urdf", "--base", "base", "--tip", "tool"]
     weightless = "--no-gravity"  # arm2.urdf has no inertials
-    assert run_cli(["simulate", "vjm", "s.csv", "--poses", "30", *chain, weightless], cwd=tmp_path).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "s.csv", "--poses", "30", *chain, weightless], cwd=tmp_path).returncode == 0
     assert run_cli(["identify", "vjm", "s.csv", "--save", "m.json", *chain, weightless],
                    cwd=tmp_path).returncode == 0
     for base, tip in (("tool", "tool"), ("l1", "tool")):
@@ -116,7 +116,7 @@ def big_inputs(tmp_path_factory) -> Path:
     """A saved model of the bundled arm and 400 000 poses with wrenches (≈ 7 s of predict,
     10 s of compensate on the dev box)."""
     d = tmp_path_factory.mktemp("ctrl_c")
-    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "40", "--seed", "1"], cwd=d).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "40", "--seed", "1"], cwd=d).returncode == 0
     assert run_cli(["identify", "vjm", "c.csv", "--save", "m.json"], cwd=d).returncode == 0
     rng = np.random.default_rng(21)
     n = 400_000

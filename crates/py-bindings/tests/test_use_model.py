@@ -149,7 +149,7 @@ def test_cli_compensate_bad_input_writes_nothing(plan, tmp_path):
 
 def test_cli_compensate_with_a_saved_model(robot, plan, tmp_path):
     # A campaign on the testbed, identified and saved by the CLI.
-    proc = run_cli(["simulate", "vjm", "campaign.csv", "--seed", "4"], cwd=tmp_path)
+    proc = run_cli(["simulate", "vjm", "--out", "campaign.csv", "--seed", "4"], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     proc = run_cli(["identify", "vjm", "campaign.csv", "--model", "extended", "--save", "model.json"], cwd=tmp_path)
     if proc.returncode == 2 and "--save" in proc.stderr:

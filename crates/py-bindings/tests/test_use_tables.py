@@ -29,7 +29,7 @@ WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 @pytest.fixture(scope="module")
 def model_dir(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("use-tables")
-    assert run_cli(["simulate", "vjm", "c.csv", "--poses", "20", "--seed", "5"], cwd=d).returncode == 0
+    assert run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "20", "--seed", "5"], cwd=d).returncode == 0
     proc = run_cli(["identify", "vjm", "c.csv", "--model", "extended", "--save", "m.json"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     # Compensating the arm's own sag needs springs that do not alias: the traditional model.
@@ -135,7 +135,7 @@ def test_compensate_reports_a_joint_outside_its_limits_as_null_in_parquet(model_
     names = [f"q{j}" for j in range(1, 8)] + WRENCH
     write_columns(tmp_path / "t.parquet", names, [q0[:, j] for j in range(7)] + [w[:, k] for k in range(6)])
     proc = run_cli(["compensate", "vjm", str(model_dir / "t.json"), "t.parquet", "--out", "c.parquet",
-                    "--allow-outside-limits"], cwd=tmp_path)
+                    "--allow-outside-limits", "--keep-going"], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     comp = StiffnessModel.load(model_dir / "t.json", robot).compensate(q0, wrench=w, allow_outside_limits=True)
     limit = pq.read_table(tmp_path / "c.parquet").column("limit_joint").to_pylist()

@@ -15,7 +15,7 @@ from robot_stiffness.results import BlockTest, Verdict
 @pytest.fixture(scope="module")
 def clean(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("clean")
-    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "30", "--seed", "5"], cwd=d)
+    proc = run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "30", "--seed", "5"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d / "c.csv"
 
@@ -24,7 +24,7 @@ def clean(tmp_path_factory) -> Path:
 def drift(tmp_path_factory) -> Path:
     # A 0.2 mm offset per pose is outside the catalogue: the verdict must say so.
     d = tmp_path_factory.mktemp("drift")
-    proc = run_cli(["simulate", "vjm", "c.csv", "--poses", "30", "--seed", "5",
+    proc = run_cli(["simulate", "vjm", "--out", "c.csv", "--poses", "30", "--seed", "5",
                     "--effect", "pose_drift:sigma=2e-4"], cwd=d)
     assert proc.returncode == 0, proc.stderr
     return d / "c.csv"

@@ -796,10 +796,13 @@ impl crate::stiffness_model::StiffnessModel {
     ) -> Result<Compensation, crate::stiffness_model::ModelError> {
         self.check_robot(chain, "<model>")?;
         let model = self.spring_model()?;
+        // What the data determine: K_C and the equilibria are non-linear in C and would
+        // amplify the noise of a barely seen direction.
+        let compliance = self.determined_compliance()?;
         Ok(compensate(
             chain,
             &model,
-            &self.estimate().compliance,
+            &compliance,
             q_nominal,
             load,
             opts,

@@ -54,6 +54,7 @@ mod kinematics;
 mod lanes;
 pub mod lsq;
 mod model;
+mod model_spec;
 mod predict;
 mod regressor;
 pub mod screening;

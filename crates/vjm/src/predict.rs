@@ -68,8 +68,8 @@ pub fn predict_deflection(
     Ok([d[0], d[1], d[2], d[3], d[4], d[5]])
 }
 
-/// Checks that `compliance` has one finite value ≥ 0 per spring of `model` (rad/(N·m)).
-pub(crate) fn check_compliance(
+/// Checks that `compliance` has one finite value per spring of `model` (of any sign).
+pub(crate) fn check_spring_vector(
     model: &VirtualJointModel,
     compliance: &[f64],
 ) -> Result<(), VjmError> {
@@ -81,7 +81,15 @@ pub(crate) fn check_compliance(
             got: compliance.len(),
         });
     }
-    check_finite("compliance", compliance, 0, 0)?;
+    check_finite("compliance", compliance, 0, 0)
+}
+
+/// Checks that `compliance` has one finite value ≥ 0 per spring of `model` (rad/(N·m)).
+pub(crate) fn check_compliance(
+    model: &VirtualJointModel,
+    compliance: &[f64],
+) -> Result<(), VjmError> {
+    check_spring_vector(model, compliance)?;
     if let Some(i) = compliance.iter().position(|&c| c < 0.0) {
         // A negative compliance is an unstable spring: the prediction would be meaningless.
         let s = model.springs()[i];

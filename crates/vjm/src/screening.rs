@@ -40,6 +40,23 @@ pub const MIN_ROWS_FOR_OUTLIERS: usize = 3;
 /// joint by 1.7°). Arms are 1e-6..1e-3 (the simulated ones 1e-4..5e-4); a wrench in kN or a
 /// displacement in mm gives 10³ times the true value.
 pub const MAX_PLAUSIBLE_COMPLIANCE: f64 = 1e-2;
+
+/// Whether an estimate `value` ± `stderr` (rad/(N·m)) is **weak**: its standard error exceeds
+/// its magnitude (the data cannot tell it from 0) or [`MAX_PLAUSIBLE_COMPLIANCE`] (nor from
+/// any plausible compliance). `identify` flags such parameters and combinations; `predict` and
+/// `compensate` use what the data determine ([`crate::StiffnessModel::determined_compliance`]).
+/// Without a standard error nothing is weak.
+///
+/// ```
+/// use vjm::screening::is_weak;
+/// assert!(!is_weak(1.5e-4, Some(2e-6)));
+/// assert!(is_weak(-4.0e-2, Some(9.7e-2)));   // the data cannot tell it from 0
+/// assert!(is_weak(2.9e-1, Some(1.5e-1)));    // ±0.15 rad/(N·m): no arm's compliance
+/// assert!(!is_weak(1.0, None));
+/// ```
+pub fn is_weak(value: f64, stderr: Option<f64>) -> bool {
+    stderr.is_some_and(|s| s > value.abs() || s > MAX_PLAUSIBLE_COMPLIANCE)
+}
 /// A compliance identifiable on its own is reported negative when it is below −this many
 /// standard errors (clean simulated campaigns reach −4.3 on tilts whose true value is 0).
 pub const NEGATIVE_SIGNIFICANCE: f64 = 5.0;

@@ -14,6 +14,12 @@ the function named. The rules:
 * ``PathLike``: a ``str`` or ``os.PathLike`` that does not look like file *contents* (CSV or
   XML text passed where a path is expected is refused, quoting at most 40 characters);
 * ``Robot``: a :class:`robot_stiffness.vjm.Robot`.
+
+It also names the rows of arrays as Python counts them: the core's checks of measurement
+values speak of a file (``line 7, column 'q1'``, header = line 1) and count row i of arrays as
+line i + 2; a call given no data file (no ``PathLike`` argument, no path as ``data`` or
+``parts``) gets ``row 5 (counting from 0), column 'q1'`` instead. The command line, whose
+arrays are the rows of a CSV file, keeps the lines (:func:`~robot_stiffness._errors.rows_are_file_lines`).
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 
-from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, StiffnessError
+from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, StiffnessError, arrays_are_file_rows, rows_of_arrays
 
 __all__ = ["checked", "check_path", "integer", "real", "flag", "quote"]
 
@@ -184,6 +190,30 @@ def _rule(annotation: Any) -> Tuple[Optional[Callable[[Any, str], Any]], bool]:
     return _CHECKS.get(text), optional
 
 
+#: Parameters that take a data file's path (or paths) besides those annotated ``PathLike``.
+_DATA_PARAMETERS = ("data", "parts")
+
+
+def _is_path(value: Any) -> bool:
+    if isinstance(value, (str, os.PathLike)):
+        return True
+    return isinstance(value, (list, tuple)) and any(isinstance(v, (str, os.PathLike)) for v in value)
+
+
+def _file_parameters(sig: inspect.Signature) -> Tuple[Dict[str, int], Dict[str, bool]]:
+    """Positions and names of the parameters that may name a data file: ``{name: position}``
+    (-1 for keyword-only) and ``{name: True when any non-None value is a file}``; for the
+    others (``data``, ``parts``) only a path value is."""
+    positions: Dict[str, int] = {}
+    any_value: Dict[str, bool] = {}
+    for i, (pname, param) in enumerate(sig.parameters.items()):
+        annotated = isinstance(param.annotation, str) and "PathLike" in param.annotation
+        if annotated or pname in _DATA_PARAMETERS:
+            positions[pname] = i if param.kind in (param.POSITIONAL_ONLY, param.POSITIONAL_OR_KEYWORD) else -1
+            any_value[pname] = annotated
+    return positions, any_value
+
+
 def checked(fn: F) -> F:
     """Decorator: check the annotated scalar/path arguments of ``fn`` and turn built-in
     argument errors into :class:`StiffnessError` subclasses naming the function.
@@ -201,6 +231,19 @@ def checked(fn: F) -> F:
         if rule is not None and param.kind != param.POSITIONAL_ONLY:
             by_name[pname] = rule
     where = f"{fn.__qualname__}()"
+    file_positions, file_any_value = _file_parameters(sig)
+
+    def reads_a_file(args: Tuple[Any, ...], kwargs: Dict[str, Any]) -> bool:
+        for pname, pos in file_positions.items():
+            if pname in kwargs:
+                value = kwargs[pname]
+            elif 0 <= pos < len(args):
+                value = args[pos]
+            else:
+                continue
+            if value is not None and (file_any_value[pname] or _is_path(value)):
+                return True
+        return False
 
     def apply(rule: Tuple[str, Callable[[Any, str], Any], bool], value: Any) -> Any:
         pname, check, optional = rule
@@ -222,8 +265,14 @@ def checked(fn: F) -> F:
             kwargs[key] = apply(by_name[key], kwargs[key])
         try:
             return fn(*args, **kwargs)
-        except StiffnessError:
-            raise
+        except StiffnessError as e:
+            text = str(e)
+            if "line " not in text or arrays_are_file_rows() or reads_a_file(args, kwargs):
+                raise
+            better = rows_of_arrays(text)
+            if better == text:
+                raise
+            raise type(e)(better) from None
         except TypeError as e:
             raise ArgumentTypeError(f"{where}: {e}") from None
         except (ValueError, OverflowError) as e:

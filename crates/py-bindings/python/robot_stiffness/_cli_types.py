@@ -151,3 +151,9 @@ def gravity(text: str) -> "tuple[float, float, float]":
 
 
 gravity.__name__ = "gravity vector"
+
+
+#: One help text for every ``--model`` (and ``diagnose --baseline``): the one model vocabulary
+#: (``VirtualJointModel::parse``) and the one default.
+MODEL_HELP = ("spring model: traditional (torsion only), extended (3 springs per joint), labels like J1z,J2x, or "
+              "what diagnose prints, e.g. 'traditional + joint_tilt(J3x)' (default traditional)")

@@ -10,6 +10,8 @@ The Rust core's error enums are mapped onto these classes in one place
 from __future__ import annotations
 
 import contextlib
+import re
+import threading
 from typing import Iterator, Mapping
 
 __all__ = [
@@ -29,6 +31,9 @@ __all__ = [
     "OutputPathError",
     "SuspiciousDataWarning",
     "reworded",
+    "rows_of_arrays",
+    "rows_are_file_lines",
+    "arrays_are_file_rows",
 ]
 
 
@@ -127,3 +132,38 @@ def reworded(names: Mapping[str, str]) -> Iterator[None]:
         if better == text:
             raise
         raise type(e)(better) from None
+
+
+#: A cell the core's checks name by file line: for arrays it counts row i as line i + 2.
+_LINE_CELL = re.compile(r"\bline (\d+), column '")
+
+
+def rows_of_arrays(message: str) -> str:
+    """A core message about arrays given in Python, with rows counted from 0 as the arrays
+    count them: the core's checks speak of a measurement *file* (header = line 1) and count
+    row i of arrays as line i + 2, so ``line 7, column 'q1'`` becomes
+    ``row 5 (counting from 0), column 'q1'``."""
+    return _LINE_CELL.sub(lambda m: f"row {max(int(m.group(1)) - 2, 0)} (counting from 0), column '", message)
+
+
+_file_lines_depth = [0]
+_file_lines_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def rows_are_file_lines() -> Iterator[None]:
+    """Within the block (every thread: the command line computes in a worker thread), arrays
+    passed to the API are the rows of a CSV file, so errors keep the core's file lines
+    (header = line 1) instead of rows counted from 0. The command line runs its commands so."""
+    with _file_lines_lock:
+        _file_lines_depth[0] += 1
+    try:
+        yield
+    finally:
+        with _file_lines_lock:
+            _file_lines_depth[0] -= 1
+
+
+def arrays_are_file_rows() -> bool:
+    """Whether :func:`rows_are_file_lines` is in force."""
+    return _file_lines_depth[0] > 0

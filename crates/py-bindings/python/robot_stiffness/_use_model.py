@@ -18,7 +18,7 @@ from ._equality import FieldEq
 from . import _core
 from ._arguments import DEFAULT_GRAVITY, RECORDED_GRAVITY, ModelGravity, checked, gravity_vector, model_gravity
 from ._arrays import f64
-from ._errors import ArgumentTypeError
+from ._errors import ArgumentTypeError, ShapeError
 
 Array = npt.NDArray[np.float64]
 ModelSpec = Union[str, Sequence[str]]
@@ -34,6 +34,9 @@ class PlannedCombination(FieldEq):
     stderr: float
     #: ``(label, coefficient)`` per term; the first term has coefficient 1.
     terms: Tuple[Tuple[str, float], ...]
+    #: The plan leaves it weak: its predicted standard error exceeds the size the prior gives it
+    #: (a tilt as large as a typical torsion) or 1e-2 rad/(N·m).
+    weak: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,7 +103,20 @@ def _model(model: ModelSpec) -> Union[str, List[str]]:
     if labels is not None and all(isinstance(s, str) for s in labels):
         return [str(s) for s in labels]
     raise ArgumentTypeError(
-        "model must be \"traditional\", \"extended\" or a sequence of spring labels like [\"J1z\", \"J2x\"]"
+        "model must be \"traditional\", \"extended\", a spec like \"traditional + joint_tilt(J3x)\" or a "
+        "sequence of spring labels like [\"J1z\", \"J2x\"]"
+    )
+
+
+def _model_of(model: Optional[ModelSpec], compliance: Array, n_joints: int) -> ModelSpec:
+    """``model``, or (None) the model the number of compliances names: n traditional, 3n extended."""
+    if model is not None:
+        return model
+    if compliance.ndim == 1 and compliance.size in (n_joints, 3 * n_joints):
+        return "traditional" if compliance.size == n_joints else "extended"
+    raise ShapeError(
+        f"compliance has shape {compliance.shape}: without model= give {n_joints} values (traditional) or "
+        f"{3 * n_joints} (extended), or name the springs with model="
     )
 
 
@@ -156,7 +172,7 @@ def compensate(
     robot: Any,
     q: Any,
     compliance: Any,
-    model: ModelSpec = "extended",
+    model: Optional[ModelSpec] = None,
     wrench: Any = None,
     payload: Any = None,
     match_orientation: bool = False,
@@ -168,7 +184,7 @@ def compensate(
     """Corrected joint targets so that the loaded tip reaches the nominal unloaded tip.
 
     ``q``: nominal targets (N, n) rad; ``compliance``: (m,) rad/(N·m) for the springs of
-    ``model`` (for aliased springs any vector reproducing the identifiable combinations, e.g. the
+    ``model`` (None: the traditional model for n values, the extended one for 3n; for aliased springs any vector reproducing the identifiable combinations, e.g. the
     minimum-norm solution); the load is ``wrench`` (N, 6) N and N·m at the tip point, base frame,
     or ``payload`` ``(mass,)`` / ``(mass, cx, cy, cz)`` kg and m in the tip frame (gravity along −z
     of the base). ``match_orientation`` matches the tip orientation too; ``with_kc`` includes the
@@ -187,8 +203,9 @@ def compensate(
     inner = _robot_inner(robot)
     arr, w = _q_and_wrench(q, wrench)
     g = None if load_only or gravity is None else gravity_vector(gravity)
+    c = f64(compliance, "compliance")
     out = _core.vjm_compensate(
-        inner, _model(model), f64(compliance, "compliance"), arr, w, _payload(payload),
+        inner, _model(_model_of(model, c, robot.n_joints)), c, arr, w, _payload(payload),
         bool(match_orientation), bool(with_kc), allow_outside_limits=bool(allow_outside_limits),
         gravity=g,
     )
@@ -229,7 +246,7 @@ def compensate_with_model_file(
 @checked
 def design(
     robot: Any,
-    model: ModelSpec = "extended",
+    model: ModelSpec = "traditional",
     poses: int = 24,
     wrenches_per_pose: int = 4,
     seed: int = 0,
@@ -258,6 +275,7 @@ def design(
             label=c["label"],
             stderr=float(c["stderr"]),
             terms=tuple((labels[t["param"]], float(t["coefficient"])) for t in c["terms"]),
+            weak=bool(c["weak"]),
         )
         for c in doc["combinations"]
     )

@@ -23,22 +23,39 @@ from ._errors import DataFileError, StiffnessError
 from ._interrupt import in_worker
 from ._tables import WRENCH, blame_rows, columns, joint_columns, optional_columns
 
-__all__ = ["read_poses", "rows_of", "write_predictions", "write_compensation"]
+__all__ = ["read_plan", "read_poses", "rows_of", "write_predictions", "write_compensation"]
 
 
 def read_poses(path: str, robot: Any) -> Tuple[np.ndarray, Optional[np.ndarray]]:
     """``(q (N, n) rad, wrench (N, 6) or None)`` of a pose table: ``q1..qn`` and optionally
     ``fx..mz`` (N, N·m at the tip point, base frame); other columns are ignored."""
+    q, wrench, _ = read_plan(path, robot)
+    return q, wrench
+
+
+def read_plan(path: str, robot: Any) -> Tuple[np.ndarray, Optional[np.ndarray], Optional[np.ndarray]]:
+    """:func:`read_poses` and the ``pose`` column when the table has one: ``(q, wrench or None,
+    pose (N,) int64 or None)`` — a plan of ``design`` or a measurement file."""
     n = robot.n_joints
     if not is_columnar_path(path):
-        return in_worker(_core.vjm_read_poses, path, robot._inner)  # Ctrl-C stays prompt
-    table = read_columns(path, joint_columns(n) + WRENCH)
+        q, wrench, ids_read = in_worker(_core.vjm_read_poses, path, robot._inner)  # Ctrl-C stays prompt
+        return q, wrench, None if ids_read is None else np.asarray(ids_read, dtype=np.int64)
+    table = read_columns(path, joint_columns(n) + WRENCH + ["pose"])
     try:
         q = columns(table, joint_columns(n), "the joint positions")
         wrench = optional_columns(table, WRENCH, "the wrench")
+        ids = optional_columns(table, ["pose"], "the pose ids")
     except DataFileError as e:
         raise DataFileError(f"{os.fspath(path)}: {e}") from None
-    return q, wrench
+    pose: Optional[np.ndarray] = None
+    if ids is not None:
+        flat = ids[:, 0]
+        bad = np.flatnonzero(flat != np.round(flat))
+        if bad.size:
+            raise DataFileError(f"{os.fspath(path)}: row {bad[0]} (counting from 0), column 'pose': "
+                                f"{flat[bad[0]]!r} is not an integer pose id")
+        pose = flat.astype(np.int64)
+    return q, wrench, pose
 
 
 @contextlib.contextmanager

@@ -209,6 +209,7 @@ def simulate(
     moment_max: Optional[float] = None,
     test_fraction: Optional[float] = None,
     gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
+    plan: Any = None,
 ) -> Campaign:
     """Simulate a measurement campaign on ``robot`` from a true model carrying ``effects``.
 
@@ -236,6 +237,12 @@ def simulate(
     Poses are drawn inside the joint limits away from singularities; forces and moments are
     random; laser-tracker and F/T-sensor noise are added when ``noise``. Same seed, same data.
 
+    ``plan``: measure at planned rows instead — a :class:`~robot_stiffness.vjm.Plan` of
+    :func:`~robot_stiffness.vjm.design`, or ``(q (N, n) rad, wrench (N, 6) N and N·m at the tip
+    point, base frame, pose (N,) int)``. The same noise and effects are drawn from ``seed`` and
+    whole poses are held out as without a plan; ``n_poses``, ``wrenches_per_pose``,
+    ``force_max`` and ``moment_max`` are then not used.
+
     ``gravity`` (m/s², base frame; default ``DEFAULT_GRAVITY``, 9.80665 along −z): the campaign
     is measured under the arm's weight (bodies from the URDF's inertials): each displacement is
     the tip under load minus the tip unloaded, both at the static equilibrium under gravity.
@@ -253,6 +260,7 @@ def simulate(
         moment_max=moment_max,
         test_fraction=test_fraction,
         gravity=None if gravity is None else gravity_vector(gravity),
+        plan=None if plan is None else _planned_rows(plan),
     )
     return Campaign(
         measurements=Measurements._from_core(d),
@@ -263,6 +271,22 @@ def simulate(
         truth=json.loads(d["truth"]),
         spec=json.loads(d["spec"]),
     )
+
+
+def _planned_rows(plan: Any) -> Any:
+    """``(q, wrench, pose)`` of a :class:`Plan` or of a 3-tuple, as float64 and int64 arrays."""
+    if all(hasattr(plan, a) for a in ("q", "wrench", "pose")):
+        q, wrench, pose = plan.q, plan.wrench, plan.pose
+    elif isinstance(plan, (tuple, list)) and len(plan) == 3:
+        q, wrench, pose = plan
+    else:
+        raise ArgumentTypeError(
+            f"plan must be a Plan of design() or a tuple (q, wrench, pose), got {type(plan).__name__}"
+        )
+    ids = np.asarray(pose)
+    if ids.dtype.kind not in "iu":
+        raise ArgumentTypeError(f"plan pose must be integer pose ids, got dtype {ids.dtype}")
+    return f64(q, "plan q"), f64(wrench, "plan wrench"), np.ascontiguousarray(ids, dtype=np.int64)
 
 
 @checked

@@ -2,10 +2,13 @@
 
 Subcommands (``robot-stiffness COMMAND --help`` for each):
 
-* ``simulate vjm OUT.csv`` — a virtual measurement campaign on a robot with hidden effects;
+* ``design vjm --out PLAN.csv`` — plan a campaign's poses and wrenches;
+* ``simulate vjm --out OUT.csv`` — a virtual measurement campaign on a robot with hidden effects;
 * ``identify vjm DATA.csv`` / ``identify csjm DATA.csv`` — identify compliances / stiffness;
-* ``simulate csjm OUT.csv`` / ``diagnose csjm DATA.csv`` — the same for a cable-driven joint;
+* ``simulate csjm --out OUT.csv`` / ``diagnose csjm DATA.csv`` — the same for a cable-driven joint;
 * ``diagnose vjm DATA.csv`` — what the baseline model gets wrong, the cause, the gain;
+* ``predict vjm MODEL.json POSES.csv`` / ``compensate vjm MODEL.json TRAJ.csv`` — use a saved
+  stiffness model: predicted deflections, corrected joint targets;
 * ``demo`` — simulate → diagnose → report on the bundled arm, in under a minute.
 
 Every output path is checked before the computation starts; outputs are staged under
@@ -32,7 +35,7 @@ from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequ
 
 from . import __version__, cli_model
 from . import _cli_types as T
-from ._errors import DataFileError, StiffnessError, SuspiciousDataWarning, reworded
+from ._errors import DataFileError, StiffnessError, SuspiciousDataWarning, reworded, rows_are_file_lines
 from ._interrupt import (
     Cancelled,
     Terminated,
@@ -60,15 +63,19 @@ Measurement files are CSV with a header, SI units (m, rad, N, N·m), base-frame 
   CSJM: r11..r33 (platform orientation, row-major), tx,ty,tz (moment in the platform frame),
         ref (1 on the reference row)
 
-Examples:
+Examples (a serial arm: plan → measure → identify → use):
   robot-stiffness demo
-  robot-stiffness simulate vjm campaign.csv --effect joint_tilt:joint=3,axis=x,compliance=5e-5
-  robot-stiffness identify vjm campaign.csv --model extended --json id.json
+  robot-stiffness design vjm --poses 24 --out plan.csv       (measure at its rows: fill dx,dy,dz)
+  robot-stiffness simulate vjm --out campaign.csv --effect joint_tilt:joint=3,axis=x,compliance=5e-5
+  robot-stiffness identify vjm campaign.csv --model extended --json id.json --save model.json
   robot-stiffness diagnose vjm campaign.csv --json diagnosis.json --report report/
-  robot-stiffness simulate csjm csjm.csv --effect cable_hysteresis:friction=2
+  robot-stiffness predict vjm model.json poses.csv --out pred.csv --payload 2.5
+  robot-stiffness compensate vjm model.json trajectory.csv --out corrected.csv
+  robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
+A cable-driven spherical joint:
+  robot-stiffness simulate csjm --out csjm.csv --effect cable_hysteresis:friction=2
   robot-stiffness identify csjm csjm.csv --json k.json
   robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
-  robot-stiffness identify vjm data.csv --urdf arm.urdf --base base_link --tip tool0 --json id.json
 
 Gravity: simulate, identify, diagnose, predict, compensate and demo model the arm's own weight (link
 masses from the URDF's <inertial> elements) under 9.80665 m/s² along −z of the base by default
@@ -176,19 +183,47 @@ def _robot(args: argparse.Namespace) -> Any:
             raise CliError("--base needs --urdf (the bundled arm's base is panda_link0)")
         return Robot.bundled(args.tip)
     if not args.base or not args.tip:
-        raise CliError("--urdf needs both --base LINK and --tip LINK")
+        raise CliError("--urdf needs both --base LINK and --tip LINK (only predict and compensate take them "
+                       "from the model file)")
     _check_input(args.urdf, "--urdf")
     return Robot.from_urdf(args.urdf, args.base, args.tip)
 
 
-#: The Python spelling of an option in a core message → the flag of the command line.
+_NOT_THE_PANDA = re.compile(r"joint columns but the chain has (\d+) actuated joints|outside the joint's limits")
+
+
+@contextlib.contextmanager
+def _bundled_hint(args: argparse.Namespace) -> Iterator[None]:
+    """Data that do not fit the bundled Panda, which a command without ``--urdf`` (and without a
+    model file naming its robot) falls back to: the error says so and how to name another arm,
+    besides the advice about the data themselves (``--allow-outside-limits``)."""
+    try:
+        yield
+    except (StiffnessError, CliError) as e:
+        text = str(e)
+        m = _NOT_THE_PANDA.search(text)
+        if m is None or getattr(args, "urdf", "") is not None or getattr(args, "model_file", None):
+            raise
+        tip = getattr(args, "tip", None)
+        joints = f"{m.group(1)} joints" if m.group(1) else ("7 joints" if tip is None else f"tip {tip}")
+        raise type(e)(f"{text}; this is the bundled Panda ({joints}, no --urdf given): pass --urdf ROBOT.urdf "
+                      "--base LINK --tip LINK for another arm") from None
+
+
+#: The Python spelling of an option in a message (the Python API's errors name its arguments,
+#: ``crates/py-bindings/src/errors.rs`` words the core's advice so) → the command line's flag.
 CLI_NAMES = {
     "project=True": "--project",
     "RotationPolicy::Project": "--project",
     # A link without <inertial> while gravity is on (every command that models the weight).
     "(or turn gravity off)": "(or pass --no-gravity for a weightless arm)",
     "or turn gravity off": "or pass --no-gravity for a weightless arm",
+    "gravity=None": "--no-gravity",
     "(load_only=True)": "(--load-only)",
+    # Joint angles outside the URDF limits.
+    "allow_outside_limits=True": "--allow-outside-limits",
+    # A model file of another schema, or edited.
+    "identify again and save the model (Identification.save)": "identify again with --save",
 }
 
 
@@ -222,9 +257,10 @@ def _data_file(path: str) -> Iterator[None]:
 
 
 def _model_spec(text: str) -> Any:
-    if text in ("traditional", "extended"):
-        return text
-    return [s.strip() for s in text.split(",") if s.strip()]
+    """A ``--model``/``--baseline`` value: the one model vocabulary, read by the core
+    (``traditional``, ``extended``, ``J1z,J2x``, ``traditional + joint_tilt(J3x)`` as diagnose
+    prints it)."""
+    return text
 
 
 # ----------------------------------------------------------------------------- simulate
@@ -308,37 +344,79 @@ def _effect_errors(specs: Sequence[str]) -> Iterator[None]:
         raise CliError(f"--effect {specs[int(m.group(1))]!r}: {rest}") from None
 
 
+def _table_out(args: argparse.Namespace) -> str:
+    """The table a command writes: ``--out``, or the deprecated positional ``OUT.csv`` (warns)."""
+    if args.out_positional is not None and args.out is not None:
+        raise CliError(f"the output is given twice ({args.out_positional} and --out {args.out}): give --out only")
+    if args.out_positional is not None:
+        print(f"warning: the positional OUT.csv is deprecated; write --out {args.out_positional}",
+              file=sys.stderr)
+        return str(args.out_positional)
+    if args.out is None:
+        raise CliError("--out OUT.csv is required (the measurement file to write)")
+    return str(args.out)
+
+
+#: Flags of ``simulate vjm`` that draw the rows, which a plan gives instead.
+_DRAW_FLAGS = (("poses", "--poses"), ("wrenches_per_pose", "--wrenches-per-pose"),
+               ("force_max", "--force-max"), ("moment_max", "--moment-max"))
+
+
+def _plan_rows(path: str, robot: Any) -> Tuple[Any, Any, Any]:
+    """``(q, wrench, pose)`` of a plan (``design``'s PLAN.csv, or any table with q1..qn and
+    fx..mz); without a ``pose`` column, consecutive rows at the same joint angles are one pose."""
+    import numpy as np
+
+    from ._use_tables import read_plan
+
+    _check_input(path, "--plan")
+    with _data_file(path):
+        q, wrench, pose = read_plan(path, robot)
+    if wrench is None:
+        raise CliError(f"--plan {path}: missing columns fx,fy,fz,mx,my,mz (a plan gives the wrench of every row)")
+    if pose is None:
+        changes = np.any(q[1:] != q[:-1], axis=1)
+        pose = np.concatenate([[0], np.cumsum(changes)]).astype(np.int64)
+    return q, wrench, pose
+
+
 def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
+    import numpy as np
+
     from .vjm import simulate
 
-    rows = args.poses * args.wrenches_per_pose
-    if rows > T.MAX_ROWS:
-        raise CliError(f"--poses {args.poses} × --wrenches-per-pose {args.wrenches_per_pose} = {rows} rows; "
-                       f"at most {T.MAX_ROWS} rows are simulated at once")
-    csv_out = out.file(args.out)
-    truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
+    path = _table_out(args)
     robot = _robot(args)
+    plan = None
+    if args.plan is not None:
+        given = [flag for name, flag in _DRAW_FLAGS if getattr(args, name) is not None]
+        if given:
+            raise CliError(f"--plan gives the poses and wrenches: drop {', '.join(given)}")
+        plan = _plan_rows(args.plan, robot)
+        size = f"{len(np.unique(plan[2]))} poses of the plan {args.plan}"
+    else:
+        poses = 40 if args.poses is None else args.poses
+        per_pose = 4 if args.wrenches_per_pose is None else args.wrenches_per_pose
+        rows = poses * per_pose
+        if rows > T.MAX_ROWS:
+            raise CliError(f"--poses {poses} × --wrenches-per-pose {per_pose} = {rows} rows; "
+                           f"at most {T.MAX_ROWS} rows are simulated at once")
+        size = f"{poses} poses × {per_pose} wrenches"
+    csv_out = out.file(path, "--out")
+    truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
     specs = list(args.effect or [])
     effects = [parse_effect(e) for e in specs]
+    draw = {} if plan is not None else {"n_poses": poses, "wrenches_per_pose": per_pose,
+                                        "force_max": args.force_max, "moment_max": args.moment_max}
     with _effect_errors(specs):
-        c = in_worker(
-            simulate,
-            robot,
-            effects,
-            n_poses=args.poses,
-            wrenches_per_pose=args.wrenches_per_pose,
-            seed=args.seed,
-            noise=not args.no_noise,
-            force_max=args.force_max,
-            moment_max=args.moment_max,
-            gravity=_gravity(args),
-        )
+        c = in_worker(simulate, robot, effects, seed=args.seed, noise=not args.no_noise,
+                      gravity=_gravity(args), plan=plan, **draw)
     csv_out.write_text(c.csv)
     if truth_out is not None:
         truth_out.write_text(_json_text({"truth": c.truth, "spec": c.spec}))
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none (torsional springs only)"
-    print(f"wrote {args.out}: {len(c.measurements)} rows ({args.poses} poses × {args.wrenches_per_pose} wrenches), "
+    print(f"wrote {path}: {len(c.measurements)} rows ({size}), "
           f"seed {args.seed}, {_gravity_words(_gravity(args))}, hidden effects: {names}")
     return 0
 
@@ -346,7 +424,8 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
 def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import simulate as simulate_csjm
 
-    csv_out = out.file(args.out)
+    path = _table_out(args)
+    csv_out = out.file(path, "--out")
     truth_out = out.file(args.truth, "--truth") if args.truth is not None else None
     specs = list(args.effect or [])
     effects = [parse_effect(e) for e in specs]
@@ -358,7 +437,7 @@ def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
         truth_out.write_text(_json_text({"K": c.true_K, "K_D": c.true_K_D, "R0": c.true_R0, "effects": effects}))
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none"
-    print(f"wrote {args.out}: CSJM campaign, seed {args.seed}, hidden effects: {names}")
+    print(f"wrote {path}: CSJM campaign, seed {args.seed}, hidden effects: {names}")
     return 0
 
 
@@ -373,36 +452,45 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
     robot = _robot(args)
     with _data_file(args.data):
         data = in_worker(read_measurements, args.data, robot.n_joints)
-    res = in_worker(
-        robot.identify,
-        data.q,
-        data.wrench,
-        data.displacement,
-        _model_spec(args.model),
-        rotation=data.rotation if args.use_rotations else None,
-        nonnegative=args.nonnegative,
-        method=args.method,
-        data_file=args.data,
-        robust_covariance=save_out is not None,
-        allow_outside_limits=args.allow_outside_limits,
-        gravity=_gravity(args),
-    )
+    with warnings.catch_warnings():
+        if args.quiet:  # nothing but errors; the warnings stay in the result (--json "warnings")
+            warnings.simplefilter("ignore", SuspiciousDataWarning)
+        res = in_worker(
+            robot.identify,
+            data.q,
+            data.wrench,
+            data.displacement,
+            _model_spec(args.model),
+            rotation=data.rotation if args.use_rotations else None,
+            nonnegative=args.nonnegative,
+            method=args.method,
+            data_file=args.data,
+            robust_covariance=save_out is not None,
+            allow_outside_limits=args.allow_outside_limits,
+            gravity=_gravity(args),
+        )
     doc = res.to_dict()
     if json_out is not None:
         json_out.write_text(_json_text(doc))
     cli_model.write_model(save_out, res)
     out.commit()
+    if args.quiet:
+        return 0
     print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements "
           f"({_gravity_words(_gravity(args))})")
-    for label, c, s, ok in zip(res.labels, res.compliance, res.stderr, res.identifiable):
+    for label, c, s, ok, weak in zip(res.labels, res.compliance, res.stderr, res.identifiable, res.weak):
         if ok:
-            print(f"  {label:>5}  {c: .4e} ± {s:.1e} rad/(N·m)")
+            print(f"  {label:>5}  {c: .4e} ± {s:.1e} rad/(N·m)" + ("  weak" if weak else ""))
         else:
             print(f"  {label:>5}  not identifiable alone")
     if res.rank < res.n_params:
         print("identifiable combinations:")
         for comb in res.combinations:
-            print(f"  {comb.label} = {comb.value:.4e}")
+            print(f"  {comb.label} = {comb.value:.4e} ± {comb.stderr:.1e}" + ("  weak" if comb.weak else ""))
+    n_weak = sum(1 for comb in res.combinations if comb.weak)
+    if n_weak:
+        print(f"weak: {n_weak} of {res.rank} combinations have a standard error above their value or above "
+              "1e-2 rad/(N·m): the data do not determine them; predict and compensate use what they determine")
     return 0
 
 
@@ -451,8 +539,13 @@ def _clear_progress(show: bool) -> None:
         sys.stderr.flush()
 
 
-def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
+def _diagnose(robot: Any, data: Any, args: argparse.Namespace, per_row: Optional[bool] = None) -> Any:
+    """``vjm.diagnose`` with the command's options; ``per_row`` (default: when ``--rows`` or
+    ``--report`` will use them) keeps the per-row predictions the residual plot draws."""
     from .vjm import diagnose
+
+    if per_row is None:
+        per_row = getattr(args, "rows", None) is not None or getattr(args, "report", None) is not None
 
     show = _show_progress(args)
     try:
@@ -469,8 +562,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace) -> Any:
             force_sigma=getattr(args, "force_sigma", None),
             moment_sigma=getattr(args, "moment_sigma", None),
             gravity=_gravity(args),
-            # Per-row predictions only when something will use them.
-            per_row=getattr(args, "rows", None) is not None or getattr(args, "report", None) is not None,
+            per_row=per_row,  # per-row predictions only when something will use them
         )
     finally:
         _clear_progress(show)
@@ -509,11 +601,20 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
 
     json_out = out.file(args.json, "--json") if args.json is not None else None
     rows_out = out.file(args.rows, "--rows") if args.rows is not None else None
+    save_out = cli_model.claim_save(args, out)
     report_dir = _report_dir(out, args, REPORT_FILES)
     robot = _robot(args)
     with _data_file(args.data):
         data = in_worker(read_measurements, args.data, robot.n_joints)
     result = _diagnose(robot, data, args)
+    saved = None
+    if save_out is not None:
+        from .vjm import diagnosed_model
+
+        with _data_file(args.data):
+            saved = in_worker(diagnosed_model, robot, data, result, gravity=_gravity(args), data_file=args.data,
+                              allow_outside_limits=args.allow_outside_limits)
+        cli_model.write_model(save_out, saved.identification)
     _write_diagnosis(result, json_out, rows_out)
     if report_dir is not None:
         _render(result, report_dir, args, source=str(args.data))
@@ -522,6 +623,11 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
         print(line)
     if args.report:
         print(f"report: {Path(args.report) / 'report.md'}")
+    if saved is not None:
+        fixes = "".join(f"; {k} taken out of the rows" for k in saved.corrected)
+        print(f"saved {args.save}: springs {saved.springs} identified on all {len(data)} rows{fixes}")
+        for label, why in saved.left_out:
+            print(f"  not in the saved model: {label} ({why})")
     return 0
 
 
@@ -601,7 +707,8 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     gravity = _gravity(args)
     campaign = in_worker(simulate, robot, DEMO_EFFECTS, n_poses=40, wrenches_per_pose=4, seed=args.seed,
                          gravity=gravity)
-    result = _diagnose(robot, campaign.measurements, args)
+    # The report's residual plot draws the per-row predictions: keep them.
+    result = _diagnose(robot, campaign.measurements, args, per_row=True)
     study = in_worker(seed_study, robot, seed=args.seed)
     structural = in_worker(seed_study, robot, links=True, seed=args.seed)
     (staged / "campaign.csv").write_text(campaign.csv, encoding="utf-8")
@@ -638,6 +745,11 @@ FORCE_HELP = (
     "robot-stiffness wrote there earlier (listed in its signed .robot-stiffness-manifest.json), "
     "every other file is left alone"
 )
+
+
+def _add_table_out(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", metavar="OUT.csv", help="measurement file to write (required)")
+    parser.add_argument("out_positional", nargs="?", metavar="OUT.csv", help=argparse.SUPPRESS)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -682,12 +794,15 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
   joint_torsion_angle_dependent:joint=2,amplitude=0.4 torsion compliance c·(1 + amplitude·sin q_joint)
 """,
     )
-    sv.add_argument("out", metavar="OUT.csv", help="measurement file to write")
+    _add_table_out(sv)
     _add_robot_args(sv)
     sv.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect in the truth (repeatable)")
-    sv.add_argument("--poses", type=T.count(2, T.MAX_POSES), default=40,
+    sv.add_argument("--plan", metavar="PLAN.csv",
+                    help="measure at the poses and wrenches of this plan (design vjm --out PLAN.csv; any table "
+                    "with q1..qn, fx..mz and optionally pose) instead of random ones")
+    sv.add_argument("--poses", type=T.count(2, T.MAX_POSES), default=None,
                     help=f"number of configurations, 2..{T.MAX_POSES} (default 40)")
-    sv.add_argument("--wrenches-per-pose", type=T.count(1, T.MAX_WRENCHES_PER_POSE), default=4,
+    sv.add_argument("--wrenches-per-pose", type=T.count(1, T.MAX_WRENCHES_PER_POSE), default=None,
                     help=f"wrenches per configuration, 1..{T.MAX_WRENCHES_PER_POSE}; poses × wrenches ≤ "
                     f"{T.MAX_ROWS} (default 4)")
     sv.add_argument("--force-max", type=T.positive_float(T.MAX_FORCE, "N"), default=None,
@@ -714,7 +829,7 @@ effects (--effect NAME:key=value,...):
   cable_nonlinearity:k2=2e6              cable law t = k e + k2 e², N/m²
 """,
     )
-    sc.add_argument("out", metavar="OUT.csv", help="measurement file to write")
+    _add_table_out(sc)
     sc.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect (repeatable)")
     sc.add_argument("--increments", type=T.count(3, T.MAX_INCREMENTS), default=None,
                     help=f"load increments, 3..{T.MAX_INCREMENTS} (default 85, as the seed)")
@@ -740,8 +855,7 @@ effects (--effect NAME:key=value,...):
     )
     iv.add_argument("data", metavar="DATA.csv", help="VJM measurement file")
     _add_robot_args(iv)
-    iv.add_argument("--model", default="traditional",
-                    help="traditional (torsion only), extended (3 springs per joint) or labels like J1z,J2x (default traditional)")
+    iv.add_argument("--model", default="traditional", help=T.MODEL_HELP)
     iv.add_argument("--use-rotations", action="store_true", help="also use the rx,ry,rz columns")
     iv.add_argument("--allow-outside-limits", action="store_true",
                     help="accept joint angles outside the URDF limits (refused by default: degrees or a wrong "
@@ -753,6 +867,9 @@ effects (--effect NAME:key=value,...):
     _add_gravity_args(iv)
     cli_model.add_save_option(iv)
     iv.add_argument("--force", action="store_true", help=FORCE_HELP)
+    iv.add_argument("--quiet", action="store_true",
+                    help="print nothing but errors (no summary, no warning lines: the warnings stay in --json); "
+                    "the exit status is unchanged")
     iv.set_defaults(func=cmd_identify_vjm)
     ic = ide_sub.add_parser(
         "csjm",
@@ -782,7 +899,7 @@ effects (--effect NAME:key=value,...):
     )
     dv.add_argument("data", metavar="DATA.csv", help="VJM measurement file")
     _add_robot_args(dv)
-    dv.add_argument("--baseline", default=None, help="baseline model (default traditional)")
+    dv.add_argument("--baseline", default=None, help="baseline " + T.MODEL_HELP)
     dv.add_argument("--fdr", type=T.probability, default=None,
                     help="false discovery rate, between 0 and 1 (default 0.01)")
     dv.add_argument("--split-seed", type=T.seed, default=None,
@@ -790,6 +907,9 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON (a summary: no per-row data)")
     dv.add_argument("--rows", metavar="ROWS.csv", help=ROWS_HELP)
     dv.add_argument("--report", metavar="DIR", help=REPORT_HELP)
+    dv.add_argument("--save", metavar="MODEL.json",
+                    help="save the springs of the model the diagnosis found (baseline + tilts) identified on every row, "
+                    "wrench bias and tracker-frame rotation taken out, as a model file for predict and compensate")
     dv.add_argument("--force", action="store_true", help=FORCE_HELP)
     dv.add_argument("--quiet", action="store_true", help="no progress display")
     dv.add_argument("--allow-outside-limits", action="store_true",
@@ -903,7 +1023,9 @@ def _run(args: argparse.Namespace) -> int:
         try:
             for path, what in cli_model.named_inputs(args):  # the URDF and data a model file names
                 out.add_input(path, what)
-            with reworded(CLI_NAMES):  # the core's Python terms as the command line's flags
+            # The core's Python terms as the command line's flags; the arrays a command passes
+            # on are a CSV file's rows, named by file line.
+            with _bundled_hint(args), reworded(CLI_NAMES), rows_are_file_lines():
                 return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:
             with signals_deferred():

@@ -44,9 +44,12 @@ Parquet (.parquet, .pq) or Arrow IPC (.arrow, .feather, .ipc) POSES and PRED fil
 written with pyarrow (the [parquet] extra), told by the file name, with the same columns: an
 empty CSV cell is NaN there.
 
-The robot defaults to the one recorded in the model file (its URDF path, base and tip); --urdf,
---base, --tip override it. Either way the model file is checked against it (URDF SHA-256, links,
-joints, content hash) and refused if it does not match or was edited.
+The robot defaults to the one recorded in the model file (its URDF path, base and tip): the URDF
+is looked for at its recorded absolute path, then relative to the model file's folder (a folder
+moved together with its URDF), then as recorded relative to the current folder (older files).
+--urdf, --base, --tip override it; --urdf alone takes base and tip from the model file. Either
+way the model file is checked against it (URDF SHA-256, links, joints, content hash) and refused
+if it does not match or was edited.
 
 Example:
   robot-stiffness identify vjm campaign.csv --model extended --save model.json
@@ -69,9 +72,10 @@ def claim_save(args: argparse.Namespace, out: Any) -> Any:
 
 
 def write_model(staged: Any, result: Any) -> None:
-    """Fills the reserved ``--save`` output with the model file of ``result`` (an Identification)."""
+    """Fills the reserved ``--save`` output with the model file of ``result`` (an Identification),
+    recording the URDF relative to the file's final place (``urdf_relative``)."""
     if staged is not None:
-        staged.write_text(result.stiffness_model.to_json())
+        staged.write_text(result.stiffness_model._text_at(staged.final))
 
 
 # The running CLI module (robot_stiffness.cli, or __main__ under `python -m`): its helpers and
@@ -132,15 +136,22 @@ def _parse_payload(text: str) -> List[float]:
 
 
 def _recorded_robot(path: str) -> Optional[dict]:
-    """The ``robot`` record of a model file, or None when the file cannot be read as one (the
-    loader then reports what is wrong). The core reads it with the loader's size and nesting
-    bounds: Python's ``json`` recurses (RecursionError on 200 000 nested ``[``)."""
+    """The ``robot`` record of a model file (``urdf``, ``base``, ``tip``) with where its URDF
+    is: ``found``, the file to load (None when absent from every place ``tried``), or None when
+    the file cannot be read as one (the loader then reports what is wrong). The core reads it
+    with the loader's size and nesting bounds: Python's ``json`` recurses (RecursionError on
+    200 000 nested ``[``); it looks for the URDF at the recorded absolute path, relative to the
+    model file's folder (``urdf_relative``), then as recorded relative to the current folder,
+    preferring a file with the recorded content (vjm::stiffness_model::RecordedRobot)."""
     from . import _core
 
     if not Path(path).is_file():  # a FIFO would block; a folder or a missing file is reported later
         return None
     rec = _core.vjm_model_file_robot(path)
-    return None if rec is None else {"urdf": rec[0], "base": rec[1], "tip": rec[2]}
+    if rec is None:
+        return None
+    urdf, base, tip, found, tried = rec
+    return {"urdf": urdf, "base": base, "tip": tip, "found": found, "tried": list(tried)}
 
 
 def _recorded_data(path: str) -> List[str]:
@@ -167,30 +178,43 @@ def named_inputs(args: argparse.Namespace) -> List[Tuple[str, str]]:
     robot = _recorded_robot(model_file)
     if robot is None:
         return []
-    urdf = recorded_urdf(robot)
+    urdf = robot.get("found") or recorded_urdf(robot)  # the one loaded, else the one recorded
     named = [] if urdf is None else [(urdf, f"the URDF {model_file} names")]
     named += [(d, f"the data {model_file} was identified from") for d in _recorded_data(model_file)]
     return named
 
 
 def _robot_for(args: argparse.Namespace) -> Any:
+    """The robot of ``predict``/``compensate``: the one the model file records (its URDF found
+    as :func:`_recorded_robot` says), ``--urdf`` alone with the recorded base and tip, or
+    ``--urdf/--base/--tip`` (``--base``/``--tip`` without ``--urdf``: the bundled arm)."""
     from .vjm import Robot
 
-    if args.urdf is not None or args.base is not None or args.tip is not None:
+    if args.base is not None or args.tip is not None:
         return _CLI._robot(args)
     rec = _recorded_robot(args.model_file)
+    if args.urdf is not None:
+        if rec is None:
+            raise _CLI.CliError(
+                f"--urdf needs --base LINK and --tip LINK here: {args.model_file} has no readable robot record "
+                "to take them from"
+            )
+        _CLI._check_input(args.urdf, "--urdf")
+        return Robot.from_urdf(args.urdf, str(rec["base"]), str(rec["tip"]))
     if rec is None:
         return Robot.bundled()
     urdf, base, tip = recorded_urdf(rec), rec.get("base"), rec.get("tip")
     if rec.get("urdf") == BUNDLED_URDF_PATH:
         return Robot.bundled(tip)
+    give = f"give --urdf ROBOT.urdf (base {base} and tip {tip} are taken from {args.model_file})"
     if not urdf:
-        raise _CLI.CliError(f"{args.model_file} records no URDF path: give --urdf, --base and --tip")
-    if not Path(urdf).is_file():
+        raise _CLI.CliError(f"{args.model_file} records no URDF path: {give}")
+    if rec.get("found") is None:
+        tried = ", ".join(rec.get("tried") or [urdf])
         raise _CLI.CliError(
-            f"{args.model_file} was identified on {urdf}, which does not exist here: give --urdf, --base and --tip"
+            f"{args.model_file} was identified on {urdf}, which does not exist here (looked for {tried}): {give}"
         )
-    return Robot.from_urdf(urdf, str(base), str(tip))
+    return Robot.from_urdf(rec["found"], str(base), str(tip))
 
 
 def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:

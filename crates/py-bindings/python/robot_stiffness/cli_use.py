@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 from typing import Any
 
 import numpy as np
@@ -37,8 +36,7 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
         "standard error of every combination; PLAN.csv is a measurement file with empty dx,dy,dz.",
     )
     add_robot_args(dv)
-    dv.add_argument("--model", default="extended",
-                    help="traditional, extended or labels like J1z,J2x (default extended)")
+    dv.add_argument("--model", default="traditional", help=T.MODEL_HELP)
     dv.add_argument("--poses", type=T.count(1, 10000), default=24, help="number of poses (default 24)")
     dv.add_argument("--wrenches-per-pose", type=T.count(1, 100), default=4,
                     help="wrenches per pose (default 4); poses × wrenches at most 100000")
@@ -85,6 +83,9 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
                     "degrees or a wrong joint order?)")
     cv.add_argument("--out", required=True, metavar="COMP.csv", help="corrected targets and per-row outcome")
     cv.add_argument("--plot", metavar="FILE.png", help="deflection along the trajectory before/after (PNG)")
+    cv.add_argument("--keep-going", action="store_true",
+                    help="exit 0 even when some rows do not converge (by default the file is written and the exit "
+                    "status is 1)")
     cv.add_argument("--force", action="store_true", help=force_help)
     cv.set_defaults(func=cmd_compensate_vjm)
 
@@ -95,7 +96,7 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
 
     plan_out = out.file(args.out, "--out")
     robot = _robot(args)
-    model: Any = args.model if args.model in ("traditional", "extended") else args.model.split(",")
+    model: Any = args.model  # the one model vocabulary, read by the core
     show = _show_progress(args)
     try:
         # The callback shows progress on a terminal and stops the core once Ctrl-C was seen.
@@ -111,8 +112,13 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
     print(NOISE_LINE + ".")
     print("Predicted standard error of every identifiable combination (rad/(N·m)):")
     for c in plan.combinations:
-        print(f"  {c.label:<40} {c.stderr:.3e}")
+        print(f"  {c.label:<40} {c.stderr:.3e}" + ("  weak" if c.weak else ""))
     print(f"worst: {plan.worst_stderr:.3e}; written {args.out}")
+    weak = [c.label for c in plan.combinations if c.weak]
+    if weak:
+        print(f"warning: {len(weak)} combination(s) left weak (predicted standard error above the size the prior gives "
+              f"them or above 1e-2 rad/(N·m)): the identification will not tell them from 0; plan more poses or "
+              f"wrenches, or a model without them. predict and compensate use only what the data determine.")
     need = plan.pose_compliance_wrenches
     if args.wrenches_per_pose >= need:
         print(f"diagnose can test whether the compliance changes from pose to pose (pose_compliance block: "
@@ -184,14 +190,22 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     for s in comp.status:
         counts[s] = counts.get(s, 0) + 1
     ok = np.array([s == "converged" for s in comp.status])
-    before = float(np.mean(comp.deflection)) * 1e3
-    after = float(np.max(comp.position_error[ok])) * 1e3 if ok.any() else math.nan
+    before = comp.deflection[np.isfinite(comp.deflection)]
+    mean_before = f"{float(np.mean(before)) * 1e3:.4f} mm" if before.size else "not available (no row settled)"
+    after = (f"{float(np.max(comp.position_error[ok])) * 1e3:.2e} mm" if ok.any() else "none (no row converged)")
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
     what = "the load's deflection only" if args.load_only or args.no_gravity else "own weight + load"
-    print(f"Compensated {len(comp.status)} rows ({what}): {summary}. Mean predicted deflection {before:.4f} mm; "
-          f"largest predicted remaining error of the converged rows {after:.2e} mm. Written {args.out}"
+    print(f"Compensated {len(comp.status)} rows ({what}): {summary}. Mean predicted deflection {mean_before}; "
+          f"largest predicted remaining error of the converged rows {after}. Written {args.out}"
           + (f" and {args.plot}" if args.plot else "") + ".")
     bad = [i for i, s in enumerate(comp.status) if s != "converged"]
     for i in bad[:5]:
         print(f"  row {i + 1}: {comp.status[i]}" + (f" (joint {comp.limit_joint[i] + 1})" if comp.limit_joint[i] >= 0 else ""))
+    if bad and not args.keep_going:
+        # The file is written (every row with its status); the exit status tells a script.
+        statuses = ", ".join(sorted({comp.status[i] for i in bad}))
+        raise cli_model._CLI.CliError(
+            f"{len(bad)} of {len(comp.status)} rows are not converged within the limits ({statuses}); "
+            f"{args.out} has every row with its status: pass --keep-going to accept that (exit 0)"
+        )
     return 0

@@ -58,11 +58,11 @@ BUNDLED_URDF_PATH = "bundled:panda_arm.urdf"
 
 
 def recorded_urdf(robot: Optional[Dict[str, Any]]) -> Optional[str]:
-    """The URDF file a model's ``robot`` record names, as the CLI's loader opens it (the
-    recorded path as given, so a relative one is relative to the current folder); None for the
-    bundled arm, URDF text given directly, or no record. The CLI loads the robot from it and
-    protects it as an input of ``predict``/``compensate``; :meth:`StiffnessModel.save` never
-    writes over it: one rule for the three."""
+    """The URDF file a model's ``robot`` record names: the absolute path recorded when the model
+    was built (older files: the path as given, relative to the current folder); None for the
+    bundled arm, URDF text given directly, or no record. :meth:`StiffnessModel.save` never
+    writes over it; the CLI protects it as an input of ``predict``/``compensate`` unless it
+    found the URDF elsewhere (relative to the model file: ``urdf_relative``), then that one."""
     urdf = robot.get("urdf") if isinstance(robot, dict) else None
     if not isinstance(urdf, str) or not urdf or urdf == BUNDLED_URDF_PATH:
         return None
@@ -149,7 +149,7 @@ class StiffnessModel:
         out = Outputs(inputs=[] if urdf is None else [(urdf, "the URDF this model names")], force=force,
                       hint="force=True")
         try:
-            out.file(path).write_text(self.to_json())
+            out.file(path).write_text(self._text_at(path))
             out.commit()
         finally:
             out.discard()
@@ -157,6 +157,11 @@ class StiffnessModel:
     def to_json(self) -> str:
         """The model file's text."""
         return str(self._inner.to_json())
+
+    def _text_at(self, path: PathLike) -> str:
+        """The text of the model file at ``path``: :meth:`to_json` with ``urdf_relative``, the
+        URDF's path relative to the folder of ``path`` (``docs/model-file.md``)."""
+        return str(self._inner.to_json_at(os.fspath(path)))
 
     def __eq__(self, other: object) -> bool:
         # The model file's text is the model (it names the robot by its URDF hash, base and tip).
@@ -190,6 +195,14 @@ class StiffnessModel:
     def rank(self) -> int:
         """Number of identifiable combinations."""
         return int(self._inner.rank)
+
+    @property
+    def determined_compliance(self) -> npt.NDArray[np.float64]:
+        """What the data determine, rad/(N·m) per spring (parameter order): the stored
+        compliances without their weak directions — those whose standard error exceeds their
+        magnitude or 1e-2 rad/(N·m). What :meth:`predict`, :meth:`predict_sag` and
+        :meth:`compensate` use (docs/vjm.md, weak estimates)."""
+        return np.array(self._inner.determined_compliance, dtype=np.float64)
 
     @property
     def gravity(self) -> Optional[Tuple[float, float, float]]:
@@ -280,9 +293,9 @@ class StiffnessModel:
         ``q``: joint angles in rad, (n,) or (N, n); ``gravity`` in m/s², base frame (default
         ``"recorded"``: :attr:`gravity`, the one the model was identified under, or 9.80665
         along −z when it records none); ``payload`` as for :meth:`predict`. The link masses come from the
-        robot's URDF inertials. ``deflection`` is the exact static equilibrium with the model's
-        springs (its first-order part ``J C τ_g`` when the stored compliances are not all ≥ 0,
-        as for a model with aliased springs); ``stddev``, ``identified`` and ``excitation`` are
+        robot's URDF inertials. ``deflection`` is the exact static equilibrium with what the
+        data determine (:attr:`determined_compliance`; a model with aliased springs may store
+        negative entries, which the equilibrium accepts); ``stddev``, ``identified`` and ``excitation`` are
         those of ``J C τ_g``: a pose whose weight loads a direction the identification did not
         see is flagged. ``wrench`` is zero.
         """

@@ -260,6 +260,10 @@ def _plot_rows(result: Diagnosis, path: _Target) -> None:
     xlabel = "measurement row"
     for ax, err, which, model in ((axes[0], residuals[0], "baseline", result.baseline.model),
                                   (axes[1], residuals[1], "extended", result.extended.model)):
+        if len(err) == 0:
+            # Never a silently empty panel: say why nothing is drawn.
+            ax.text(0.5, 0.5, "no per-row data in this diagnosis (diagnose with per_row=True)",
+                    transform=ax.transAxes, ha="center", va="center", fontsize=9, color="dimgray")
         xlabel = _row_panel(ax, err, test)
         ax.set_ylim(bottom=0.0)
         ax.set_ylabel(ylabel)

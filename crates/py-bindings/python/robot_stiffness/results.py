@@ -545,6 +545,8 @@ class Verdict(_Result):
     goodness_of_fit: Optional[ChiSquareTest]
     alpha: float
     blocks: List[BlockTest]
+    #: What remains, in words, when the diagnosis is ``unexplained``; ``None`` (null in the JSON)
+    #: when nothing remains.
     remaining: Optional[str]
 
 

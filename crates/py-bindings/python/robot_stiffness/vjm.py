@@ -60,6 +60,7 @@ from ._vjm_data import (
     simulate,
 )
 from .model import StiffnessModel
+from ._diagnosed_model import DiagnosedModel, diagnosed_model
 from ._identify_partial import IdentificationPartial
 from .results import _build
 from ._use_model import (  # planning and compensation (docs/use-the-model.md)
@@ -94,6 +95,8 @@ __all__ = [
     "read_measurements",
     "simulate",
     "diagnose",
+    "diagnosed_model",
+    "DiagnosedModel",
     "seed_study",
     "SeedStudy",
     "design",
@@ -104,7 +107,8 @@ __all__ = [
     "Compensation",
 ]
 
-#: ``"traditional"``, ``"extended"`` or a sequence of spring labels like ``["J1z", "J2x"]``.
+#: The one model vocabulary: ``"traditional"``, ``"extended"``, ``"J1z,J2x"``, what diagnose prints
+#: (``"traditional + joint_tilt(J3x)"``), or a sequence of spring labels like ``["J1z", "J2x"]``.
 ModelSpec = Union[str, Sequence[str]]
 
 Array = npt.NDArray[np.float64]
@@ -143,6 +147,9 @@ class Combination:
     value: float
     stderr: float
     ci95: Tuple[float, float]
+    #: The standard error exceeds the value or any plausible compliance (1e-2 rad/(N·m)):
+    #: the data do not determine it (``docs/vjm.md``, weak estimates).
+    weak: bool = False
 
 
 @dataclass(frozen=True)
@@ -159,6 +166,8 @@ class IdentifiedParameter:
     stderr: Optional[float]
     ci95: Optional[Tuple[float, float]]
     identifiable: bool
+    #: Identifiable alone but weak: the standard error exceeds the compliance or 1e-2 rad/(N·m).
+    weak: bool = False
 
     @property
     def label(self) -> str:
@@ -184,6 +193,7 @@ class _CoreCombination:
     value: float
     stderr: Optional[float]
     ci95: Optional[Tuple[float, float]]
+    weak: bool = False
 
 
 @dataclass(frozen=True)
@@ -218,6 +228,7 @@ def _json_combination(c: _CoreCombination) -> Dict[str, object]:
         "value": c.value,
         "stderr": c.stderr,
         "ci95": None if c.ci95 is None else list(c.ci95),
+        "weak": c.weak,
     }
 
 
@@ -258,6 +269,9 @@ class Identification(FieldEq):
     sigma2: Optional[float] = field(default=None, repr=False)
     warnings: Tuple[str, ...] = field(default=(), repr=False)
     gravity_iterations: int = field(default=0, repr=False)
+    #: Per parameter: identifiable alone but weak (standard error above the value or above
+    #: 1e-2 rad/(N·m)); each combination has its own ``weak``.
+    weak: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
     stiffness_model: Optional["StiffnessModel"] = field(default=None, repr=False, compare=False)
     _combinations_json: List[Dict[str, object]] = field(default_factory=list, repr=False, compare=False)
 
@@ -286,6 +300,7 @@ class Identification(FieldEq):
                 value=c.value,
                 stderr=np.nan if c.stderr is None else c.stderr,
                 ci95=(np.nan, np.nan) if c.ci95 is None else c.ci95,
+                weak=c.weak,
             )
             for c in core.combinations
         ]
@@ -309,6 +324,7 @@ class Identification(FieldEq):
             sigma2=core.sigma2,
             warnings=tuple(core.warnings),
             gravity_iterations=core.gravity_iterations,
+            weak=np.array([p.weak for p in core.parameters], dtype=bool),
             stiffness_model=model,
             _combinations_json=[_json_combination(c) for c in core.combinations],
         )
@@ -332,6 +348,7 @@ class Identification(FieldEq):
                     "stderr": p.stderr,
                     "ci95": None if p.ci95 is None else list(p.ci95),
                     "identifiable": p.identifiable,
+                    "weak": p.weak,
                 }
                 for p in self.parameters
             ],

@@ -1,10 +1,12 @@
 //! The streaming least-squares factor shared by the identification and the diagnosis: the R of
 //! a tall matrix accumulated block by block (TSQR), mergeable across threads, partitions and
-//! machines.
+//! machines; and what an estimate's data determine ([`WeakDirections`]).
 
 mod accumulator;
+mod weak;
 
 pub use accumulator::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};
+pub use weak::WeakDirections;
 
 /// A slice or factor has the wrong length.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

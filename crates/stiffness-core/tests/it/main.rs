@@ -4,3 +4,4 @@ mod cancel;
 mod decompose;
 mod engine;
 mod table;
+mod weak;

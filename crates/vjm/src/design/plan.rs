@@ -104,6 +104,11 @@ pub struct PlannedCombination {
     pub terms: Vec<CombinationTerm>,
     /// Predicted standard error of the identification's estimate, rad/(N·m).
     pub stderr: f64,
+    /// Whether the plan leaves the combination weak: its predicted standard error exceeds the
+    /// size the prior gives it (Σ |coefficient|·compliance, a tilt taken as large as the
+    /// model's median prior torsion) or any plausible compliance
+    /// ([`crate::screening::is_weak`]): the identification will not tell it from 0.
+    pub weak: bool,
 }
 
 /// The result of [`design`].
@@ -718,13 +723,30 @@ pub fn design_monitored(
     monitor.check()?;
     let terms: Vec<Vec<(usize, f64)>> = combos.iter().map(|c| c.1.clone()).collect();
     let se = predicted_stderr(chain, model, &rows_q, &rows_w, plan_rank, &terms, noise)?;
+    // The size a combination has under the prior, a tilt (prior 0) as large as a typical
+    // torsion: the scale its standard error is judged against.
+    let mut positive: Vec<f64> = noise
+        .prior_compliance
+        .iter()
+        .copied()
+        .filter(|c| *c > 0.0)
+        .collect();
+    positive.sort_by(f64::total_cmp);
+    let typical = positive.get(positive.len() / 2).copied().unwrap_or(0.0);
     let combinations: Vec<PlannedCombination> = combos
         .into_iter()
         .zip(se)
-        .map(|((label, _, terms), stderr)| PlannedCombination {
-            label,
-            terms,
-            stderr,
+        .map(|((label, _, terms), stderr)| {
+            let size: f64 = terms
+                .iter()
+                .map(|t| t.coefficient.abs() * noise.prior_compliance[t.param].max(typical))
+                .sum();
+            PlannedCombination {
+                label,
+                weak: crate::screening::is_weak(size, Some(stderr)),
+                terms,
+                stderr,
+            }
         })
         .collect();
     let worst_stderr = combinations.iter().map(|c| c.stderr).fold(0.0, f64::max);

@@ -928,7 +928,12 @@ fn run_diagnosis<'a>(
             train_mean_rel_error: t.train.mean(),
             parameters: parameters(fit),
         };
-    let base_name = baseline_model.name().to_string();
+    // In the one model vocabulary (`VirtualJointModel::parse` reads both names back): a custom
+    // baseline by its springs.
+    let base_name = match baseline_model.name() {
+        "custom" => baseline_model.labels().join(","),
+        named => named.to_string(),
+    };
     let ext_name = if findings.is_empty() {
         base_name.clone()
     } else {

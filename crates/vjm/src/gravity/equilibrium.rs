@@ -17,7 +17,7 @@ use crate::chain::SerialChain;
 use crate::error::VjmError;
 use crate::kinematics::{complementary_stiffness, deflected_state};
 use crate::model::VirtualJointModel;
-use crate::predict::{check_compliance, identity_minus_c_times};
+use crate::predict::{check_spring_vector, identity_minus_c_times};
 use crate::stiffness_model::PointMass;
 
 use super::{gravity_stiffness, BodySums, Gravity};
@@ -82,9 +82,15 @@ fn torques(
 }
 
 /// The static equilibrium of the springs of `model` with compliances `compliance` (rad/(N·m),
-/// finite, ≥ 0; one per spring) at joint positions `q` under `loading` (see the module docs).
+/// finite, one per spring) at joint positions `q` under `loading` (see the module docs).
 /// An error when the iterations do not settle within [`MAX_EQUILIBRIUM_ITERATIONS`] (a load
 /// beyond the arm's buckling, or compliances far from an arm's).
+///
+/// A negative entry is accepted: an identified model with aliased springs stores the
+/// minimum-norm member of its family, whose entries may be negative although every combination
+/// the data determine is physical. The fixed point θ = C·τ(θ) is the same equation for any
+/// member, and the members agree on the tip to first order in the load; the iteration still
+/// refuses a member whose equilibrium does not settle.
 pub fn static_equilibrium(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -92,7 +98,7 @@ pub fn static_equilibrium(
     q: &[f64],
     loading: &Loading<'_>,
 ) -> Result<Equilibrium, VjmError> {
-    check_compliance(model, compliance)?;
+    check_spring_vector(model, compliance)?;
     let m = model.n_params();
     // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C.
     let mut tangent = DMatrix::zeros(m, m);

@@ -15,6 +15,7 @@
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
+use stiffness_core::lsq::WeakDirections;
 
 use super::nnls::nnls;
 use super::TriangularFactor;
@@ -109,6 +110,27 @@ pub struct RankRevealingSolution {
 }
 
 impl RankRevealingSolution {
+    /// The weak directions of [`solution`](Self::solution)
+    /// ([`stiffness_core::lsq::WeakDirections`]): those whose standard error exceeds their
+    /// magnitude or [`MAX_PLAUSIBLE_COMPLIANCE`](crate::screening::MAX_PLAUSIBLE_COMPLIANCE).
+    /// None without a noise scale.
+    pub fn weak_directions(&self) -> Result<WeakDirections, crate::VjmError> {
+        let covariance: &[f64] = if self.sigma2.is_some() {
+            &self.covariance
+        } else {
+            &[]
+        };
+        WeakDirections::of(
+            &self.solution,
+            covariance,
+            &self.column_scale,
+            crate::screening::MAX_PLAUSIBLE_COMPLIANCE,
+        )
+        .map_err(|e| crate::VjmError::Numerical {
+            message: e.to_string(),
+        })
+    }
+
     /// Value and standard error of wᵀx for any w; `None` when w is not in the row space
     /// of the design (not identifiable), judged with `null_tol` relative to ‖w‖.
     pub fn evaluate(&self, w: &[f64], null_tol: f64) -> Option<(f64, Option<f64>)> {

@@ -49,7 +49,7 @@ use serde::{Deserialize, Serialize};
 use stiffness_core::num::Short;
 
 pub use error::ModelError;
-pub use file::MODEL_SCHEMA;
+pub use file::{RecordedRobot, MODEL_SCHEMA};
 pub use output_table::{
     status_from_name, CompensationTable, PredictionTable, SagColumns, COMPENSATION_COLUMNS,
     PREDICTION_COLUMNS, SAG_COLUMNS,
@@ -69,8 +69,10 @@ use crate::model::{Spring, VirtualJointModel};
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct RobotRecord {
-    /// The URDF path as given when the chain was loaded (`bundled:panda_arm.urdf` for the
-    /// bundled arm); informative only: a moved file with the same content still matches.
+    /// The URDF path given when the chain was loaded, made absolute when the model was built
+    /// (`bundled:panda_arm.urdf` for the bundled arm; older files may record a relative path,
+    /// as given); where to find the robot (see [`StiffnessModel::recorded_robot`]), not what
+    /// it is: a moved file with the same content still matches.
     pub urdf: Option<String>,
     /// SHA-256 of the URDF text (hex); `None` when the chain was not read from URDF text.
     pub urdf_sha256: Option<String>,
@@ -392,6 +394,27 @@ impl StiffnessModel {
     /// The parameter vector used for prediction, its covariance and null space.
     pub fn estimate(&self) -> &EstimateRecord {
         &self.estimate
+    }
+
+    /// What the data determine: [`EstimateRecord::compliance`] without its weak directions
+    /// ([`stiffness_core::lsq::WeakDirections`]: a standard error above the direction's
+    /// magnitude or above [`MAX_PLAUSIBLE_COMPLIANCE`](crate::screening::MAX_PLAUSIBLE_COMPLIANCE)).
+    /// The compliance every prediction and compensation uses; the covariance (and so each
+    /// prediction's standard deviation) stays the identification's. Equal to the stored vector
+    /// when the data determine every direction, or when the model has no covariance.
+    pub fn determined_compliance(&self) -> Result<Vec<f64>, ModelError> {
+        let e = &self.estimate;
+        let covariance: Vec<f64> = e.covariance.iter().flatten().flatten().copied().collect();
+        let weak = stiffness_core::lsq::WeakDirections::of(
+            &e.compliance,
+            &covariance,
+            &e.column_scale,
+            crate::screening::MAX_PLAUSIBLE_COMPLIANCE,
+        )
+        .map_err(|err| ModelError::Mismatch {
+            message: format!("the model's covariance: {err}"),
+        })?;
+        Ok(weak.determined(&e.compliance))
     }
     /// The noise model.
     pub fn noise(&self) -> &NoiseRecord {
@@ -740,7 +763,7 @@ impl StiffnessModel {
 fn robot_record(chain: &SerialChain) -> RobotRecord {
     let source = chain.urdf_source();
     RobotRecord {
-        urdf: source.and_then(|s| s.path.clone()),
+        urdf: source.and_then(|s| s.path.as_deref().map(file::recorded_urdf_path)),
         urdf_sha256: source.map(|s| s.sha256.clone()),
         base: chain.base_link().to_string(),
         tip: chain.tip_link().to_string(),

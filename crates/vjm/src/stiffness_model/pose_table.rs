@@ -3,8 +3,9 @@
 //!
 //! Columns (header required, any order, case-insensitive): `q1..qn` (rad) and either all of
 //! `fx,fy,fz,mx,my,mz` (N, N·m, at the tip point, base frame) or none of them (the load is then
-//! given separately, e.g. as a payload). Other columns (`dx`, `pose`, `set`, …) are ignored,
-//! so a measurement file is a valid pose table. Read by the one table reader
+//! given separately, e.g. as a payload), and optionally `pose` (integer pose ids, as in a
+//! measurement file or a plan). Other columns (`dx`, `set`, …) are ignored, so a measurement
+//! file — and a plan of `design` — is a valid pose table. Read by the one table reader
 //! ([`stiffness_core::table::CsvReader`]: chunked, on every core); errors name the file, the
 //! line (header = 1) and the column.
 
@@ -30,6 +31,8 @@ pub struct PoseTable {
     pub q: Vec<f64>,
     /// N×6 wrenches when the file has the `fx..mz` columns.
     pub wrench: Option<Vec<f64>>,
+    /// N pose ids when the file has a `pose` column.
+    pub pose: Option<Vec<i64>>,
 }
 
 impl PoseTable {
@@ -151,12 +154,15 @@ fn read_table<R: Read>(
     } else {
         None
     };
+    let pose_col = index.get("pose").map(|&k| (k, "pose".to_string()));
     let mut layout = Layout::new();
     let q_g = layout.group(CellKind::Float, q_cols);
     let w_g = w_cols.map(|c| layout.group(CellKind::Float, c));
+    let p_g = pose_col.map(|c| layout.group(CellKind::Integer, vec![c]));
     let mut table = reader.read(&layout, cancel)?;
     let q = table.take_floats(q_g);
     let wrench = w_g.map(|g| table.take_floats(g));
+    let pose = p_g.map(|g| table.take_integers(g));
     if q.is_empty() {
         return Err(DatasetError::Empty.into());
     }
@@ -168,5 +174,6 @@ fn read_table<R: Read>(
         n_joints,
         q,
         wrench,
+        pose,
     })
 }

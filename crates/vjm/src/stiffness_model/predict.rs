@@ -220,6 +220,7 @@ impl StiffnessModel {
         }
         // Rows are independent: fixed-size blocks on every core, each with its own workspace,
         // give the serial run's values and its first error whatever the number of threads.
+        let c = self.determined_compliance()?;
         let mut out = vec![Prediction::UNSET; rows];
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
             let mut ws = Workspace::new(chain, &model)?;
@@ -239,17 +240,16 @@ impl StiffnessModel {
                     Load::Payload(p) => p.wrench(chain, qi)?,
                 };
                 regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
-                *o = self.predict_row(&a, wrench);
+                *o = self.predict_row(&a, wrench, &c);
                 if let Some(sagged) = weight.as_mut() {
                     // The identification's row space is the weightless regressor's: `identified`,
                     // `stddev` and `excitation` stay its; the deflection is the sagged one.
-                    let c = &self.estimate.compliance;
                     sagged
-                        .regressor(chain, qi, &wrench, c, &ws, &mut a)
+                        .regressor(chain, qi, &wrench, &c, &ws, &mut a)
                         .map_err(|e| at_row(e, i))?;
                     for (r, d) in o.deflection.iter_mut().enumerate() {
                         if d.is_finite() {
-                            *d = dot(&a[r * m..(r + 1) * m], c);
+                            *d = dot(&a[r * m..(r + 1) * m], &c);
                         }
                     }
                 }
@@ -274,7 +274,10 @@ impl StiffnessModel {
     }
 
     /// One row from its 6×m regressor `a` (row-major).
-    pub(super) fn predict_row(&self, a: &[f64], wrench: [f64; 6]) -> Prediction {
+    /// One row's prediction from its regressor `a` (6×m, row-major) with compliance `c` (what
+    /// the data determine, [`StiffnessModel::determined_compliance`]); the standard deviation,
+    /// `identified` and `excitation` from the identification's covariance and null space.
+    pub(super) fn predict_row(&self, a: &[f64], wrench: [f64; 6], c: &[f64]) -> Prediction {
         let e = &self.estimate;
         let m = e.compliance.len();
         let axes = if self.noise.use_rotations { 6 } else { 3 };
@@ -283,7 +286,7 @@ impl StiffnessModel {
         let mut excitation: f64 = 0.0;
         for r in 0..axes {
             let ar = &a[r * m..(r + 1) * m];
-            deflection[r] = dot(ar, &e.compliance);
+            deflection[r] = dot(ar, c);
             if let Some(cov) = &e.covariance {
                 let var: f64 = cov.iter().zip(ar).map(|(row, &ai)| ai * dot(row, ar)).sum();
                 stddev[r] = var.max(0.0).sqrt();

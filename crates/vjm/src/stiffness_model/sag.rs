@@ -12,10 +12,10 @@ impl StiffnessModel {
     /// configurations `q` (N×n row-major, rad) under `gravity` (base frame, m/s²), with the
     /// model's springs and the chain's link masses (plus `payload`, a point mass in the tip
     /// frame): `deflection` is `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame) of the exact
-    /// static equilibrium on the deflected chain ([`gravity_sag`]) — or, when the stored
-    /// compliances are not all ≥ 0 (a model with aliased springs stores the minimum-norm member
-    /// of its family, not a spring set), its first-order part `J C τ_g`, which differs from the
-    /// exact sag by ‖C K_G‖ ≈ 1e-2 of it.
+    /// static equilibrium on the deflected chain ([`gravity_sag`]) with what the data determine
+    /// ([`StiffnessModel::determined_compliance`]; the minimum-norm member of an aliased family
+    /// may have negative entries, which the equilibrium accepts: its members agree on the sag to
+    /// first order).
     ///
     /// `stddev`, `identified` and `excitation` are those of the sag's first-order part,
     /// `J C τ_g` — the regressor the weight's torque τ_g would give as a load — so a pose
@@ -43,10 +43,9 @@ impl StiffnessModel {
         }
         let model = self.spring_model()?;
         let m = model.n_params();
-        // The exact equilibrium needs springs (compliances ≥ 0). The stored vector of a model
-        // with aliased springs is the minimum-norm member of its family and may have negative
-        // entries: then the sag is its first-order part, which is what the data determine.
-        let physical = self.estimate.compliance.iter().all(|c| *c >= 0.0);
+        // What the data determine; an aliased family's minimum-norm member may have negative
+        // entries, which the equilibrium accepts (`static_equilibrium`).
+        let c = self.determined_compliance()?;
         let axes = if self.noise.use_rotations { 6 } else { 3 };
         // Rows are independent: fixed-size blocks on every core, each with its own workspaces,
         // give the serial run's values and its first error whatever the number of threads.
@@ -69,12 +68,9 @@ impl StiffnessModel {
                         a[r * m + k] = jac[6 * k + r] * t;
                     }
                 }
-                let mut p = self.predict_row(&a, [0.0; 6]);
-                if physical {
-                    let c = &self.estimate.compliance;
-                    let exact = gravity_sag(chain, &model, c, qi, gravity, payload)?;
-                    p.deflection[..axes].copy_from_slice(&exact[..axes]);
-                }
+                let mut p = self.predict_row(&a, [0.0; 6], &c);
+                let exact = gravity_sag(chain, &model, &c, qi, gravity, payload)?;
+                p.deflection[..axes].copy_from_slice(&exact[..axes]);
                 *o = p;
             }
             Ok::<_, ModelError>(())

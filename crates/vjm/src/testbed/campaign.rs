@@ -442,7 +442,39 @@ pub fn simulate_monitored(
             poses.push(p as i64);
         }
     }
-    let campaign = simulate_at_monitored(chain, truth, &q_rows, &wrenches, &poses, spec, monitor)?;
+    simulate_planned_monitored(chain, truth, &q_rows, &wrenches, &poses, spec, monitor)
+}
+
+/// Measures `truth` at planned rows — joint angles `q` (N×n, rad), applied wrenches (N·6, N and
+/// N·m at the tip point, base frame), pose ids — as [`simulate`] measures its random ones: the
+/// same noise and effects drawn from `spec.seed`, and whole poses held out (`set` column,
+/// `spec.test_fraction`). `spec.n_poses`, `wrenches_per_pose`, the load ranges and the pose
+/// filters are not used: the rows are the plan's (e.g. [`crate::design()`]'s).
+///
+/// ```
+/// use vjm::testbed::{simulate_planned_monitored, CampaignSpec, TrueModel};
+/// use stiffness_core::Monitor;
+/// let chain = vjm::SerialChain::bundled();
+/// let q = [0.1, -0.4, 0.2, -2.0, 0.1, 1.6, 0.7].repeat(4);
+/// let wrenches = [[20.0, 0.0, -30.0, 0.0, 1.0, 0.0], [0.0, 40.0, 0.0, 1.0, 0.0, 0.0]].repeat(2);
+/// let poses = [0, 0, 1, 1];
+/// let spec = CampaignSpec { seed: 3, ..Default::default() };
+/// let campaign = simulate_planned_monitored(
+///     &chain, &TrueModel::nominal(7), &q, &wrenches, &poses, &spec, &Monitor::none())?;
+/// assert_eq!(campaign.dataset.len(), 4);
+/// assert_eq!(campaign.applied_wrench[1], wrenches[1]);
+/// # Ok::<(), vjm::testbed::TestbedError>(())
+/// ```
+pub fn simulate_planned_monitored(
+    chain: &SerialChain,
+    truth: &TrueModel,
+    q: &[f64],
+    wrenches: &[[f64; 6]],
+    poses: &[i64],
+    spec: &CampaignSpec,
+    monitor: &Monitor<'_>,
+) -> Result<Campaign, TestbedError> {
+    let campaign = simulate_at_monitored(chain, truth, q, wrenches, poses, spec, monitor)?;
     // Hold out whole poses, reproducibly.
     let labels = campaign
         .dataset

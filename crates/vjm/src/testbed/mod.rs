@@ -22,8 +22,8 @@ mod seed_study;
 mod truth;
 
 pub use campaign::{
-    inverse_condition, simulate, simulate_at, simulate_at_monitored, simulate_monitored, Campaign,
-    CampaignSpec, CHECK_EVERY_ROWS,
+    inverse_condition, simulate, simulate_at, simulate_at_monitored, simulate_monitored,
+    simulate_planned_monitored, Campaign, CampaignSpec, CHECK_EVERY_ROWS,
 };
 pub use effects::{ForceSensorNoise, HarmonicDriveSpring, TrackerNoise};
 pub use seed_study::{

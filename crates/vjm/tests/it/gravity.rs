@@ -448,10 +448,23 @@ fn bad_compliances_and_runaway_loads_are_errors_not_hangs() {
         static_equilibrium(&panda, &model, &short, &q, &loading),
         Err(VjmError::ShapeMismatch { .. })
     ));
+    // A negative entry (an aliased family's minimum-norm member stores some) is the same fixed
+    // point θ = C·τ(θ): accepted, and the spring's deflection has the sign of its compliance
+    // times the torque, opposite to the positive member's.
     let mut negative = arm_compliances(7);
     negative[4] = -1e-4;
-    let err = static_equilibrium(&panda, &model, &negative, &q, &loading).unwrap_err();
-    assert!(err.to_string().contains("J2x"), "{err}");
+    let neg = static_equilibrium(&panda, &model, &negative, &q, &loading).unwrap();
+    negative[4] = 1e-4;
+    let pos = static_equilibrium(&panda, &model, &negative, &q, &loading).unwrap();
+    assert!(
+        neg.theta[4] * pos.theta[4] < 0.0 && pos.theta[4].abs() > 1e-6,
+        "{:?}",
+        (neg.theta[4], pos.theta[4])
+    );
+    let mut nan = arm_compliances(7);
+    nan[4] = f64::NAN;
+    let err = static_equilibrium(&panda, &model, &nan, &q, &loading).unwrap_err();
+    assert!(err.to_string().contains("compliance"), "{err}");
     // Compliances of a rubber arm: 50 N would turn the springs by radians.
     let rubber = vec![1.0; 21];
     let err = static_equilibrium(&panda, &model, &rubber, &q, &loading).unwrap_err();

@@ -12,6 +12,8 @@ mod identification;
 mod identify_partial;
 mod kinematics;
 mod lsq;
+mod model_robot_path;
+mod model_vocabulary;
 mod pinocchio;
 mod planning;
 mod prediction;

@@ -110,6 +110,27 @@ fn the_pose_table_refuses_what_a_measurement_file_refuses() {
 }
 
 #[test]
+fn the_pose_table_reads_pose_ids_when_given_and_refuses_a_fractional_one() {
+    let row: Vec<String> = Q.iter().map(|v| v.to_string()).collect();
+    let q = row.join(",");
+    let head = "pose,q1,q2,q3,q4,q5,q6,q7,fx,fy,fz,mx,my,mz,dx";
+    let text = format!("{head}\n4,{q},10,0,0,0,0,0,\n9,{q},0,10,0,0,0,0,\n");
+    let t = PoseTable::from_reader(text.as_bytes(), 7).unwrap();
+    assert_eq!(t.pose, Some(vec![4, 9]));
+    assert_eq!(t.wrench.as_deref().map(|w| w[7]), Some(10.0));
+    let without = format!("q1,q2,q3,q4,q5,q6,q7\n{q}\n");
+    assert_eq!(
+        PoseTable::from_reader(without.as_bytes(), 7).unwrap().pose,
+        None
+    );
+    let bad = format!("{head}\n4.5,{q},10,0,0,0,0,0,\n");
+    let e = PoseTable::from_reader(bad.as_bytes(), 7)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line 2") && e.contains("pose"), "{e}");
+}
+
+#[test]
 fn loads_scaled_to_nothing_are_an_error_not_rank_0() {
     let (q, mut w) = poses(6);
     let d = vec![1e-4; 18];
