@@ -122,7 +122,7 @@ pub(crate) fn load_of<'a>(
 /// The checks `identify` runs on its inputs, on the poses and per-row loads of a prediction
 /// or a compensation (`vjm::dataset::check_poses`: plausible joint angles and loads, joint
 /// angles inside the URDF limits unless `allow_outside_limits`), with the GIL released; a
-/// non-finite value is left to the core's own check, which names the array, row and column.
+/// non-finite value is named by its array, row (from 0) and column.
 /// The payload's own check is [`PointMass::new`].
 pub(crate) fn check_inputs(
     py: Python<'_>,
@@ -136,10 +136,26 @@ pub(crate) fn check_inputs(
         _ => None,
     };
     let limits = (!allow_outside_limits).then_some(chain);
-    run(py, || {
+    let found = run(py, || {
         vjm::dataset::check_poses(chain.n_joints(), &q.data, wrench, limits)
     })?
     .py()?;
+    if found == vjm::dataset::ArraysCheck::NonFinite {
+        // Named by array, row and column here: a per-row evaluation would see a one-row slice.
+        let n = chain.n_joints();
+        let arrays = [("q", &q.data[..], n), ("wrench", wrench.unwrap_or(&[]), 6)];
+        for (what, data, width) in arrays {
+            if let Some(k) = data.iter().position(|v| !v.is_finite()) {
+                return Err(vjm::VjmError::NonFinite {
+                    what,
+                    row: k / width,
+                    column: k % width,
+                    value: data[k],
+                })
+                .py();
+            }
+        }
+    }
     Ok(())
 }
 

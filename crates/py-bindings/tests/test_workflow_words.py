@@ -172,9 +172,6 @@ def test_errors_about_arrays_name_rows_counted_from_0(panda, fitted, tmp_path):
             assert re.search(pattern, msg) and "line" not in msg, (name, case, msg)
 
 
-@pytest.mark.xfail(strict=True, reason="Robot.predict_deflection checks the values (use_model.rs check_inputs) "
-                   "but drops check_poses' NonFinite, so the per-row prediction reports the NaN at row 0 of "
-                   "a one-row slice; to be fixed there")
 def test_predict_deflection_names_the_row_of_a_nan(panda, fitted):
     q, w, _, ident = fitted
     c = np.nan_to_num(ident.compliance)

@@ -217,6 +217,12 @@ def _robot_for(args: argparse.Namespace) -> Any:
     return Robot.from_urdf(rec["found"], str(base), str(tip))
 
 
+def _largest_mm(values: Any) -> str:
+    """The largest finite value in mm, or words when there is none (never "nan")."""
+    finite = values[np.isfinite(values)]
+    return f"{float(np.max(finite)) * 1e3:.3f} mm" if finite.size else "not available"
+
+
 def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     from ._use_tables import read_poses, rows_of, write_predictions
     from .model import StiffnessModel
@@ -247,11 +253,11 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     d = np.linalg.norm(pred.deflection[:, :3], axis=1)
     print(
         f"wrote {args.out}: {n} rows predicted with {args.model_file} "
-        f"({len(model.labels)} springs, rank {model.rank}); largest |d| {np.max(d) * 1e3:.3f} mm"
+        f"({len(model.labels)} springs, rank {model.rank}); largest |d| {_largest_mm(d)}"
     )
     if sag is not None:
         s = np.linalg.norm(sag.deflection[:, :3], axis=1)
-        print(f"sag under the arm's own weight (sag_dx..sag_dz): largest |sag| {np.max(s) * 1e3:.3f} mm")
+        print(f"sag under the arm's own weight (sag_dx..sag_dz): largest |sag| {_largest_mm(s)}")
     if not model.has_rotations:
         print("rotations unavailable: the model was identified without rotations (rx..rz, srx..srz empty)")
     if bad.size:

@@ -4,11 +4,11 @@
 :func:`robot_stiffness.vjm.diagnose` or :func:`robot_stiffness.csjm.diagnose`) into a directory
 holding ``report.md`` and its plots:
 
-* ``residuals.png`` — residual norm per measurement row, baseline vs extended model;
+* ``residuals.png`` — residual norm per measurement row, baseline vs baseline + findings;
 * ``errors_per_pose.png`` (VJM) — mean relative error per pose, baseline vs extended, held-out
   poses marked;
 * ``verdict.png`` (VJM) — what remains: each block of the lack-of-fit alternative tested
-  against the extended model (−log10 p), with the verdict's level;
+  against the baseline + findings (−log10 p), with the verdict's level;
 * ``effects.png`` — the evidence for every candidate effect (first-step F-test p-values), with
   the named effects highlighted.
 
@@ -181,7 +181,7 @@ def story(result: Diagnosis) -> List[str]:
         lines.append("No effect of the catalogue improves the baseline significantly.")
     gain = result.gain
     lines.append(
-        f"Extended model ({ext.model}, {ext.n_params} parameters): "
+        f"Baseline + findings ({ext.model}, {ext.n_params} parameters): "
         f"{percent(ext.test_mean_rel_error)} on held-out data"
         + (f", {percent(gain)} lower than the baseline." if math.isfinite(gain) else ".")
     )
@@ -375,7 +375,7 @@ def _plot_verdict(result: Diagnosis, path: _Target) -> None:
         ax.set_yticklabels([t for t, _ in tests], fontsize=8)
         ax.invert_yaxis()
         ax.axvline(-math.log10(v.alpha), color="k", linestyle="--", linewidth=0.8, label=f"level {v.alpha:g}")
-        ax.set_xlabel("−log10 p (F test against the extended model)")
+        ax.set_xlabel("−log10 p (F test against the baseline + findings)")
         ax.set_title("What remains (red: significant)", fontsize=10)
         ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
@@ -423,7 +423,7 @@ def _markdown(result: Diagnosis, title: str, source: Optional[str]) -> str:
         out += [f"Data: `{source}` — {result.n_train} training rows, {result.n_test} held-out rows.", ""]
     out += ["## Summary", ""] + [f"- {s}" for s in story(result)] + [""]
     if math.isfinite(result.gain):
-        out += [f"**The extended model's held-out error is {percent(result.gain)} lower than the baseline's** "
+        out += [f"**The held-out error with the findings is {percent(result.gain)} lower than the baseline's** "
                 f"({percent(base.test_mean_rel_error)} → {percent(ext.test_mean_rel_error)}).", ""]
     out += [
         "## Models", "",
@@ -494,10 +494,10 @@ def _markdown(result: Diagnosis, title: str, source: Optional[str]) -> str:
     out.append(
         "Structured residual remains after the extension that no candidate explains."
         if result.unexplained
-        else "No significant structure remains in the extended model's residuals."
+        else "No significant structure remains in the residuals of the baseline + findings."
     )
     out += _verdict_lines(result)
-    out += ["", "## Fitted parameters (extended model)", "", "| parameter | value | unit |", "|---|---|---|"]
+    out += ["", "## Fitted parameters (baseline + findings)", "", "| parameter | value | unit |", "|---|---|---|"]
     for p in ext.parameters:
         value = "not identifiable" if p.value is None or not math.isfinite(p.value) else f"{p.value:.4e}"
         out.append(f"| {p.label} | {value} | {p.unit} |")
@@ -523,7 +523,7 @@ def _markdown_csjm(result: Diagnosis, title: str, source: Optional[str]) -> str:
         f"| extended: {ext.model} | {ext.n_params} | {percent(ext.test_mean_rel_error)} | {percent(ext.train_mean_rel_error)} |",
         "",
         "![Moment residuals before and after](residuals.png)", "",
-        "Covariant stiffness K of the extended model (N·m/rad, frame A at R₀):", "",
+        "Covariant stiffness K of the baseline + findings (N·m/rad, frame A at R₀):", "",
         "| | | |", "|---|---|---|", *_matrix(ext.k), "",
         "## Named effects", "", "![Candidate effects](effects.png)", "",
     ]
@@ -544,7 +544,7 @@ def _markdown_csjm(result: Diagnosis, title: str, source: Optional[str]) -> str:
         out.append("")
     out += ["## Unexplained structure", "",
             "Structured residual remains that no candidate explains." if result.unexplained
-            else "No significant structure remains in the extended model's residuals.", ""]
+            else "No significant structure remains in the residuals of the baseline + findings.", ""]
     return "\n".join(out)
 
 
