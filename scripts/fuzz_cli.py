@@ -102,11 +102,11 @@ TEMPLATES: List[Tuple[str, List[str]]] = [
           "--out", "plan.csv"]),
     ("", ["design", "vjm", "--model", "traditional", "--poses", "4", "--pool", "30", "--margin", "0.2",
           "--out", "plan.csv"]),
-    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "base", "--tip", "tool", "--poses", "3",
+    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "base", "--tip", "tool", "--no-gravity", "--poses", "3",
           "--pool", "20", "--out", "plan.csv"]),
-    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "l1", "--tip", "tool", "--model", "traditional",
+    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "l1", "--tip", "tool", "--no-gravity", "--model", "traditional",
           "--poses", "2", "--pool", "20", "--out", "plan.csv"]),
-    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "base", "--tip", "l1", "--poses", "2",
+    ("", ["design", "vjm", "--urdf", "arm.urdf", "--base", "base", "--tip", "l1", "--no-gravity", "--poses", "2",
           "--pool", "20", "--out", "plan.csv"]),
 ]
 # Two revolute joints (z at 0.3 m, y 0.4 m out) and a tool 0.3 m beyond: the `design` cases'

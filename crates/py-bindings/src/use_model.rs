@@ -296,12 +296,13 @@ pub(crate) fn compensate_with_model<'py>(
 }
 
 /// Plans a VJM campaign (JSON of `vjm::Plan`): `poses` poses × `wrenches_per_pose` wrenches,
-/// noise of the testbed's instruments with its nominal compliances as the prior. Runs on a
+/// noise of the testbed's instruments with its nominal compliances as the prior, measured
+/// under `gravity` (base frame, m/s²; None weightless). Runs on a
 /// worker thread: Ctrl-C stops it within [`crate::interrupt::POLL_INTERVAL`] (the core checks
 /// its token per pose and per chunk of candidates), and `progress(stage, done, total)`, when
 /// given, is called on the calling thread.
 #[pyfunction]
-#[pyo3(signature = (robot, model, poses = 24, wrenches_per_pose = 4, seed = 0, margin = 0.1, pool_size = 300, force = 80.0, moment = 3.0, progress = None))]
+#[pyo3(signature = (robot, model, poses = 24, wrenches_per_pose = 4, seed = 0, margin = 0.1, pool_size = 300, force = 80.0, moment = 3.0, progress = None, gravity = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_design(
     py: Python<'_>,
@@ -315,9 +316,14 @@ pub fn vjm_design(
     force: f64,
     moment: f64,
     progress: Option<Py<PyAny>>,
+    gravity: Option<[f64; 3]>,
 ) -> PyResult<String> {
     let chain = &robot.chain;
     let model = parse_model(chain.n_joints(), model)?;
+    if gravity.is_some() {
+        // Before the work, as identify does: a URDF without masses names the link.
+        chain.mass_model().py()?;
+    }
     let mut spec = PlanSpec::default();
     spec.n_poses = poses;
     spec.wrenches_per_pose = wrenches_per_pose;
@@ -326,7 +332,8 @@ pub fn vjm_design(
     spec.pool_size = pool_size.max(poses);
     spec.force = force;
     spec.moment = moment;
-    let noise = NoiseModel::testbed(&model);
+    let mut noise = NoiseModel::testbed(&model);
+    noise.gravity = gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
     let plan = crate::interrupt::run_interruptible(py, progress.as_ref(), |monitor| {
         vjm::design_monitored(chain, &model, &spec, &noise, monitor)
     })?

@@ -52,7 +52,7 @@ def test_every_verb_on_a_short_chain_fails_cleanly_or_works(tmp_path, base, tip,
     weightless = "--no-gravity"  # arm2.urdf has no inertials
     verbs: List[List[str]] = [
         ["simulate", "vjm", "--out", "s.csv", "--poses", "30", *chain, weightless],
-        ["design", "vjm", "--out", "p.csv", *chain],
+        ["design", "vjm", "--out", "p.csv", *chain, weightless],
         ["identify", "vjm", "s.csv", "--save", "m.json", *chain, weightless],
         ["diagnose", "vjm", "s.csv", "--json", "d.json", *chain, weightless],
         ["predict", "vjm", "m.json", "s.csv", "--out", "pr.csv", weightless],
@@ -65,7 +65,7 @@ def test_every_verb_on_a_short_chain_fails_cleanly_or_works(tmp_path, base, tip,
             assert proc.returncode == 0, proc.stderr
     if (base, tip) == ("base", "l1"):
         # The tip on the only joint's axis: no spring moves it.
-        proc = run_cli(["design", "vjm", "--out", "p2.csv", *chain], cwd=tmp_path)
+        proc = run_cli(["design", "vjm", "--out", "p2.csv", *chain, weightless], cwd=tmp_path)
         assert proc.returncode == 1 and "rank 0" in proc.stderr, proc.stderr
 
 

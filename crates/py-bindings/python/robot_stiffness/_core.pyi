@@ -264,6 +264,7 @@ def vjm_design(
     force: float = 80.0,
     moment: float = 3.0,
     progress: Optional[Callable[[str, int, int], Any]] = None,
+    gravity: Optional[Tuple[float, float, float]] = None,
 ) -> str: ...
 def vjm_seed_study(
     robot: Robot,

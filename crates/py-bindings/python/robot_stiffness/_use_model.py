@@ -253,6 +253,7 @@ def design(
     margin: float = 0.1,
     pool_size: int = 300,
     progress: Optional[Callable[[str, int, int], None]] = None,
+    gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
 ) -> Plan:
     """Plans a campaign: ``poses`` poses inside the joint limits (``margin`` rad inside) and
     ``wrenches_per_pose`` wrenches each (80 N, 3 N·m), chosen greedily to minimise the worst
@@ -261,12 +262,18 @@ def design(
     Limits: ``poses`` ≤ 10 000, ``wrenches_per_pose`` ≤ 100, at most 100 000 measurements
     (poses × wrenches), ``pool_size`` ≤ 100 000 (the largest take under a minute).
     ``progress(stage, done, total)`` is called during the run (stages ``poses``, ``pool``,
-    ``selection``, ``check``); an exception it raises, or Ctrl-C, stops it."""
+    ``selection``, ``check``); an exception it raises, or Ctrl-C, stops it.
+
+    ``gravity`` (m/s², base frame; default ``DEFAULT_GRAVITY``, as :meth:`Robot.identify
+    <robot_stiffness.vjm.Robot.identify>`): the campaign is measured under the arm's weight, so
+    each row is planned at the arm's sagged pose under the prior (the URDF must give the link
+    masses); ``None``: weightless."""
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     inner = _robot_inner(robot)
     text = _core.vjm_design(inner, _model(model), int(poses), int(wrenches_per_pose), int(seed), float(margin),
-                            int(pool_size), progress=progress)
+                            int(pool_size), progress=progress,
+                            gravity=None if gravity is None else gravity_vector(gravity))
     doc = json.loads(text)
     labels = robot.labels(model)
     n = robot.n_joints

@@ -77,7 +77,7 @@ A cable-driven spherical joint:
   robot-stiffness identify csjm csjm.csv --json k.json
   robot-stiffness diagnose csjm csjm.csv --json d.json --report csjm-report/
 
-Gravity: simulate, identify, diagnose, predict, compensate and demo model the arm's own weight (link
+Gravity: simulate, design, identify, diagnose, predict, compensate and demo model the arm's own weight (link
 masses from the URDF's <inertial> elements) under 9.80665 m/s² along −z of the base by default
 (predict and compensate: the gravity the model file records); --gravity GX,GY,GZ for another mount
 (0,0,9.80665 on a ceiling), --no-gravity for a weightless arm. Under gravity a link without
@@ -142,7 +142,7 @@ GRAVITY_DEFAULT_MODEL = "the gravity the model was identified under, 0,0,-9.8066
 
 def _add_gravity_args(p: argparse.ArgumentParser, default: str = GRAVITY_DEFAULT) -> None:
     """``--gravity GX,GY,GZ`` / ``--no-gravity``: one pair of flags for every command that models
-    the arm's weight (simulate, identify, diagnose, predict, compensate, demo)."""
+    the arm's weight (simulate, design, identify, diagnose, predict, compensate, demo)."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--gravity", type=T.gravity, default=None, metavar="GX,GY,GZ",
                    help=GRAVITY_HELP.format(default=default))
@@ -345,16 +345,21 @@ def _effect_errors(specs: Sequence[str]) -> Iterator[None]:
 
 
 def _table_out(args: argparse.Namespace) -> str:
-    """The table a command writes: ``--out``, or the deprecated positional ``OUT.csv`` (warns)."""
+    """The table a command writes: ``--out``, or the deprecated positional ``OUT.csv``
+    (:func:`_warn_positional_out` warns once the command has succeeded, so that an error stays
+    one line)."""
     if args.out_positional is not None and args.out is not None:
         raise CliError(f"the output is given twice ({args.out_positional} and --out {args.out}): give --out only")
     if args.out_positional is not None:
-        print(f"warning: the positional OUT.csv is deprecated; write --out {args.out_positional}",
-              file=sys.stderr)
         return str(args.out_positional)
     if args.out is None:
         raise CliError("--out OUT.csv is required (the measurement file to write)")
     return str(args.out)
+
+
+def _warn_positional_out(args: argparse.Namespace) -> None:
+    if args.out_positional is not None:
+        print(f"warning: the positional OUT.csv is deprecated; write --out {args.out_positional}", file=sys.stderr)
 
 
 #: Flags of ``simulate vjm`` that draw the rows, which a plan gives instead.
@@ -418,6 +423,7 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
     names = ", ".join(e["effect"] for e in effects) or "none (torsional springs only)"
     print(f"wrote {path}: {len(c.measurements)} rows ({size}), "
           f"seed {args.seed}, {_gravity_words(_gravity(args))}, hidden effects: {names}")
+    _warn_positional_out(args)
     return 0
 
 
@@ -438,6 +444,7 @@ def cmd_simulate_csjm(args: argparse.Namespace, out: Outputs) -> int:
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none"
     print(f"wrote {path}: CSJM campaign, seed {args.seed}, hidden effects: {names}")
+    _warn_positional_out(args)
     return 0
 
 

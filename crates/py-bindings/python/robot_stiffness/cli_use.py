@@ -45,6 +45,9 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     dv.add_argument("--pool", type=T.count(1, 100000), default=300, help="candidate poses drawn (default 300)")
     dv.add_argument("--seed", type=T.seed, default=0, help="seed of the candidate poses (default 0)")
     dv.add_argument("--out", required=True, metavar="PLAN.csv", help="the planned rows (dx,dy,dz empty)")
+    from .cli import _add_gravity_args as add_gravity_args
+
+    add_gravity_args(dv)
     dv.add_argument("--force", action="store_true", help=force_help)
     dv.set_defaults(func=cmd_design_vjm)
 
@@ -91,7 +94,7 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
 
 
 def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
-    from .cli import _clear_progress, _progress, _robot, _show_progress
+    from .cli import _clear_progress, _gravity, _gravity_words, _progress, _robot, _show_progress
     from .vjm import design
 
     plan_out = out.file(args.out, "--out")
@@ -102,13 +105,13 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
         # The callback shows progress on a terminal and stops the core once Ctrl-C was seen.
         plan = in_worker(design, robot, model=model, poses=args.poses, wrenches_per_pose=args.wrenches_per_pose,
                          seed=args.seed, margin=args.margin, pool_size=max(args.pool, args.poses),
-                         progress=_progress(show, "design"))
+                         progress=_progress(show, "design"), gravity=_gravity(args))
     finally:
         _clear_progress(show)
     plan_out.write_text(plan.csv_text())
     out.commit()
     print(f"Planned {len(plan.pose)} measurements ({args.poses} poses × {args.wrenches_per_pose} wrenches) "
-          f"for the {args.model} model: rank {plan.rank}.")
+          f"for the {args.model} model, {_gravity_words(_gravity(args))}: rank {plan.rank}.")
     print(NOISE_LINE + ".")
     print("Predicted standard error of every identifiable combination (rad/(N·m)):")
     for c in plan.combinations:

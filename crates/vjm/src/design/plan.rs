@@ -12,6 +12,7 @@ use stiffness_core::{Monitor, Progress};
 
 use crate::chain::SerialChain;
 use crate::error::VjmError;
+use crate::gravity::{GravityWorkspace, RowFrame};
 use crate::identify::{CombinationTerm, IdentifyOptions};
 use crate::kinematics::{jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
@@ -29,6 +30,13 @@ pub struct NoiseModel {
     /// Prior compliance per spring of the model, rad/(N·m) (default: the testbed's nominal
     /// torsions, tilts 0).
     pub prior_compliance: Vec<f64>,
+    /// The gravity the campaign is measured under, base frame (default `None`, weightless, as
+    /// [`IdentifyOptions::gravity`]; Python and the CLI default to standard gravity). Under
+    /// gravity each row is planned at the arm's sagged pose under the prior compliance — the
+    /// Jacobian, tip point and tracker noise at θ₀ = C τ₀ — which is where a measurement under
+    /// the weight takes its loaded − unloaded displacement (the coupling of gravity's stiffness
+    /// into the load, ‖C K_G‖ ≈ 1e-2 of it, is left out).
+    pub gravity: Option<crate::gravity::Gravity>,
 }
 
 impl NoiseModel {
@@ -49,6 +57,7 @@ impl NoiseModel {
             tracker: TrackerNoise::default(),
             force_sensor: ForceSensorNoise::default(),
             prior_compliance: prior,
+            gravity: None,
         }
     }
 }
@@ -152,17 +161,56 @@ struct PoseData {
     cov: Matrix3<f64>,
 }
 
+/// Per-call scratch of [`pose_data`]: the kinematics workspace and, under gravity, the weight's.
+struct PoseScratch {
+    ws: Workspace,
+    weight: Option<GravityWorkspace>,
+    preload: Vec<f64>,
+}
+
+impl PoseScratch {
+    fn new(
+        chain: &SerialChain,
+        model: &VirtualJointModel,
+        noise: &NoiseModel,
+    ) -> Result<Self, VjmError> {
+        Ok(PoseScratch {
+            ws: Workspace::new(chain, model)?,
+            weight: noise
+                .gravity
+                .map(|g| GravityWorkspace::new(chain, model, &g, None))
+                .transpose()?,
+            preload: vec![0.0; model.n_params()],
+        })
+    }
+}
+
 fn pose_data(
     chain: &SerialChain,
     model: &VirtualJointModel,
     q: &[f64],
     noise: &NoiseModel,
-    ws: &mut Workspace,
+    scratch: &mut PoseScratch,
 ) -> Result<PoseData, VjmError> {
     let m = model.n_params();
     let mut jac = vec![0.0; 6 * m];
+    let ws = &mut scratch.ws;
     jacobian_in_place(chain, model, q, ws, &mut jac)?;
-    let p = ws.p;
+    let mut p = ws.p;
+    if let Some(weight) = scratch.weight.as_mut() {
+        // The row's kinematics at the sagged pose under the prior, where it is measured.
+        let mut tip_rotation = ws.tip_rotation(chain);
+        weight.evaluate(chain, q)?;
+        weight.sag(
+            &noise.prior_compliance,
+            RowFrame {
+                jacobian: &mut jac,
+                tip: &mut p,
+                tip_rotation: &mut tip_rotation,
+            },
+            &mut scratch.preload,
+        )?;
+    }
     let sd = noise.tracker.displacement_sigma([p.x, p.y, p.z]);
     let fs = noise.force_sensor.sigma();
     // K = J_t C Jᵀ (3×6): displacement per unit wrench error.
@@ -240,12 +288,12 @@ pub fn predicted_stderr(
             got: q.len(),
         });
     }
-    let mut ws = Workspace::new(chain, model)?;
+    let mut scratch = PoseScratch::new(chain, model, noise)?;
     let mut info = DMatrix::<f64>::zeros(m, m);
     let mut meat = DMatrix::<f64>::zeros(m, m);
     for (i, w) in wrench.iter().enumerate() {
         crate::chain::check_finite("wrench", w, i, 0)?;
-        let pd = pose_data(chain, model, &q[i * n..(i + 1) * n], noise, &mut ws)?;
+        let pd = pose_data(chain, model, &q[i * n..(i + 1) * n], noise, &mut scratch)?;
         let a = regressor(&pd.jac, m, w);
         info += a.transpose() * &a;
         let cov = DMatrix::from_fn(3, 3, |r, c| pd.cov[(r, c)]);
@@ -544,7 +592,7 @@ pub fn design_monitored(
     let m = model.n_params();
     let pool = sample_poses(chain, spec, monitor)?;
     let cands = candidate_wrenches(spec.force, spec.moment);
-    let mut ws = Workspace::new(chain, model)?;
+    let mut scratch = PoseScratch::new(chain, model, noise)?;
     let mut data = Vec::with_capacity(spec.pool_size);
     for (i, q) in pool.chunks_exact(n).enumerate() {
         if i % 1024 == 0 {
@@ -554,7 +602,7 @@ pub fn design_monitored(
                 total: spec.pool_size,
             })?;
         }
-        data.push(pose_data(chain, model, q, noise, &mut ws)?);
+        data.push(pose_data(chain, model, q, noise, &mut scratch)?);
     }
     // Identifiable combinations and rank of the model on the pool (structural for the chain).
     let pool_comb = combinations_of(chain, model, &pool, &cands[..2.min(cands.len())], noise)?;

@@ -42,6 +42,14 @@ pub struct Gravity {
     vector: Vector3<f64>,
 }
 
+/// Written as its base-frame vector `[gx, gy, gz]`, m/s² (a campaign's spec, a plan's noise
+/// model).
+impl serde::Serialize for Gravity {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        [self.vector.x, self.vector.y, self.vector.z].serialize(s)
+    }
+}
+
 impl Default for Gravity {
     /// [`GRAVITY`] (9.80665 m/s²) along −z of the base.
     fn default() -> Self {

@@ -59,22 +59,8 @@ pub struct CampaignSpec {
     /// torque, gravity's and the load's ([`TrueModel::rest_under_gravity`],
     /// [`TrueModel::displacement_under_gravity`]). Poses are drawn as without gravity (the
     /// same seed gives the same poses and wrenches).
-    #[serde(
-        serialize_with = "gravity_vector",
-        skip_serializing_if = "Option::is_none"
-    )]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub gravity: Option<Gravity>,
-}
-
-/// Writes gravity as its base-frame vector `[gx, gy, gz]`, m/s².
-fn gravity_vector<S: serde::Serializer>(g: &Option<Gravity>, s: S) -> Result<S::Ok, S::Error> {
-    match g {
-        Some(g) => {
-            let v = g.vector();
-            [v.x, v.y, v.z].serialize(s)
-        }
-        None => s.serialize_none(),
-    }
 }
 
 impl Default for CampaignSpec {

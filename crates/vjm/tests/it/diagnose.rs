@@ -1278,6 +1278,16 @@ fn angle_dependent_rates(joint: usize, amplitude: f64, seeds: u64) -> (u64, u64)
         let b = pose_compliance(&d);
         flagged += u64::from(d.unexplained);
         block += u64::from(b.f_test.p_value < 0.01);
+        // When the per-pose compliance decided, the words name it (not a descriptive block
+        // with a smaller p).
+        if d.unexplained && b.f_test.p_value < d.verdict.lack_of_fit.p_value {
+            let words = d.verdict.remaining.clone().unwrap_or_default();
+            assert!(
+                words.contains("pose_compliance block"),
+                "seed {}: {words}",
+                3000 + seed
+            );
+        }
         println!(
             "J{} ±{:.0} % seed {}: unexplained {} pose_compliance p {:.1e} (F {:.2}, {} / {}), \
              lack_of_fit p {:.1e}, {}; {:?}",
