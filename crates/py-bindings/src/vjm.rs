@@ -6,7 +6,7 @@ use std::sync::Arc;
 use numpy::{PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
-use vjm::{IdentifyOptions, SerialChain, Spring, SpringAxis, VirtualJointModel, Workspace};
+use vjm::{IdentifyOptions, SerialChain, VirtualJointModel, Workspace};
 
 use crate::convert::{batch, fixed, to_numpy};
 use crate::errors::{run, value_error, PyResultExt};
@@ -39,26 +39,13 @@ pub fn parse_model(n_joints: usize, spec: &Bound<'_, PyAny>) -> PyResult<Virtual
     })?;
     let mut springs = Vec::with_capacity(labels.len());
     for (i, label) in labels.iter().enumerate() {
-        springs.push(parse_spring(label).ok_or_else(|| {
+        springs.push(vjm::spring_label(label, n_joints).ok_or_else(|| {
             value_error(format!(
                 "model[{i}] = `{label}` is not a spring label: expected J<joint><axis> with joint 1..{n_joints} and axis z, x or y (e.g. \"J3x\")"
             ))
         })?);
     }
     VirtualJointModel::from_springs(n_joints, springs).py()
-}
-
-fn parse_spring(label: &str) -> Option<Spring> {
-    let rest = label
-        .strip_prefix('J')
-        .or_else(|| label.strip_prefix('j'))?;
-    let axis_char = rest.chars().last()?;
-    let joint: usize = rest[..rest.len() - axis_char.len_utf8()].parse().ok()?;
-    let axis: SpringAxis = axis_char.to_string().parse().ok()?;
-    (joint >= 1).then_some(Spring {
-        joint: joint - 1,
-        axis,
-    })
 }
 
 impl PyRobot {

@@ -55,6 +55,7 @@ mod lanes;
 pub mod lsq;
 mod model;
 mod model_spec;
+pub use model_spec::spring_label;
 mod predict;
 mod regressor;
 pub mod screening;

@@ -151,8 +151,9 @@ fn term_springs(term: &str, n_joints: usize) -> Result<Vec<Spring>, VjmError> {
     Ok(vec![spring])
 }
 
-/// `J3x` (or `j3x`) → joint 2 (0-based), axis x; None when not a label of this chain.
-pub(crate) fn spring_label(label: &str, n_joints: usize) -> Option<Spring> {
+/// `J3x` (or `j3x`) → joint 2 (0-based), axis x; None when not a label of a chain of
+/// `n_joints` joints.
+pub fn spring_label(label: &str, n_joints: usize) -> Option<Spring> {
     let rest = label.strip_prefix(['J', 'j'])?;
     let axis_char = rest.chars().last()?;
     let joint: usize = rest[..rest.len() - axis_char.len_utf8()].parse().ok()?;

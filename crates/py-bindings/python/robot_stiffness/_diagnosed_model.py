@@ -19,6 +19,7 @@ import numpy as np
 
 from ._arguments import DEFAULT_GRAVITY
 from ._equality import FieldEq
+from . import so3
 from ._errors import ArgumentTypeError
 
 if TYPE_CHECKING:
@@ -55,18 +56,6 @@ def _estimate(diagnosis: Any, prefix: str) -> List[float]:
     return [0.0 if v is None else float(v) for v in values]
 
 
-def _rotate(phi: Any, v: np.ndarray) -> np.ndarray:
-    """Rows of ``v`` (N, 3) rotated by the rotation vector ``phi`` (Rodrigues)."""
-    p = np.asarray(phi, dtype=np.float64)
-    th = float(np.linalg.norm(p))
-    if th == 0.0:
-        return v.copy()
-    k = p / th
-    kxv = np.cross(k, v)
-    kdv = v @ k
-    return v * np.cos(th) + kxv * np.sin(th) + np.outer(kdv, k) * (1.0 - np.cos(th))
-
-
 def diagnosed_model(
     robot: "Robot",
     data: Any,
@@ -98,8 +87,8 @@ def diagnosed_model(
     if "wrench_bias" in corrected:
         wrench -= np.asarray(corrected["wrench_bias"])  # recorded = applied + bias
     if "frame_misalignment" in corrected:
-        # recorded = R(φ)·d: rotate back.
-        displacement = _rotate(-np.asarray(corrected["frame_misalignment"]), displacement)
+        # recorded = R(φ)·d: rotate back, d = R(−φ)·recorded (rows: recorded · R(−φ)ᵀ).
+        displacement = displacement @ so3.exp(-np.asarray(corrected["frame_misalignment"])).T
     springs = " + ".join(terms)
     identification = robot.identify(
         data.q, wrench, displacement, springs, gravity=gravity, data_file=data_file,
