@@ -240,21 +240,33 @@ struct LoadedTip {
 /// `K_C θ` in O(m), with K_C as in [`crate::complementary_stiffness`] at the workspace's last
 /// evaluation: row k sums the springs before k through their total rotation
 /// Ω_k = Σ_{i<k} θ_i w_i, and those at or after k through the tip motion
-/// V_k = Σ_{i≥k} θ_i w_i × (p − c_i) (both terms are linear in w_i).
+/// V_k = Σ_{i≥k} θ_i w_i × (p − c_i) (both terms are linear in w_i); a translation i adds
+/// θ_i w_i to V and nothing to Ω, a translation k reads (Ω × w_k)·f only.
 pub(crate) fn kc_times(ws: &Workspace, wrench: &[f64; 6], theta: &[f64], out: &mut [f64]) {
     let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
     let mo = Vector3::new(wrench[3], wrench[4], wrench[5]);
     let m = theta.len();
+    let tr = &ws.translation;
     let mut v = Vector3::zeros();
     for k in (0..m).rev() {
-        v += (ws.w[k] * theta[k]).cross(&(ws.p - ws.c[k]));
-        out[k] = ws.w[k].cross(&v).dot(&f);
+        v += crate::kinematics::column(&ws.w[k], &ws.c[k], &ws.p, tr[k]).0 * theta[k];
+        // A translation's generalised force w_k·f does not see the tip move.
+        out[k] = if tr[k] {
+            0.0
+        } else {
+            ws.w[k].cross(&v).dot(&f)
+        };
     }
     let mut omega = Vector3::zeros();
     for k in 0..m {
         let wk = ws.w[k];
-        let r = ws.p - ws.c[k];
         let dw = omega.cross(&wk);
+        if tr[k] {
+            // Only the rotations before k turn it; nothing before k adds to Ω.
+            out[k] += dw.dot(&f);
+            continue;
+        }
+        let r = ws.p - ws.c[k];
         out[k] += (dw.cross(&r) + wk.cross(&omega.cross(&r))).dot(&f) + dw.dot(&mo);
         omega += wk * theta[k];
     }

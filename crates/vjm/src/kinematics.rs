@@ -1,16 +1,18 @@
 //! Forward kinematics with virtual joints, the 6×m virtual-joint Jacobian and the
 //! complementary stiffness K_C.
 //!
-//! Every virtual spring k is a revolute joint about the unit axis w_k through the point
-//! c_k (its joint's spring centre), both in base-frame components. At the undeflected
-//! state its Jacobian column at the tip point p is `[w_k × (p − c_k); w_k]`.
+//! Every rotational virtual spring k is a revolute joint about the unit axis w_k through the
+//! point c_k (its joint's spring centre), both in base-frame components. At the undeflected
+//! state its Jacobian column at the tip point p is `[w_k × (p − c_k); w_k]`. A translational
+//! spring (the full model's link springs) is a prismatic joint along w_k: its column is
+//! `[w_k; 0]` ([`column`]).
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Translation3, Vector3};
 
 use crate::chain::{check_finite, rotation_about, SerialChain};
 use crate::error::VjmError;
 use crate::lanes::kinematics::ChainLanes;
-use crate::model::{basis_index, local_spring_axis, spring_axes, SpringAxis, VirtualJointModel};
+use crate::model::{basis_index, local_spring_axis, spring_axes, VirtualJointModel};
 
 /// Reusable scratch for batched kinematics (Data in pinocchio's Model/Data split).
 ///
@@ -31,6 +33,8 @@ pub struct Workspace {
     /// The chain and model flattened for the lane-wise batch path (built once, here).
     lanes: ChainLanes,
     spring_joint: Vec<usize>,
+    /// Per spring: true for a translation (column `[w_k; 0]`).
+    pub(crate) translation: Vec<bool>,
     offsets: Vec<Vector3<f64>>,
     any_offset: bool,
     /// A copy of the model's springs and offsets, to reject a workspace built for another model.
@@ -66,6 +70,7 @@ impl Workspace {
             arch: pulp::Arch::new(),
             local_axes,
             spring_joint: model.springs().iter().map(|s| s.joint).collect(),
+            translation: model.springs().iter().map(|s| s.is_translation()).collect(),
             offsets: model.offsets().to_vec(),
             any_offset: model.offsets().iter().any(|o| *o != Vector3::zeros()),
             model: model.clone(),
@@ -149,6 +154,11 @@ impl Workspace {
     pub(crate) fn write_jacobian(&self, out: &mut [f64]) {
         for (k, col) in out.chunks_exact_mut(6).enumerate() {
             let w = self.w[k];
+            if self.translation[k] {
+                col[..3].copy_from_slice(w.as_slice());
+                col[3..].fill(0.0);
+                continue;
+            }
             let lin = w.cross(&(self.p - self.c[k]));
             col[0] = lin.x;
             col[1] = lin.y;
@@ -290,15 +300,32 @@ pub fn jacobian_deflected(
     let state = deflected_state(chain, model, q, theta)?;
     let (frames, p) = (state.springs, state.tip.translation.vector);
     let mut jac = DMatrix::zeros(6, model.n_params());
-    for (k, (w, c)) in frames.iter().enumerate() {
-        let lin = w.cross(&(p - c));
+    for (k, ((w, c), s)) in frames.iter().zip(model.springs()).enumerate() {
+        let (lin, ang) = column(w, c, &p, s.is_translation());
         jac.fixed_view_mut::<3, 1>(0, k).copy_from(&lin);
-        jac.fixed_view_mut::<3, 1>(3, k).copy_from(w);
+        jac.fixed_view_mut::<3, 1>(3, k).copy_from(&ang);
     }
     Ok(jac)
 }
 
-/// The deflected chain: per spring its base-frame axis and centre, per actuated joint its
+/// The Jacobian column `[linear; angular]` at the tip point `p` of a spring with base-frame
+/// axis `w` through the centre `c`: `[w × (p − c); w]` for a rotation, `[w; 0]` for a
+/// translation.
+pub(crate) fn column(
+    w: &Vector3<f64>,
+    c: &Vector3<f64>,
+    p: &Vector3<f64>,
+    translation: bool,
+) -> (Vector3<f64>, Vector3<f64>) {
+    if translation {
+        (*w, Vector3::zeros())
+    } else {
+        (w.cross(&(p - c)), *w)
+    }
+}
+
+/// The deflected chain: per spring its base-frame axis and centre (the column of a translation
+/// is `[w; 0]`, see [`column`]), per actuated joint its
 /// child frame after its springs' rotations (the frame its body moves with), and the tip pose.
 #[derive(Debug)]
 pub(crate) struct DeflectedState {
@@ -335,14 +362,14 @@ pub(crate) fn deflected_state(
             if s.joint != j {
                 continue;
             }
-            let local = match s.axis {
-                SpringAxis::Z => axes[0],
-                SpringAxis::X => axes[1],
-                SpringAxis::Y => axes[2],
-            };
+            let local = axes[s.axis.index()];
             let w = t.rotation * local;
             let c = (t * Point3::from(d)).coords;
             springs.push((w, c));
+            if s.is_translation() {
+                t *= Translation3::from(local * theta[k]);
+                continue;
+            }
             let shift = Isometry3::from_parts(Translation3::from(d), Default::default());
             t = t * shift * rotation_about(&local, theta[k]) * shift.inverse();
         }
@@ -359,9 +386,11 @@ pub(crate) fn deflected_state(
 /// `K_C[(k, i)] = ∂(J_kᵀ F)/∂θ_i` at the undeflected state, for the wrench
 /// `[fx, fy, fz, mx, my, mz]` (N, N·m, base frame) applied at the tip point.
 ///
-/// Analytic: for springs i before k in the chain, ∂w_k/∂θ_i = w_i × w_k and
+/// Analytic: for rotational springs i before k in the chain, ∂w_k/∂θ_i = w_i × w_k and
 /// ∂(p − c_k)/∂θ_i = w_i × (p − c_k); for i at or after k only the tip point moves,
-/// ∂p/∂θ_i = w_i × (p − c_i).
+/// ∂p/∂θ_i = w_i × (p − c_i). A translational spring i moves the tip by ∂p/∂θ_i = w_i and
+/// everything after it alike (no term for the k after it); a translational k has
+/// `J_kᵀF = w_k·f`, changed only by the rotations before it.
 pub fn complementary_stiffness(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -398,19 +427,26 @@ pub fn complementary_stiffness_in_place(
     ws.evaluate(chain, q);
     let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
     let mo = Vector3::new(wrench[3], wrench[4], wrench[5]);
+    let tr = &ws.translation;
     for i in 0..m {
         let wi = ws.w[i];
         // Tip motion when θ_i moves; used for every k ≤ i.
-        let dp = wi.cross(&(ws.p - ws.c[i]));
+        let dp = column(&wi, &ws.c[i], &ws.p, tr[i]).0;
         for k in 0..m {
             let wk = ws.w[k];
-            let value = if i < k {
-                let r = ws.p - ws.c[k];
-                let dw = wi.cross(&wk);
-                let dlin = dw.cross(&r) + wk.cross(&wi.cross(&r));
-                dlin.dot(&f) + dw.dot(&mo)
-            } else {
-                wk.cross(&dp).dot(&f)
+            let value = match (i < k, tr[i], tr[k]) {
+                // A translation before k moves k's centre and the tip alike.
+                (true, true, _) => 0.0,
+                (true, false, true) => wi.cross(&wk).dot(&f),
+                (true, false, false) => {
+                    let r = ws.p - ws.c[k];
+                    let dw = wi.cross(&wk);
+                    let dlin = dw.cross(&r) + wk.cross(&wi.cross(&r));
+                    dlin.dot(&f) + dw.dot(&mo)
+                }
+                // A translation's generalised force w_k·f does not see the tip move.
+                (false, _, true) => 0.0,
+                (false, _, false) => wk.cross(&dp).dot(&f),
             };
             out[i * m + k] = value;
         }
@@ -424,7 +460,8 @@ pub fn complementary_stiffness_in_place(
 /// is `E_1 ⋯ E_{k−1} N_k` with `E_k` the rotation by θ_k about spring k's undeflected axis
 /// `a_k` through its centre (the composition of [`RowBuilder::exact_displacement`]), so its
 /// column is `[G_k (a_k × (v_k − c_k)); G_k a_k]` with `G_k = R_1 ⋯ R_{k−1}` (R_k the rotation of E_k) and
-/// `v_k = E_k(⋯E_K(p))`, and the tip moves to `E_1(⋯E_K(p))`. Both sweeps are O(3n); the
+/// `v_k = E_k(⋯E_K(p))`, and the tip moves to `E_1(⋯E_K(p))`. A translational column `[w_k; 0]`
+/// (zero angular part) is the shift E_k(y) = y + θ_k w_k: its column becomes `[G_k w_k; 0]`. Both sweeps are O(3n); the
 /// result equals `vjm::kinematics::jacobian_deflected` to rounding
 /// (`tests/it/diagnose.rs`, `a_row_deflected_in_place_equals_the_deflected_chain`). The
 /// sag of an arm under its weight moves a measurement's reference there.
@@ -447,6 +484,12 @@ pub(crate) fn deflect_in_place(
         let col = &jac[6 * k..6 * k + 6];
         let u = Vector3::new(col[0], col[1], col[2]);
         let a = Vector3::new(col[3], col[4], col[5]);
+        // A translation's column `[w; 0]` (a rotation's axis is a unit vector): it moves the
+        // tip along w and turns nothing.
+        if a == Vector3::zeros() {
+            d += u * theta[k];
+            continue;
+        }
         let x = u.cross(&a);
         after[k] = d + x;
         if theta[k] != 0.0 {
@@ -459,6 +502,11 @@ pub(crate) fn deflect_in_place(
     let mut g = Matrix3::<f64>::identity();
     for k in 0..m {
         let a = Vector3::new(jac[6 * k + 3], jac[6 * k + 4], jac[6 * k + 5]);
+        if a == Vector3::zeros() {
+            let u = g * Vector3::new(jac[6 * k], jac[6 * k + 1], jac[6 * k + 2]);
+            jac[6 * k..6 * k + 3].copy_from_slice(u.as_slice());
+            continue;
+        }
         if theta[k] != 0.0 {
             let (sin, versine) = rot[k];
             let hat = a.cross_matrix();

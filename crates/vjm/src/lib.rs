@@ -90,7 +90,7 @@ pub use kinematics::{
     jacobian, jacobian_batch_in_place, jacobian_batch_with_layout, jacobian_deflected,
     jacobian_in_place, JacobianLayout, Workspace,
 };
-pub use model::{spring_axes, Spring, SpringAxis, VirtualJointModel};
+pub use model::{spring_axes, Spring, SpringAxis, SpringKind, VirtualJointModel};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
 pub use stiffness_model::{DataSource, Load, ModelError, PointMass, Prediction, StiffnessModel};

@@ -64,19 +64,91 @@ impl std::str::FromStr for SpringAxis {
     }
 }
 
-/// One virtual spring: a virtual revolute joint at actuated joint `joint` (0-based, base → tip).
+/// Whether a virtual spring rotates or translates the link after its joint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpringKind {
+    /// A virtual revolute joint about the spring axis (compliance in rad/(N·m)): torsion and
+    /// tilts, labels `J3z`, `J3x`, `J3y`.
+    #[default]
+    Rotation,
+    /// A virtual prismatic joint along the spring axis (compliance in m/N): the link's
+    /// translational spring of the full 6-D virtual spring, labels `J3tz`, `J3tx`, `J3ty`
+    /// (`link_translation(J3z)` in the words of `diagnose`).
+    Translation,
+}
+
+impl SpringKind {
+    /// True for [`SpringKind::Rotation`] (the serialiser leaves the kind of a rotation out, so
+    /// the springs of the rotational models serialise as before).
+    pub fn is_rotation(&self) -> bool {
+        *self == SpringKind::Rotation
+    }
+}
+
+/// One virtual spring at actuated joint `joint` (0-based, base → tip): a virtual revolute
+/// joint about `axis` or, for [`SpringKind::Translation`], a virtual prismatic joint along it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 pub struct Spring {
     /// 0-based index of the actuated joint, base → tip.
     pub joint: usize,
     /// Axis of the spring in that joint's child frame.
     pub axis: SpringAxis,
+    /// Rotation (torsion, tilt) or translation of the link after the joint.
+    #[serde(skip_serializing_if = "SpringKind::is_rotation")]
+    pub kind: SpringKind,
+}
+
+impl Spring {
+    /// The rotational spring of `joint` (0-based) about `axis`: torsion (`Z`) or a tilt.
+    pub fn rotation(joint: usize, axis: SpringAxis) -> Self {
+        Self {
+            joint,
+            axis,
+            kind: SpringKind::Rotation,
+        }
+    }
+
+    /// The translational spring of the link after `joint` (0-based) along `axis`.
+    pub fn translation(joint: usize, axis: SpringAxis) -> Self {
+        Self {
+            joint,
+            axis,
+            kind: SpringKind::Translation,
+        }
+    }
+
+    /// True for a translational spring.
+    pub fn is_translation(&self) -> bool {
+        self.kind == SpringKind::Translation
+    }
+
+    /// Position of the spring within its joint's six, joint-major `[z, x, y, tz, tx, ty]`:
+    /// spring `6·joint + slot()` of the full model (the rotations first, in the order of the
+    /// extended model).
+    pub fn slot(&self) -> usize {
+        match self.kind {
+            SpringKind::Rotation => self.axis.index(),
+            SpringKind::Translation => 3 + self.axis.index(),
+        }
+    }
+
+    /// The spring in `slot` (see [`Spring::slot`]) of `joint`.
+    pub(crate) fn from_slot(joint: usize, slot: usize) -> Self {
+        let axis = SpringAxis::ALL[slot % 3];
+        if slot < 3 {
+            Self::rotation(joint, axis)
+        } else {
+            Self::translation(joint, axis)
+        }
+    }
 }
 
 impl fmt::Display for Spring {
-    /// 1-based user-facing label, e.g. `J3x`.
+    /// 1-based user-facing label, e.g. `J3x` (a tilt) or `J3tx` (a translation).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "J{}{}", self.joint + 1, self.axis)
+        let t = if self.is_translation() { "t" } else { "" };
+        write!(f, "J{}{}{}", self.joint + 1, t, self.axis)
     }
 }
 
@@ -142,10 +214,7 @@ impl VirtualJointModel {
     /// One torsional spring per joint (n parameters), the classic VJM.
     pub fn traditional(n_joints: usize) -> Self {
         let springs = (0..n_joints)
-            .map(|joint| Spring {
-                joint,
-                axis: SpringAxis::Z,
-            })
+            .map(|joint| Spring::rotation(joint, SpringAxis::Z))
             .collect();
         Self {
             n_joints,
@@ -161,7 +230,7 @@ impl VirtualJointModel {
             .flat_map(|joint| {
                 SpringAxis::ALL
                     .into_iter()
-                    .map(move |axis| Spring { joint, axis })
+                    .map(move |axis| Spring::rotation(joint, axis))
             })
             .collect();
         Self {
@@ -170,6 +239,33 @@ impl VirtualJointModel {
             offsets: vec![Vector3::zeros(); n_joints],
             name: "extended".into(),
         }
+    }
+
+    /// The full virtual-joint model: every link's 6-D spring, torsion, both tilts and three
+    /// translations per joint (6n parameters, joint-major `[z, x, y, tz, tx, ty]`; the
+    /// translations in m/N along the spring axes of [`spring_axes`]).
+    ///
+    /// ```
+    /// use vjm::VirtualJointModel;
+    /// let m = VirtualJointModel::full(6);
+    /// assert_eq!(m.n_params(), 36);
+    /// assert_eq!(m.labels()[3], "J1tz");
+    /// ```
+    pub fn full(n_joints: usize) -> Self {
+        let springs = (0..n_joints)
+            .flat_map(|joint| (0..6).map(move |slot| Spring::from_slot(joint, slot)))
+            .collect();
+        Self {
+            n_joints,
+            springs,
+            offsets: vec![Vector3::zeros(); n_joints],
+            name: "full".into(),
+        }
+    }
+
+    /// True when any spring is a translation (the full model's link springs).
+    pub fn has_translations(&self) -> bool {
+        self.springs.iter().any(Spring::is_translation)
     }
 
     /// Any subset of springs for a chain of `n_joints` joints, listed base → tip.
@@ -250,7 +346,7 @@ impl VirtualJointModel {
     pub fn offsets(&self) -> &[Vector3<f64>] {
         &self.offsets
     }
-    /// `"traditional"`, `"extended"` or `"custom"`.
+    /// `"traditional"`, `"extended"`, `"full"` or `"custom"`.
     pub fn name(&self) -> &str {
         &self.name
     }

@@ -1,10 +1,10 @@
 //! The one model vocabulary ([`VirtualJointModel::parse`]).
 
 use crate::error::VjmError;
-use crate::model::{Spring, SpringAxis, VirtualJointModel};
+use crate::model::{Spring, SpringAxis, SpringKind, VirtualJointModel};
 
 /// Effects `diagnose` names that are not virtual springs of the joints, with what they are.
-const NOT_SPRINGS: [(&str, &str); 8] = [
+const NOT_SPRINGS: [(&str, &str); 7] = [
     ("wrench_bias", "an offset of the recorded wrench"),
     ("frame_misalignment", "a rotation of the tracker's frame"),
     (
@@ -13,7 +13,6 @@ const NOT_SPRINGS: [(&str, &str); 8] = [
     ),
     ("mount_translation", "a compliance of the mount"),
     ("mount_rotation", "a compliance of the mount"),
-    ("link_translation", "a translational spring of a link"),
     (
         "joint_torsion_nonlinear",
         "a torque-dependent gear curve (its linear part is the joint's torsion spring)",
@@ -28,14 +27,17 @@ impl VirtualJointModel {
     /// prints its models.
     ///
     /// A spec is terms joined by `+` or `,` (spaces ignored): `traditional` (the torsion spring of
-    /// every joint), `extended` (torsion and both tilts of every joint), a spring label `J3x`
-    /// (1-based joint, axis z, x or y), or a spring finding of `diagnose`, `joint_tilt(J3x)`. The
-    /// model holds the union of the terms' springs, base → tip and `[z, x, y]` within a joint, so
-    /// `traditional + joint_tilt(J3x)` — what `diagnose` prints for a tilt found at joint 3 — is the
-    /// seven torsion springs and J3x. Findings of `diagnose` that are not virtual springs
-    /// (`wrench_bias`, `link_translation(J4z)`, …) are refused by name: `identify` fits springs.
+    /// every joint), `extended` (torsion and both tilts of every joint), `full` (the 6-D spring of
+    /// every link: torsion, both tilts and three translations), a spring label `J3x` (1-based
+    /// joint, axis z, x or y; `J3tx` the translation of the link after joint 3 along x), or a
+    /// spring finding of `diagnose`, `joint_tilt(J3x)` or `link_translation(J3x)` (= `J3tx`). The
+    /// model holds the union of the terms' springs, base → tip and `[z, x, y, tz, tx, ty]` within
+    /// a joint, so `traditional + joint_tilt(J3x)` — what `diagnose` prints for a tilt found at
+    /// joint 3 — is the seven torsion springs and J3x. Findings of `diagnose` that are not
+    /// virtual springs (`wrench_bias`, `mount_translation`, …) are refused by name: `identify`
+    /// fits springs.
     ///
-    /// Named `traditional` or `extended` when its springs are those models',
+    /// Named `traditional`, `extended` or `full` when its springs are those models',
     /// `custom` otherwise.
     ///
     /// ```
@@ -46,11 +48,14 @@ impl VirtualJointModel {
     /// assert_eq!(VirtualJointModel::parse(7, "J1z, J2z")?.n_params(), 2);
     /// assert_eq!(VirtualJointModel::parse(7, "traditional + extended")?.name(), "extended");
     /// assert!(VirtualJointModel::parse(7, "traditional + wrench_bias").is_err());
+    /// let t = VirtualJointModel::parse(7, "traditional + link_translation(J4z)")?;
+    /// assert_eq!(t.labels()[4], "J4tz");
+    /// assert_eq!(VirtualJointModel::parse(7, "full")?.n_params(), 42);
     /// # Ok::<(), vjm::VjmError>(())
     /// ```
     pub fn parse(n_joints: usize, spec: &str) -> Result<Self, VjmError> {
         let invalid = |message: String| VjmError::InvalidModel { message };
-        let mut chosen = vec![false; 3 * n_joints];
+        let mut chosen = vec![false; 6 * n_joints];
         let mut terms = 0usize;
         for raw in spec.split(['+', ',']) {
             let term: String = raw.chars().filter(|c| !c.is_whitespace()).collect();
@@ -62,27 +67,24 @@ impl VirtualJointModel {
             }
             terms += 1;
             for spring in term_springs(&term, n_joints)? {
-                chosen[3 * spring.joint + spring.axis.index()] = true;
+                chosen[6 * spring.joint + spring.slot()] = true;
             }
         }
         if terms == 0 {
             return Err(invalid("the model spec is empty".into()));
         }
-        let springs: Vec<Spring> = (0..3 * n_joints)
+        let springs: Vec<Spring> = (0..6 * n_joints)
             .filter(|&k| chosen[k])
-            .map(|k| Spring {
-                joint: k / 3,
-                axis: SpringAxis::ALL[k % 3],
-            })
+            .map(|k| Spring::from_slot(k / 6, k % 6))
             .collect();
-        let traditional = VirtualJointModel::traditional(n_joints);
-        let extended = VirtualJointModel::extended(n_joints);
-        if springs == traditional.springs() {
-            Ok(traditional)
-        } else if springs == extended.springs() {
-            Ok(extended)
-        } else {
-            VirtualJointModel::from_springs(n_joints, springs)
+        let presets = [
+            VirtualJointModel::traditional(n_joints),
+            VirtualJointModel::extended(n_joints),
+            VirtualJointModel::full(n_joints),
+        ];
+        match presets.into_iter().find(|p| p.springs() == springs) {
+            Some(preset) => Ok(preset),
+            None => VirtualJointModel::from_springs(n_joints, springs),
         }
     }
 }
@@ -92,6 +94,7 @@ fn term_springs(term: &str, n_joints: usize) -> Result<Vec<Spring>, VjmError> {
     match term {
         "traditional" => return Ok(VirtualJointModel::traditional(n_joints).springs().to_vec()),
         "extended" => return Ok(VirtualJointModel::extended(n_joints).springs().to_vec()),
+        "full" => return Ok(VirtualJointModel::full(n_joints).springs().to_vec()),
         _ => {}
     }
     let (name, inner) = match term.split_once('(') {
@@ -109,20 +112,21 @@ fn term_springs(term: &str, n_joints: usize) -> Result<Vec<Spring>, VjmError> {
         return Err(VjmError::InvalidModel {
             message: format!(
                 "model term `{term}` is {what}, a finding of diagnose that is not a virtual \
-                 spring: a spring model holds traditional, extended, spring labels (J3x) and \
-                 joint_tilt(J3x) findings (the model a diagnosis found is saved with its \
+                 spring: a spring model holds traditional, extended, full, spring labels (J3x, \
+                 J3tx) and joint_tilt(J3x) or link_translation(J3x) findings (the model a diagnosis found is saved with its \
                  measurement errors taken out by diagnosed_model, CLI diagnose --save)"
             ),
         });
     }
-    let (label, tilt) = match (name, inner) {
-        ("joint_tilt", Some(label)) => (label, true),
-        (label, None) => (label, false),
+    let (label, finding) = match (name, inner) {
+        ("joint_tilt", Some(label)) => (label, Some(SpringKind::Rotation)),
+        ("link_translation", Some(label)) => (label, Some(SpringKind::Translation)),
+        (label, None) => (label, None),
         _ => {
             return Err(VjmError::InvalidModel {
                 message: format!(
-                    "unknown model `{term}`: expected traditional, extended, spring labels like \
-                     J3x, or what diagnose prints, e.g. traditional + joint_tilt(J3x)"
+                    "unknown model `{term}`: expected traditional, extended, full, spring labels \
+                     like J3x, or what diagnose prints, e.g. traditional + joint_tilt(J3x)"
                 ),
             })
         }
@@ -132,34 +136,50 @@ fn term_springs(term: &str, n_joints: usize) -> Result<Vec<Spring>, VjmError> {
     if !looks_like_a_label {
         return Err(VjmError::InvalidModel {
             message: format!(
-                "unknown model `{term}`: expected traditional, extended, spring labels like J3x, \
-                 or what diagnose prints, e.g. traditional + joint_tilt(J3x)"
+                "unknown model `{term}`: expected traditional, extended, full, spring labels like \
+                 J3x, or what diagnose prints, e.g. traditional + joint_tilt(J3x)"
             ),
         });
     }
     let spring = spring_label(label, n_joints).ok_or_else(|| VjmError::InvalidModel {
         message: format!(
             "model term `{term}`: `{label}` is not a spring label: expected J<joint><axis> with \
-             joint 1..{n_joints} and axis z, x or y (e.g. J3x), or traditional / extended"
+             joint 1..{n_joints} and axis z, x or y (e.g. J3x; J3tx a translation), or \
+             traditional / extended / full"
         ),
     })?;
-    if tilt && spring.axis == SpringAxis::Z {
-        return Err(VjmError::InvalidModel {
+    match finding {
+        None => Ok(vec![spring]),
+        Some(_) if spring.is_translation() => Err(VjmError::InvalidModel {
+            message: format!(
+                "model term `{term}`: name the axis inside a finding without `t` (e.g. \
+                 link_translation(J3x), or the label J3tx alone)"
+            ),
+        }),
+        Some(SpringKind::Rotation) if spring.axis == SpringAxis::Z => Err(VjmError::InvalidModel {
             message: format!("model term `{term}`: a tilt is about x or y, not z (the torsion)"),
-        });
+        }),
+        Some(SpringKind::Rotation) => Ok(vec![spring]),
+        Some(SpringKind::Translation) => Ok(vec![Spring::translation(spring.joint, spring.axis)]),
     }
-    Ok(vec![spring])
 }
 
-/// `J3x` (or `j3x`) → joint 2 (0-based), axis x; None when not a label of a chain of
-/// `n_joints` joints.
+/// `J3x` (or `j3x`) → the rotational spring of joint 2 (0-based) about x; `J3tx` → the
+/// translational spring of the link after joint 2 along x; None when not a label of a chain
+/// of `n_joints` joints.
 pub fn spring_label(label: &str, n_joints: usize) -> Option<Spring> {
     let rest = label.strip_prefix(['J', 'j'])?;
     let axis_char = rest.chars().last()?;
-    let joint: usize = rest[..rest.len() - axis_char.len_utf8()].parse().ok()?;
+    let rest = &rest[..rest.len() - axis_char.len_utf8()];
+    let (digits, kind) = match rest.strip_suffix(['t', 'T']) {
+        Some(digits) => (digits, SpringKind::Translation),
+        None => (rest, SpringKind::Rotation),
+    };
+    let joint: usize = digits.parse().ok()?;
     let axis: SpringAxis = axis_char.to_string().parse().ok()?;
     (1..=n_joints).contains(&joint).then_some(Spring {
         joint: joint - 1,
         axis,
+        kind,
     })
 }

@@ -48,6 +48,16 @@ impl GravityWorkspace {
         payload: Option<&PointMass>,
     ) -> Result<Self, VjmError> {
         chain.mass_model()?;
+        if model.has_translations() {
+            // Every gravity path (identify, predict, sag, compensate, design under gravity)
+            // builds this workspace: refuse here rather than return a rotation's torque.
+            return Err(VjmError::InvalidModel {
+                message: "gravity (the arm's weight) with translational link springs (model \
+                          `full`, J3tx, link_translation) is not supported yet: use the model \
+                          without gravity (weightless), or a rotational model"
+                    .into(),
+            });
+        }
         let ws = Workspace::new(chain, model)?;
         let m = model.n_params();
         Ok(Self {

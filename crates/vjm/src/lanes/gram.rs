@@ -5,7 +5,9 @@
 //! and wrench `(f, m)`: the generalised force on the spring is
 //! `J_kᵀF = (w_k × ℓ_j)·f + w_k·m = w_k·(ℓ_j × f + m)`, so one `u_j = ℓ_j × f + m` per joint
 //! serves its three springs; the regressor entries are `(w_k × ℓ_j)[r]·J_kᵀF` (translation
-//! rows) and `w_k[r]·J_kᵀF` (rotation rows), whitened by 1/σ_r (see `crate::regressor`).
+//! rows) and `w_k[r]·J_kᵀF` (rotation rows), whitened by 1/σ_r (see `crate::regressor`). A
+//! translational spring (column `[w_k; 0]`) has `J_kᵀF = w_k·f` and entries `w_k[r]·J_kᵀF` in
+//! the translation rows, 0 in the rotation rows.
 
 use pulp::{Simd, WithSimd};
 
@@ -100,6 +102,17 @@ fn gram_lanes<S: Simd, const R: usize>(
         for (k, col) in a[..m].iter_mut().enumerate() {
             let j = chain.spring_joint(k);
             let w = chain.spring_axis(s, &frames, k);
+            if chain.is_translation(k) {
+                // Column [w; 0]: the generalised force is w·f and it moves the tip along w.
+                let g = dot3(&w, &force);
+                for r in 0..3 {
+                    col[r] = w[r] * (g * isig[r]);
+                }
+                for v in &mut col[3..R] {
+                    *v = V::zero(s);
+                }
+                continue;
+            }
             let g = dot3(&w, &u[j]);
             let lin = cross3(&w, &lever[j]);
             for r in 0..3 {
@@ -257,10 +270,15 @@ fn jacobian_lanes<S: Simd>(
         }
         for k in 0..m {
             let w = chain.spring_axis(s, &frames, k);
-            let lin = cross3(&w, &lever[chain.spring_joint(k)]);
+            // A translation's column is [w; 0] (see `crate::kinematics::column`).
+            let (lin, ang) = if chain.is_translation(k) {
+                (w, [V::zero(s); 3])
+            } else {
+                (cross3(&w, &lever[chain.spring_joint(k)]), w)
+            };
             for d in 0..3 {
                 lin[d].store(&mut buf[d]);
-                w[d].store(&mut buf[3 + d]);
+                ang[d].store(&mut buf[3 + d]);
             }
             for (l, block) in out[i * 6 * m..]
                 .chunks_exact_mut(6 * m)

@@ -28,6 +28,8 @@ pub(crate) struct ChainLanes {
     offsets: Option<Vec<[f64; 3]>>,
     spring_joint: Vec<usize>,
     spring_axis: Vec<LocalAxis>,
+    /// Per spring: true for a translation (column `[w; 0]`).
+    translation: Vec<bool>,
 }
 
 /// The result of [`ChainLanes::evaluate`]: base-frame quantities, lane by lane.
@@ -86,6 +88,7 @@ impl ChainLanes {
             offsets: any_offset.then(|| offsets.iter().map(|o| [o.x, o.y, o.z]).collect()),
             spring_joint: model.springs().iter().map(|s| s.joint).collect(),
             spring_axis,
+            translation: model.springs().iter().map(|s| s.is_translation()).collect(),
         }
     }
 
@@ -101,6 +104,12 @@ impl ChainLanes {
     #[inline(always)]
     pub(crate) fn spring_joint(&self, k: usize) -> usize {
         self.spring_joint[k]
+    }
+
+    /// True when spring `k` is a translation.
+    #[inline(always)]
+    pub(crate) fn is_translation(&self, k: usize) -> bool {
+        self.translation[k]
     }
 
     /// Evaluates the frames at `q[j]` (joint j's angle in every lane, rad).

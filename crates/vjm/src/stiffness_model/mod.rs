@@ -461,6 +461,7 @@ impl StiffnessModel {
             "extended" if springs == VirtualJointModel::extended(n).springs() => {
                 VirtualJointModel::extended(n)
             }
+            "full" if springs == VirtualJointModel::full(n).springs() => VirtualJointModel::full(n),
             _ => VirtualJointModel::from_springs(n, springs)?,
         };
         let offsets = self
@@ -778,20 +779,10 @@ fn short(hash: &str) -> &str {
     &hash[..hash.len().min(12)]
 }
 
-/// `J<joint><axis>` (1-based joint) → a [`Spring`].
+/// `J<joint><axis>` or `J<joint>t<axis>` (1-based joint) → a [`Spring`], read by the
+/// vocabulary's one parser ([`crate::model_spec::spring_label`]).
 fn parse_label(label: &str) -> Result<Spring, String> {
-    let bad = || format!("`{label}` is not a spring label (J<joint><axis>, e.g. J2x)");
-    let rest = label.strip_prefix('J').ok_or_else(bad)?;
-    let axis_char = rest.chars().last().ok_or_else(bad)?;
-    let joint: usize = rest[..rest.len() - axis_char.len_utf8()]
-        .parse()
-        .map_err(|_| bad())?;
-    let axis = axis_char.to_string().parse().map_err(|_| bad())?;
-    if joint == 0 {
-        return Err(bad());
-    }
-    Ok(Spring {
-        joint: joint - 1,
-        axis,
+    crate::model_spec::spring_label(label, usize::MAX).ok_or_else(|| {
+        format!("`{label}` is not a spring label (J<joint><axis>, e.g. J2x or J2tx)")
     })
 }

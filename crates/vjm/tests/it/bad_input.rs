@@ -331,37 +331,22 @@ fn too_few_measurements() {
 #[test]
 fn invalid_models_and_options() {
     let dup = vec![
-        Spring {
-            joint: 0,
-            axis: SpringAxis::Z,
-        },
-        Spring {
-            joint: 0,
-            axis: SpringAxis::Z,
-        },
+        Spring::rotation(0, SpringAxis::Z),
+        Spring::rotation(0, SpringAxis::Z),
     ];
     let err = VirtualJointModel::from_springs(7, dup).unwrap_err();
     assert!(
         err.to_string().contains("J1z") && err.to_string().contains("twice"),
         "{err}"
     );
-    let out = vec![Spring {
-        joint: 9,
-        axis: SpringAxis::X,
-    }];
+    let out = vec![Spring::rotation(9, SpringAxis::X)];
     assert!(VirtualJointModel::from_springs(7, out)
         .unwrap_err()
         .to_string()
         .contains("joint 10"));
     let order = vec![
-        Spring {
-            joint: 3,
-            axis: SpringAxis::X,
-        },
-        Spring {
-            joint: 1,
-            axis: SpringAxis::X,
-        },
+        Spring::rotation(3, SpringAxis::X),
+        Spring::rotation(1, SpringAxis::X),
     ];
     assert!(VirtualJointModel::from_springs(7, order)
         .unwrap_err()

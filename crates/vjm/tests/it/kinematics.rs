@@ -175,18 +175,9 @@ fn subset_model_columns_match_extended() {
     let q = &random_configurations(&panda, 1, 11)[..];
     let ext = jacobian(&panda, &VirtualJointModel::extended(7), q).unwrap();
     let springs = vec![
-        Spring {
-            joint: 1,
-            axis: SpringAxis::Y,
-        },
-        Spring {
-            joint: 4,
-            axis: SpringAxis::Z,
-        },
-        Spring {
-            joint: 4,
-            axis: SpringAxis::X,
-        },
+        Spring::rotation(1, SpringAxis::Y),
+        Spring::rotation(4, SpringAxis::Z),
+        Spring::rotation(4, SpringAxis::X),
     ];
     let sub = jacobian(
         &panda,
