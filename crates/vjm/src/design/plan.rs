@@ -46,7 +46,8 @@ impl NoiseModel {
             .springs()
             .iter()
             .map(|s| {
-                if s.axis == crate::model::SpringAxis::Z {
+                // The torsion springs only (a link translation's prior is 0, like a tilt's).
+                if s.axis == crate::model::SpringAxis::Z && !s.is_translation() {
                     NOMINAL_TORSION[s.joint % 7]
                 } else {
                     0.0

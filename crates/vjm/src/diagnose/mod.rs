@@ -347,6 +347,16 @@ fn prepare<'a>(
             params: n_base,
         });
     }
+    if baseline_model.has_translations() {
+        // The catalogue tests link translations itself (`link_translation`); a baseline holds
+        // the rotational springs (3 per joint) only.
+        return Err(DiagnoseError::Model(VjmError::InvalidModel {
+            message: "diagnose's baseline holds rotational springs only (traditional, extended, \
+                      tilts); translational link springs (full, J3tx) are its candidates \
+                      link_translation(J3x): diagnose with the rotations and let it test them"
+                .into(),
+        }));
+    }
     let m = 3 * n;
     let groups = data.pose_groups();
     let base_terms: Vec<Term> = baseline_model
