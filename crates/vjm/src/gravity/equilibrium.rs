@@ -74,8 +74,10 @@ fn torques(
         let f = Vector3::new(wr[0], wr[1], wr[2]);
         let mo = Vector3::new(wr[3], wr[4], wr[5]);
         let p = state.tip.translation.vector;
-        for (k, (w, c)) in state.springs.iter().enumerate() {
-            out[k] += w.dot(&((p - c).cross(&f) + mo));
+        for (k, ((w, c), s)) in state.springs.iter().zip(model.springs()).enumerate() {
+            // J_kᵀF with the spring's column (a translation's is [w; 0]).
+            let (lin, ang) = crate::kinematics::column(w, c, &p, s.is_translation());
+            out[k] += lin.dot(&f) + ang.dot(&mo);
         }
     }
     Ok((out, state.tip))

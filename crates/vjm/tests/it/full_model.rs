@@ -162,3 +162,62 @@ fn the_vocabulary_reads_translations() {
         VirtualJointModel::extended(7)
     );
 }
+
+/// A full model round-trips through the model file (labels `J3tx`, name `full`, bitwise
+/// predictions) and its predictions equal the static equilibrium of the deflected chain
+/// (`vjm::gravity::static_equilibrium`: composed isometries, no Jacobian) to second order in
+/// the load.
+#[test]
+fn a_full_model_round_trips_through_the_file_and_predicts_the_equilibrium() {
+    use vjm::gravity::{static_equilibrium, Loading};
+    use vjm::{DataSource, Load, StiffnessModel};
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::full(7);
+    let mut truth = random_compliances(42, 8);
+    for (c, s) in truth.iter_mut().zip(model.springs()) {
+        if s.is_translation() {
+            *c *= 1e-1;
+        }
+    }
+    let (q, f, d, r) = synthetic(&panda, &model, &truth, 400, 31);
+    let mut opts = IdentifyOptions::default();
+    opts.use_rotations = true;
+    let id = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let sm =
+        StiffnessModel::from_identification(&id, &panda, &model, &opts, DataSource::in_memory(400))
+            .unwrap();
+    assert!(sm.springs().labels.iter().any(|l| l == "J4tz"));
+    let back = StiffnessModel::from_json(&sm.to_json(), "<full>").unwrap();
+    assert_eq!(back, sm);
+    assert_eq!(back.spring_model().unwrap(), model);
+    let q_new = random_configurations(&panda, 6, 77);
+    let wrench = [20.0, -15.0, 30.0, 1.0, -2.0, 0.5];
+    let w_all: Vec<f64> = (0..6).flat_map(|_| wrench).collect();
+    let a = sm.predict(&panda, &q_new, Load::Wrench(&w_all)).unwrap();
+    let b = back.predict(&panda, &q_new, Load::Wrench(&w_all)).unwrap();
+    for ((pa, pb), qi) in a.iter().zip(&b).zip(q_new.chunks_exact(7)) {
+        assert_eq!(
+            pa.deflection.map(f64::to_bits),
+            pb.deflection.map(f64::to_bits)
+        );
+        let loading = Loading {
+            gravity: None,
+            payload: None,
+            wrench: Some(wrench),
+        };
+        let eq = static_equilibrium(&panda, &model, &truth, qi, &loading).unwrap();
+        let rigid = forward_kinematics_deflected(&panda, &model, qi, &[0.0; 42]).unwrap();
+        let dp = eq.tip.translation.vector - rigid.translation.vector;
+        let scale = dp.norm();
+        for k in 0..3 {
+            // The prediction is linear in the load about the undeflected state; the
+            // equilibrium's remainder is of order (C·load)² ≈ 1e-3 of the deflection.
+            assert!(
+                (pa.deflection[k] - dp[k]).abs() < 1e-2 * scale,
+                "component {k}: {} vs {}",
+                pa.deflection[k],
+                dp[k]
+            );
+        }
+    }
+}
