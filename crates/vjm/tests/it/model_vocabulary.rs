@@ -75,14 +75,21 @@ fn every_catalogue_label_is_a_spring_or_refused_by_name() {
             let spec = format!("traditional + {label}");
             match VirtualJointModel::parse(7, &spec) {
                 Ok(m) => {
-                    assert_eq!(cand.effect(), "joint_tilt", "{label}");
-                    let spring = format!("J{}{}", cand.joint().unwrap() + 1, cand.axis().unwrap());
+                    // A tilt is the spring J3x, a link translation the spring J3tx.
+                    let t = match cand.effect() {
+                        "joint_tilt" => "",
+                        "link_translation" => "t",
+                        other => panic!("{label}: {other} parsed as a spring"),
+                    };
+                    let spring =
+                        format!("J{}{t}{}", cand.joint().unwrap() + 1, cand.axis().unwrap());
                     assert!(m.labels().contains(&spring), "{label}: {:?}", m.labels());
                     assert_eq!(m.n_params(), 8);
                 }
                 Err(e) => {
                     let e = e.to_string();
                     assert_ne!(cand.effect(), "joint_tilt", "{label}: {e}");
+                    assert_ne!(cand.effect(), "link_translation", "{label}: {e}");
                     assert!(
                         e.contains(&label) && e.contains("not a virtual spring"),
                         "{e}"
@@ -120,7 +127,8 @@ fn the_union_is_ordered_and_named_and_bad_terms_are_named() {
         ("joint_tilt(J3z)", "not z"),
         ("joint_tilt(J3x", "unclosed"),
         ("joint_twist(J3x)", "unknown model `joint_twist(J3x)`"),
-        ("link_translation(J4z)", "translational spring of a link"),
+        ("link_translation(J4tz)", "without `t`"),
+        ("mount_translation", "a compliance of the mount"),
     ] {
         let e = VirtualJointModel::parse(7, spec).unwrap_err().to_string();
         assert!(e.contains(words), "{spec:?}: {e}");
