@@ -165,15 +165,9 @@ fn identification_from_the_file_recovers_the_hidden_tilt_within_its_interval() {
     // Springs base → tip, [z, x, y] within a joint: J1z, J2z, J2x, J3z, …, J7z.
     let mut springs = Vec::new();
     for j in 0..7 {
-        springs.push(Spring {
-            joint: j,
-            axis: SpringAxis::Z,
-        });
+        springs.push(Spring::rotation(j, SpringAxis::Z));
         if j == 1 {
-            springs.push(Spring {
-                joint: 1,
-                axis: SpringAxis::X,
-            });
+            springs.push(Spring::rotation(1, SpringAxis::X));
         }
     }
     let model = VirtualJointModel::from_springs(7, springs).expect("model");
