@@ -1196,6 +1196,7 @@ fn a_bias_and_a_tilt_together_are_both_named_and_nothing_remains() {
                 unexplained.push((seed, describe(&d)));
             }
         }
+        println!("tracker {mpe:e} m: unexplained on {unexplained:?}");
         assert!(
             unexplained.len() <= 1,
             "tracker {mpe:e} m: unexplained on {unexplained:?}"

@@ -1,0 +1,40 @@
+"""Issue 23 item 2: the full virtual-joint model (translational link springs) from Python:
+``model="full"``, the labels ``J4tz``, a hidden link translation recovered, gravity refused
+by name."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_stiffness import vjm
+
+
+@pytest.fixture(scope="module")
+def panda() -> vjm.Robot:
+    return vjm.Robot.bundled()
+
+
+def test_full_labels(panda):
+    labels = panda.labels("full")
+    assert len(labels) == 42
+    assert labels[:6] == ["J1z", "J1x", "J1y", "J1tz", "J1tx", "J1ty"]
+    assert panda.labels("traditional + link_translation(J4z)")[4] == "J4tz"
+
+
+def test_identify_recovers_a_hidden_link_translation(panda):
+    c = 5e-6  # m/N: a link of 0.2 N/µm, well above the testbed's tracker noise
+    effect = {"effect": "link_translation", "joint": 4, "axis": "z", "compliance": c}
+    data = vjm.simulate(panda, [effect], n_poses=60, seed=3, gravity=None)
+    res = panda.identify(data.q, data.wrench, data.displacement, model="traditional + J4tz", gravity=None)
+    k = res.labels.index("J4tz")
+    assert res.identifiable[k]
+    assert abs(res.compliance[k] - c) < 0.1 * c, res.compliance[k]
+    full = panda.identify(data.q, data.wrench, data.displacement, model="full", gravity=None)
+    assert len(full.labels) == 42 and "J4tz" in full.labels
+
+
+def test_gravity_with_translations_is_refused_by_name(panda):
+    data = vjm.simulate(panda, [], n_poses=20, seed=1, gravity=None)
+    with pytest.raises(Exception, match="translational"):
+        panda.identify(data.q, data.wrench, data.displacement, model="full")
+    assert np.all(np.isfinite(data.displacement))
