@@ -155,5 +155,6 @@ gravity.__name__ = "gravity vector"
 
 #: One help text for every ``--model`` (and ``diagnose --baseline``): the one model vocabulary
 #: (``VirtualJointModel::parse``) and the one default.
-MODEL_HELP = ("spring model: traditional (torsion only), extended (3 springs per joint), labels like J1z,J2x, or "
-              "what diagnose prints, e.g. 'traditional + joint_tilt(J3x)' (default traditional)")
+MODEL_HELP = ("spring model: traditional (torsion only), extended (3 springs per joint), full (6 per joint: "
+              "plus the link's translations J1tz,J1tx,J1ty; weightless only, --no-gravity), labels like "
+              "J1z,J2x, or what diagnose prints, e.g. 'traditional + joint_tilt(J3x)' (default traditional)")

@@ -1167,6 +1167,10 @@ fn clean_springs_under_gravity_raise_no_alarm_when_gravity_is_modelled() {
 /// is left `unexplained` on at least 19: the bias' column is evaluated at compliances that
 /// contain the tilt. Before, the tilt's compliance was left out of the re-linearisation point,
 /// and per-pose offsets `J ΔC Jᵀ β` remained: `unexplained` on 6 and 13 of 20 seeds.
+/// Measured now (issue 23 item 3, not yet fixed): 1 µm 0/20; 15 µm 1/20, seed 0, where the
+/// hidden J3x tilt is named as its alias J4x (p = 4e-55, alias J3x), then a spurious J4y tilt
+/// (p = 1e-9) is accepted and a lack of fit remains — the aliased pair's wrong member, not a
+/// noise-level false alarm at the test's level.
 #[test]
 fn a_bias_and_a_tilt_together_are_both_named_and_nothing_remains() {
     let chain = SerialChain::bundled();
