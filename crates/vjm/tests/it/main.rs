@@ -7,6 +7,7 @@ mod bounded_input;
 mod check_arrays;
 mod compensation;
 mod design;
+mod gear;
 mod gravity;
 mod identification;
 mod identify_partial;
