@@ -48,9 +48,9 @@ fn a_gear_curve_is_its_piecewise_linear_definition() {
 }
 
 /// The equilibrium with a curved shoulder under the Panda's weight: the curved spring's θ is
-/// its curve at the torque it carries there (the torque of the potential, from the equilibrium
-/// recomputed at that θ), the others linear; with no curve it is `static_equilibrium` bit for
-/// bit, and the sag changes by the curve's excess.
+/// its curve at the torque it carries there (checked through a linear equilibrium with the
+/// curve's secant compliance), the others linear; with no curve it is `static_equilibrium` bit
+/// for bit, and the sag changes by the curve's excess.
 #[test]
 fn the_equilibrium_bends_a_curved_spring_by_its_curve() {
     let panda = SerialChain::bundled();
@@ -78,14 +78,10 @@ fn the_equilibrium_bends_a_curved_spring_by_its_curve() {
         &loading,
     )
     .unwrap();
-    // The torque each spring carries at the curved equilibrium: θ_k / c_k for a linear spring.
-    let tau3 = eq.theta[2] / c[2];
-    assert!(tau3.is_finite());
-    // The shoulder's torque, recovered from a linear equilibrium that has the same θ: it is
-    // the torque of the deflected state, which does not depend on the springs. Solve the
-    // shoulder's curve for it and compare with the torque implied by the other springs'
-    // balance: instead, check the defining equation θ₂ = θ(τ₂) with τ₂ from a linear spring
-    // of the secant compliance θ₂/τ₂ — the fixed point of that linear equilibrium.
+    // Independent check of θ₂ = θ(τ₂): a linear equilibrium whose shoulder has the secant
+    // compliance θ(τ₂)/τ₂ of the curve at the torque it carries is the same state (the
+    // torques depend on the deflections, not on the springs); the secant is found by its own
+    // fixed point on `static_equilibrium`, which knows nothing of curves.
     let secant: f64 = {
         let mut s = c[1];
         for _ in 0..50 {
@@ -117,4 +113,75 @@ fn the_equilibrium_bends_a_curved_spring_by_its_curve() {
     let s1 = gravity_sag_with_gears(&panda, &model, &c, &[curve], &q, &g, None).unwrap();
     let moved: f64 = (0..3).map(|k| (s1[k] - s0[k]).powi(2)).sum::<f64>().sqrt();
     assert!(moved > 1e-5, "the stiffer gear sags less: {moved} m");
+}
+
+/// The model file records the curves and reads them back; a model without curves writes what
+/// it wrote before (same text, same hash); a curve at a joint without a torsion spring is an
+/// error naming the joint; the sag evaluates the curve, and a curve of zero coefficients sags
+/// as no curve, bit for bit.
+#[test]
+fn the_model_file_records_gear_curves() {
+    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+    use vjm::{identify, DataSource, IdentifyOptions, StiffnessModel};
+    let chain = SerialChain::bundled();
+    let spec = CampaignSpec {
+        n_poses: 10,
+        noise: false,
+        ..Default::default()
+    };
+    let data = simulate(&chain, &TrueModel::nominal(7), &spec)
+        .unwrap()
+        .dataset;
+    let (model, opts) = (
+        VirtualJointModel::traditional(7),
+        IdentifyOptions::default(),
+    );
+    let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
+    let id = identify(&chain, &model, q, w, d, None, &opts).unwrap();
+    let sm = StiffnessModel::from_identification(
+        &id,
+        &chain,
+        &model,
+        &opts,
+        DataSource::in_memory(data.len()),
+    )
+    .unwrap();
+    let plain = sm.to_json();
+    assert!(!plain.contains("gear_curves"));
+    assert_eq!(sm.clone().with_gear_curves(&[]).unwrap().to_json(), plain);
+    let curve = GearCurve::new(1, vec![5.0, 15.0], vec![1e-4, -2e-5]).unwrap();
+    let curved = sm
+        .clone()
+        .with_gear_curves(std::slice::from_ref(&curve))
+        .unwrap();
+    let text = curved.to_json();
+    assert!(text.contains("\"gear_curves\"") && text.contains("N·m"));
+    let back = StiffnessModel::from_json(&text, "m.json").unwrap();
+    assert_eq!(back.gear_curves().unwrap(), vec![curve.clone()]);
+    assert_ne!(back.content_sha256(), sm.content_sha256());
+    let tilt_only = VirtualJointModel::from_springs(
+        7,
+        vec![vjm::Spring {
+            joint: 0,
+            axis: vjm::SpringAxis::Z,
+        }],
+    )
+    .unwrap();
+    let e = vjm::gear::torsion_springs(&tilt_only, std::slice::from_ref(&curve)).unwrap_err();
+    assert!(e.to_string().contains("joint 2"), "{e}");
+    // The sag: zero coefficients are no curve, bit for bit; the curve moves it.
+    let g = Gravity::default();
+    let q0 = data.q(0);
+    let zero = GearCurve::new(1, vec![5.0, 15.0], vec![0.0, 0.0]).unwrap();
+    let base = sm.predict_sag(&chain, q0, &g, None).unwrap();
+    let z = sm
+        .clone()
+        .with_gear_curves(&[zero])
+        .unwrap()
+        .predict_sag(&chain, q0, &g, None)
+        .unwrap();
+    let bits = |d: [f64; 6]| d.map(f64::to_bits);
+    assert_eq!(bits(base[0].deflection), bits(z[0].deflection));
+    let bent = curved.predict_sag(&chain, q0, &g, None).unwrap();
+    assert_ne!(base[0].deflection, bent[0].deflection);
 }
