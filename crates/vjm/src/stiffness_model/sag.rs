@@ -12,7 +12,8 @@ impl StiffnessModel {
     /// configurations `q` (N×n row-major, rad) under `gravity` (base frame, m/s²), with the
     /// model's springs and the chain's link masses (plus `payload`, a point mass in the tip
     /// frame): `deflection` is `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame) of the exact
-    /// static equilibrium on the deflected chain ([`gravity_sag`]) with what the data determine
+    /// static equilibrium on the deflected chain ([`gravity_sag_with_gears`]: each gear curve
+    /// of the model bends its spring by θ(τ_g)) with what the data determine
     /// ([`StiffnessModel::determined_compliance`]; the minimum-norm member of an aliased family
     /// may have negative entries, which the equilibrium accepts: its members agree on the sag to
     /// first order).
