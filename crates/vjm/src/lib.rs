@@ -46,6 +46,7 @@ pub mod dataset;
 pub mod design;
 pub mod diagnose;
 mod error;
+pub mod gear;
 pub mod gravity;
 mod hashing;
 mod identify;

@@ -332,7 +332,7 @@ pub fn candidate_columns(
             let tg = row.tau_gravity[3 * joint];
             let s = tau_scale[joint].max(1e-12);
             let a = col3(&row.jacobian, 3 * joint);
-            let hinge = |t: f64, knot: f64| (t.abs() - knot).max(0.0).copysign(t);
+            let hinge = crate::gear::hinge;
             for k in TORSION_KNOTS {
                 out.push(scale3(a, hinge(tg + t, k * s) - hinge(tg, k * s)));
             }

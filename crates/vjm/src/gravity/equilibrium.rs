@@ -15,6 +15,7 @@ use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use crate::chain::SerialChain;
 use crate::error::VjmError;
+use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
 use crate::kinematics::{complementary_stiffness, deflected_state};
 use crate::model::VirtualJointModel;
 use crate::predict::{check_spring_vector, identity_minus_c_times};
@@ -100,7 +101,25 @@ pub fn static_equilibrium(
     q: &[f64],
     loading: &Loading<'_>,
 ) -> Result<Equilibrium, VjmError> {
+    static_equilibrium_with_gears(chain, model, compliance, &[], q, loading)
+}
+
+/// [`static_equilibrium`] with non-linear gears: the torsion spring of each curve's joint
+/// deflects by its curve of the torque it carries, `θ_k = c_k τ_k(θ) + Σ a h(τ_k(θ))`
+/// ([`GearCurve`]), the other springs by `c_k τ_k(θ)`. The chord iterations keep the linear
+/// tangent; the curve's share of the compliance times the load's stiffness sets their ratio.
+/// Without curves it is [`static_equilibrium`], bit for bit.
+pub fn static_equilibrium_with_gears(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    gears: &[GearCurve],
+    q: &[f64],
+    loading: &Loading<'_>,
+) -> Result<Equilibrium, VjmError> {
     check_spring_vector(model, compliance)?;
+    let springs = torsion_springs(model, gears)?;
+    let curved = CurvedSprings::new(gears, &springs);
     let m = model.n_params();
     // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C.
     let mut tangent = DMatrix::zeros(m, m);
@@ -115,7 +134,8 @@ pub fn static_equilibrium(
     let mut theta = vec![0.0; m];
     for iteration in 1..=MAX_EQUILIBRIUM_ITERATIONS {
         let (tau, _) = torques(chain, model, q, &theta, loading)?;
-        let r = DVector::from_iterator(m, (0..m).map(|k| c[k] * tau[k] - theta[k]));
+        let mut r = DVector::from_iterator(m, (0..m).map(|k| c[k] * tau[k] - theta[k]));
+        curved.add_excess(&tau, r.as_mut_slice());
         let step = lu.solve(&r).ok_or_else(|| VjmError::Numerical {
             message: "the tangent of the static equilibrium is singular (a load at the arm's \
                       buckling limit?)"
@@ -164,13 +184,27 @@ pub fn gravity_sag(
     gravity: &Gravity,
     payload: Option<&PointMass>,
 ) -> Result<[f64; 6], VjmError> {
+    gravity_sag_with_gears(chain, model, compliance, &[], q, gravity, payload)
+}
+
+/// [`gravity_sag`] with non-linear gears ([`static_equilibrium_with_gears`]): each curved
+/// spring sags by its curve at the torque it carries, θ(τ_g).
+pub fn gravity_sag_with_gears(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    gears: &[GearCurve],
+    q: &[f64],
+    gravity: &Gravity,
+    payload: Option<&PointMass>,
+) -> Result<[f64; 6], VjmError> {
     let rigid = chain.forward_kinematics(q)?;
     let loading = Loading {
         gravity: Some(*gravity),
         payload,
         wrench: None,
     };
-    let rest = static_equilibrium(chain, model, compliance, q, &loading)?;
+    let rest = static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading)?;
     Ok(tip_difference(&rigid, &rest.tip))
 }
 
@@ -186,13 +220,29 @@ pub fn deflection_under_gravity(
     gravity: &Gravity,
     payload: Option<&PointMass>,
 ) -> Result<[f64; 6], VjmError> {
+    deflection_under_gravity_with_gears(chain, model, compliance, &[], q, wrench, gravity, payload)
+}
+
+/// [`deflection_under_gravity`] with non-linear gears ([`static_equilibrium_with_gears`]):
+/// each curved spring deflects by θ(τ_g + τ) − θ(τ_g).
+#[allow(clippy::too_many_arguments)]
+pub fn deflection_under_gravity_with_gears(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    gears: &[GearCurve],
+    q: &[f64],
+    wrench: &[f64; 6],
+    gravity: &Gravity,
+    payload: Option<&PointMass>,
+) -> Result<[f64; 6], VjmError> {
     let mut loading = Loading {
         gravity: Some(*gravity),
         payload,
         wrench: None,
     };
-    let rest = static_equilibrium(chain, model, compliance, q, &loading)?;
+    let rest = static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading)?;
     loading.wrench = Some(*wrench);
-    let loaded = static_equilibrium(chain, model, compliance, q, &loading)?;
+    let loaded = static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading)?;
     Ok(tip_difference(&rest.tip, &loaded.tip))
 }

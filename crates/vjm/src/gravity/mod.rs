@@ -22,8 +22,9 @@ pub(crate) mod mass;
 mod workspace;
 
 pub use equilibrium::{
-    deflection_under_gravity, gravity_sag, static_equilibrium, Equilibrium, Loading,
-    MAX_EQUILIBRIUM_ITERATIONS,
+    deflection_under_gravity, deflection_under_gravity_with_gears, gravity_sag,
+    gravity_sag_with_gears, static_equilibrium, static_equilibrium_with_gears, Equilibrium,
+    Loading, MAX_EQUILIBRIUM_ITERATIONS,
 };
 pub use mass::{Body, MassModel};
 pub use workspace::{GravityWorkspace, RowFrame, MAX_COUPLING_ITERATIONS};

@@ -59,6 +59,7 @@ pub use predict::{Load, PointMass, Prediction, GRAVITY, IDENTIFIED_TOL};
 pub use robust::{COVARIANCE_MODEL, COVARIANCE_ROBUST};
 
 use crate::chain::SerialChain;
+use crate::gear::GearCurve;
 use crate::gravity::Gravity;
 use crate::hashing::{kinematics_sha256, sha256_hex_reader};
 use crate::identify::{Identification, IdentifyOptions};
@@ -266,8 +267,35 @@ pub struct StiffnessModel {
     /// (its masses and centres of mass); absent for a weightless model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     inertials_sha256: Option<String>,
+    /// Non-linear gears ([`GearCurveRecord`]); absent when there is none (so a model without
+    /// curves writes, and hashes, what earlier versions wrote).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    gear_curves: Vec<GearCurveRecord>,
     /// The program that wrote the file, e.g. `robot-stiffness 0.1.0`.
     created_by: String,
+}
+
+/// Unit of [`GearCurveRecord::knots`].
+pub const GEAR_KNOT_UNIT: &str = "N·m";
+/// Unit of [`GearCurveRecord::coefficients`].
+pub const GEAR_COEFFICIENT_UNIT: &str = "rad/(N·m)";
+
+/// One joint's gear curve in the file ([`crate::gear::GearCurve`]): its torsion spring
+/// deflects by `θ(T) = c·T + Σ_k a_k h_k(T)` under a total torque T.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct GearCurveRecord {
+    /// The joint, 1-based (its torsion spring `J<joint>z` must be in the model).
+    pub joint: usize,
+    /// Knots t_k, N·m, ≥ 0.
+    pub knots: Vec<f64>,
+    /// Coefficients a_k, rad/(N·m): the tangent compliance's change beyond each knot.
+    pub coefficients: Vec<f64>,
+    /// [`GEAR_KNOT_UNIT`].
+    pub knot_unit: String,
+    /// [`GEAR_COEFFICIENT_UNIT`].
+    pub coefficient_unit: String,
 }
 
 impl StiffnessModel {
@@ -372,6 +400,7 @@ impl StiffnessModel {
             data,
             gravity: opts.gravity.map(|g| g.vector().into()),
             inertials_sha256,
+            gear_curves: Vec::new(),
             created_by: format!("robot-stiffness {}", env!("CARGO_PKG_VERSION")),
         };
         out.validate()
@@ -439,6 +468,34 @@ impl StiffnessModel {
     pub fn inertials_sha256(&self) -> Option<&str> {
         self.inertials_sha256.as_deref()
     }
+    /// The model's non-linear gears (none for a model without curves).
+    pub fn gear_curves(&self) -> Result<Vec<GearCurve>, ModelError> {
+        self.gear_curves
+            .iter()
+            .enumerate()
+            .map(|(i, r)| gear_curve(i, r, self.robot.n_joints))
+            .collect::<Result<_, String>>()
+            .map_err(|message| ModelError::Mismatch { message })
+    }
+
+    /// This model with the gear curves `curves` (replacing any it had); an error names a curve
+    /// whose joint has no torsion spring in the model.
+    pub fn with_gear_curves(mut self, curves: &[GearCurve]) -> Result<Self, ModelError> {
+        self.gear_curves = curves
+            .iter()
+            .map(|c| GearCurveRecord {
+                joint: c.joint() + 1,
+                knots: c.knots().to_vec(),
+                coefficients: c.coefficients().to_vec(),
+                knot_unit: GEAR_KNOT_UNIT.into(),
+                coefficient_unit: GEAR_COEFFICIENT_UNIT.into(),
+            })
+            .collect();
+        self.validate()
+            .map_err(|message| ModelError::Mismatch { message })?;
+        Ok(self)
+    }
+
     /// Whether the model predicts rotations (it was identified with measured rotations).
     pub fn has_rotations(&self) -> bool {
         self.noise.use_rotations
@@ -756,9 +813,45 @@ impl StiffnessModel {
                 Short(e.identified_tol)
             ));
         }
-        self.spring_model().map_err(|e| e.to_string())?;
+        let model = self.spring_model().map_err(|e| e.to_string())?;
+        let curves = self
+            .gear_curves
+            .iter()
+            .enumerate()
+            .map(|(i, r)| gear_curve(i, r, n))
+            .collect::<Result<Vec<_>, String>>()?;
+        crate::gear::torsion_springs(&model, &curves).map_err(|e| format!("gear_curves: {e}"))?;
         Ok(())
     }
+}
+
+/// Record `i` of `gear_curves` as a [`GearCurve`] of a chain of `n` joints; an error names the
+/// field (`gear_curves[0].knots`) and the joint.
+fn gear_curve(i: usize, r: &GearCurveRecord, n: usize) -> Result<GearCurve, String> {
+    let field = format!("gear_curves[{i}]");
+    if r.joint == 0 || r.joint > n {
+        return Err(format!(
+            "{field}.joint is {}, it must be a joint 1..={n}",
+            r.joint
+        ));
+    }
+    for (name, unit, want) in [
+        ("knot_unit", &r.knot_unit, GEAR_KNOT_UNIT),
+        (
+            "coefficient_unit",
+            &r.coefficient_unit,
+            GEAR_COEFFICIENT_UNIT,
+        ),
+    ] {
+        if unit != want {
+            return Err(format!(
+                "{field}.{name} is `{unit}` (joint {}), it must be `{want}`",
+                r.joint
+            ));
+        }
+    }
+    GearCurve::new(r.joint - 1, r.knots.clone(), r.coefficients.clone())
+        .map_err(|e| format!("{field} (knots, coefficients): {e}"))
 }
 
 fn robot_record(chain: &SerialChain) -> RobotRecord {

@@ -3,7 +3,7 @@
 
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
-use crate::gravity::{gravity_sag, Gravity, GravityWorkspace};
+use crate::gravity::{gravity_sag_with_gears, Gravity, GravityWorkspace};
 use crate::kinematics::Workspace;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
@@ -12,7 +12,8 @@ impl StiffnessModel {
     /// configurations `q` (N×n row-major, rad) under `gravity` (base frame, m/s²), with the
     /// model's springs and the chain's link masses (plus `payload`, a point mass in the tip
     /// frame): `deflection` is `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame) of the exact
-    /// static equilibrium on the deflected chain ([`gravity_sag`]) with what the data determine
+    /// static equilibrium on the deflected chain ([`gravity_sag_with_gears`]: each gear curve
+    /// of the model bends its spring by θ(τ_g)) with what the data determine
     /// ([`StiffnessModel::determined_compliance`]; the minimum-norm member of an aliased family
     /// may have negative entries, which the equilibrium accepts: its members agree on the sag to
     /// first order).
@@ -46,6 +47,8 @@ impl StiffnessModel {
         // What the data determine; an aliased family's minimum-norm member may have negative
         // entries, which the equilibrium accepts (`static_equilibrium`).
         let c = self.determined_compliance()?;
+        // The gears bend by their curves at the weight's torque, θ(τ_g).
+        let gears = self.gear_curves()?;
         let axes = if self.noise.use_rotations { 6 } else { 3 };
         // Rows are independent: fixed-size blocks on every core, each with its own workspaces,
         // give the serial run's values and its first error whatever the number of threads.
@@ -69,7 +72,8 @@ impl StiffnessModel {
                     }
                 }
                 let mut p = self.predict_row(&a, [0.0; 6], &c);
-                let exact = gravity_sag(chain, &model, &c, qi, gravity, payload)?;
+                let exact =
+                    gravity_sag_with_gears(chain, &model, &c, &gears, qi, gravity, payload)?;
                 p.deflection[..axes].copy_from_slice(&exact[..axes]);
                 *o = p;
             }

@@ -8,6 +8,7 @@ mod check_arrays;
 mod compensation;
 mod design;
 mod full_model;
+mod gear;
 mod gravity;
 mod identification;
 mod identify_partial;
