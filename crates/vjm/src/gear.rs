@@ -138,10 +138,7 @@ pub fn torsion_springs(
 ) -> Result<Vec<usize>, VjmError> {
     let mut out: Vec<usize> = Vec::with_capacity(curves.len());
     for curve in curves {
-        let spring = Spring {
-            joint: curve.joint,
-            axis: SpringAxis::Z,
-        };
+        let spring = Spring::rotation(curve.joint, SpringAxis::Z);
         let k = model
             .springs()
             .iter()

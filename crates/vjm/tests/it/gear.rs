@@ -161,10 +161,7 @@ fn the_model_file_records_gear_curves() {
     assert_ne!(back.content_sha256(), sm.content_sha256());
     let tilt_only = VirtualJointModel::from_springs(
         7,
-        vec![vjm::Spring {
-            joint: 0,
-            axis: vjm::SpringAxis::Z,
-        }],
+        vec![vjm::Spring::rotation(0, vjm::SpringAxis::Z)],
     )
     .unwrap();
     let e = vjm::gear::torsion_springs(&tilt_only, std::slice::from_ref(&curve)).unwrap_err();
