@@ -314,7 +314,12 @@ def judge(camp: MujocoCampaign, noise_given: bool, weightless: bool = False) -> 
     want = camp.hidden.expected()
 
     def hit(effect: str, joint: Optional[int], axis: Optional[str]) -> bool:
-        return want is not None and effect == want[0] and joint == want[1] and axis in want[2]
+        # A joint alias names its axes joined by '+' (`joint_tilt J4 x+y`): it counts when one
+        # of them is a compliant axis of the hidden tilt.
+        axes = axis.split("+") if axis is not None else [None]
+        return (
+            want is not None and effect == want[0] and joint == want[1] and any(a in want[2] for a in axes)
+        )
 
     named = any(hit(f.effect, f.joint, f.axis) for f in d.findings)
     alias = named or any(hit(a.effect or f.effect, a.joint, a.axis) for f in d.findings for a in f.aliases)

@@ -159,11 +159,9 @@ fn the_model_file_records_gear_curves() {
     let back = StiffnessModel::from_json(&text, "m.json").unwrap();
     assert_eq!(back.gear_curves().unwrap(), vec![curve.clone()]);
     assert_ne!(back.content_sha256(), sm.content_sha256());
-    let tilt_only = VirtualJointModel::from_springs(
-        7,
-        vec![vjm::Spring::rotation(0, vjm::SpringAxis::Z)],
-    )
-    .unwrap();
+    let tilt_only =
+        VirtualJointModel::from_springs(7, vec![vjm::Spring::rotation(0, vjm::SpringAxis::Z)])
+            .unwrap();
     let e = vjm::gear::torsion_springs(&tilt_only, std::slice::from_ref(&curve)).unwrap_err();
     assert!(e.to_string().contains("joint 2"), "{e}");
     // The sag: zero coefficients are no curve, bit for bit; the curve moves it.
