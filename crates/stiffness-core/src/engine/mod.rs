@@ -79,6 +79,16 @@ pub trait Problem {
         let _ = cand;
         Vec::new()
     }
+    /// Groups of candidates that may explain a finding `finding` only together (none of them
+    /// alone does): VJM, the two tilts of a neighbouring joint, which together can rotate the
+    /// links beyond as one tilt about a line between the two joints would. A group whose
+    /// members are testable and of which one is significant is an alias of the finding when,
+    /// with the whole group in the model, the finding's F test has p above the alias level
+    /// ([`select::AliasOf::group`]). Default: none.
+    fn alias_groups(&self, finding: Self::Term) -> Vec<Vec<Self::Term>> {
+        let _ = finding;
+        Vec::new()
+    }
     /// The token every loop of the engine polls.
     fn cancel(&self) -> &Cancel;
 }

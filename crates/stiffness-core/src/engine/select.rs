@@ -52,6 +52,11 @@ pub struct AliasOf<T> {
     pub delta_chi2: f64,
     /// p of the finding's F test with the alias in the model (0 when not computed).
     pub p_finding_given_alias: f64,
+    /// The other members of a joint alias ([`Problem::alias_groups`]): the data cannot tell
+    /// the finding from `cand` and these together, though from none of them alone. Empty for
+    /// an alias on its own. A joint alias's `delta_chi2` and `p_finding_given_alias` are the
+    /// whole group's; its members stay candidates.
+    pub group: Vec<T>,
 }
 
 /// The statistics that made a candidate a finding.
@@ -232,7 +237,18 @@ pub fn select<P: Problem>(
                     cosine: cos,
                     delta_chi2: delta,
                     p_finding_given_alias: p_given,
+                    group: Vec::new(),
                 });
+            }
+        }
+        let singles = aliases.len();
+        for group in problem.alias_groups(a.cand) {
+            cancel.check()?;
+            if let Some(alias) = group_alias(problem, &current, &testable, a, &group, bh_cut, opts)?
+            {
+                if !aliases[..singles].iter().any(|s| group.contains(&s.cand)) {
+                    aliases.push(alias);
+                }
             }
         }
         let rank_a = p.iter().filter(|&&v| v <= p[k]).count();
@@ -250,7 +266,8 @@ pub fn select<P: Problem>(
             heldout_sse_before: before,
             heldout_sse_after: after,
         };
-        pool.retain(|c| *c != a.cand && !aliases.iter().any(|b| b.cand == *c));
+        // A joint alias's members stay candidates: none of them alone is the finding's alias.
+        pool.retain(|c| *c != a.cand && !aliases[..singles].iter().any(|b| b.cand == *c));
         if opts.defer_cluster_robust {
             deferred.push(DeferredClusterTest {
                 finding: findings.len(),
@@ -285,6 +302,48 @@ pub fn select<P: Problem>(
         extra_rejected,
         deferred_cluster_robust: deferred,
     })
+}
+
+/// `group` as a joint alias of the finding `a` ([`Problem::alias_groups`]): every member
+/// testable, none in the model, one significant at the step's Benjamini–Hochberg cut, and the
+/// finding's F test given the whole group above `alias_alpha`.
+fn group_alias<P: Problem>(
+    problem: &P,
+    current: &Fit<P::Term, P::Lin>,
+    testable: &[&Score<P::Term>],
+    a: &Score<P::Term>,
+    group: &[P::Term],
+    bh_cut: f64,
+    opts: &SelectOptions,
+) -> Result<Option<AliasOf<P::Term>>, Cancelled> {
+    let members: Vec<&Score<P::Term>> = group
+        .iter()
+        .filter_map(|g| testable.iter().find(|s| s.cand == *g).copied())
+        .collect();
+    let usable = !group.is_empty()
+        && members.len() == group.len()
+        && !group.iter().any(|g| current.terms.contains(g) || *g == a.cand)
+        && members.iter().any(|s| s.f_test.p_value <= bh_cut);
+    if !usable {
+        return Ok(None);
+    }
+    let given = score_given(problem, current, group, &[a.cand])?;
+    let p_given = given[0].f_test.p_value;
+    if given[0].rank == 0 || p_given <= opts.alias_alpha {
+        return Ok(None);
+    }
+    // As for a single alias: the SSE with the group in place of the finding, against the SSE
+    // with the finding, in noise variances (the reduced model of the test given the group is
+    // the model with the group).
+    let with_group = given[0].sse_reduced;
+    let sigma2 = a.sse_full / a.f_test.df_den.max(1.0);
+    Ok(Some(AliasOf {
+        cand: group[0],
+        cosine: None,
+        delta_chi2: (with_group - a.sse_full) / sigma2,
+        p_finding_given_alias: p_given,
+        group: group[1..].to_vec(),
+    }))
 }
 
 /// The held-out error must fall by more than this fraction for a candidate to be confirmed:

@@ -800,10 +800,16 @@ fn run_diagnosis<'a>(
                     .iter()
                     .map(|a| {
                         let b = cand_of(a.cand);
+                        // A joint alias (the two tilts of one joint) reads as its axes joined
+                        // by `+`: `joint_tilt J4 x+y`.
+                        let axes: Vec<String> = std::iter::once(a.cand)
+                            .chain(a.group.iter().copied())
+                            .filter_map(|t| cand_of(t).axis().map(|x| x.to_string()))
+                            .collect();
                         Alias {
                             effect: b.effect(),
                             joint: b.joint().map(|j| j + 1),
-                            axis: b.axis().map(|x| x.to_string()),
+                            axis: (!axes.is_empty()).then(|| axes.join("+")),
                             cosine: a.cosine,
                             delta_chi2: a.delta_chi2,
                             p_finding_given_alias: a.p_finding_given_alias,

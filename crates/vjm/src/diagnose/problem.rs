@@ -18,6 +18,7 @@ use super::rows::{RowBuilder, ROW_BATCH};
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, SetLabel};
 use crate::gravity::GravityWorkspace;
+use crate::model::SpringAxis;
 
 /// One term of a model: a linear spring (index into the 3n springs, joint-major `[z, x, y]`),
 /// a catalogue candidate, or a block of the lack-of-fit alternative.
@@ -864,6 +865,26 @@ impl Problem for VjmProblem<'_> {
             ) => (0..self.m).map(Term::Spring).collect(),
             _ => Vec::new(),
         }
+    }
+
+    fn alias_groups(&self, finding: Term) -> Vec<Vec<Term>> {
+        // Two tilts of a neighbouring joint together rotate the links beyond it about any
+        // line through that joint normal to its axis: on arms whose neighbouring joints are
+        // close (Panda's and xArm7's elbows), a tilt of J4 about x and y fits the data as a
+        // tilt of J3 does, though neither of J4's tilts alone does.
+        let Term::Cand(Candidate::JointTilt { joint, .. }) = finding else {
+            return Vec::new();
+        };
+        [joint.checked_sub(1), Some(joint + 1)]
+            .into_iter()
+            .flatten()
+            .filter(|&k| k < self.chain.n_joints())
+            .map(|k| {
+                [SpringAxis::X, SpringAxis::Y]
+                    .map(|axis| Term::Cand(Candidate::JointTilt { joint: k, axis }))
+                    .to_vec()
+            })
+            .collect()
     }
 
     fn cancel(&self) -> &Cancel {
