@@ -322,14 +322,17 @@ fn group_alias<P: Problem>(
         .collect();
     let usable = !group.is_empty()
         && members.len() == group.len()
-        && !group.iter().any(|g| current.terms.contains(g) || *g == a.cand)
+        && !group
+            .iter()
+            .any(|g| current.terms.contains(g) || *g == a.cand)
         && members.iter().any(|s| s.f_test.p_value <= bh_cut);
     if !usable {
         return Ok(None);
     }
     let given = score_given(problem, current, group, &[a.cand])?;
     let p_given = given[0].f_test.p_value;
-    if given[0].rank == 0 || p_given <= opts.alias_alpha {
+    // Rank 0 (the finding's columns lie in the group's span) is an exact alias: p = 1.
+    if p_given <= opts.alias_alpha {
         return Ok(None);
     }
     // As for a single alias: the SSE with the group in place of the finding, against the SSE

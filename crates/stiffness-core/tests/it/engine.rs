@@ -497,3 +497,133 @@ fn a_column_of_rounding_counts_as_exactly_zero() {
         }
     }
 }
+
+/// A finding explained only by two other candidates together: y = 1 + 2t + 0.5·f + noise,
+/// with f = u + v (+ `extra`·t², a direction neither u nor v has); columns
+/// [1, t, u, v, f, y], u = sin 3t, v = cos 3t.
+struct Pair {
+    t: Vec<f64>,
+    y: Vec<f64>,
+    extra: f64,
+    cancel: Cancel,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum P {
+    Base,
+    U,
+    V,
+    F,
+}
+
+impl Pair {
+    fn new(n: usize, extra: f64, seed: u64) -> Self {
+        let t: Vec<f64> = (0..n).map(|i| -1.0 + 2.0 * i as f64 / n as f64).collect();
+        let e = noise(seed, n);
+        let mut pair = Self {
+            t,
+            y: Vec::new(),
+            extra,
+            cancel: Cancel::new(),
+        };
+        pair.y = (0..n)
+            .map(|i| {
+                let r = pair.row(i);
+                1.0 + 2.0 * r[1] + 0.5 * r[4] + 0.02 * e[i]
+            })
+            .collect();
+        pair
+    }
+    fn row(&self, i: usize) -> [f64; 6] {
+        let t = self.t[i];
+        let (u, v) = ((3.0 * t).sin(), (3.0 * t).cos());
+        let y = self.y.get(i).copied().unwrap_or(0.0);
+        [1.0, t, u, v, u + v + self.extra * t * t, y]
+    }
+}
+
+impl Problem for Pair {
+    type Term = P;
+    type Lin = ();
+    fn columns(&self, term: P) -> Range<usize> {
+        match term {
+            P::Base => 0..2,
+            P::U => 2..3,
+            P::V => 3..4,
+            P::F => 4..5,
+        }
+    }
+    fn observation_column(&self) -> usize {
+        5
+    }
+    fn bilinear(&self, _: P) -> bool {
+        false
+    }
+    fn compress(&self, _: &()) -> Result<Arc<Compressed>, Cancelled> {
+        let mut acc = CompressedAccumulator::new(6);
+        for i in 0..self.t.len() {
+            let set = if (i / 5) % 4 == 3 {
+                RowSet::Test
+            } else {
+                RowSet::Train
+            };
+            acc.push(set, &self.row(i)).unwrap();
+        }
+        Ok(Arc::new(acc.finish()))
+    }
+    fn relinearise(&self, _: &[P], _: &[f64]) {}
+    fn cluster_sums(&self, _: &Fit<P, ()>) -> Result<Vec<Vec<f64>>, Cancelled> {
+        Ok(Vec::new())
+    }
+    fn alias_groups(&self, finding: P) -> Vec<Vec<P>> {
+        if finding == P::F {
+            vec![vec![P::U, P::V]]
+        } else {
+            Vec::new()
+        }
+    }
+    fn cancel(&self) -> &Cancel {
+        &self.cancel
+    }
+}
+
+#[test]
+fn a_group_that_explains_the_finding_only_together_is_its_joint_alias() {
+    let opts = SelectOptions {
+        fdr: 0.01,
+        max_findings: 3,
+        alias_cosine: 0.99,
+        alias_alpha: 0.05,
+        defer_cluster_robust: false,
+    };
+    let run = |pair: &Pair| {
+        let base = fit(pair, &[P::Base], &()).unwrap();
+        select(pair, base, vec![P::U, P::V, P::F], &[], &opts, &mut |_| {}).unwrap()
+    };
+    // f = u + v exactly: F is found, and neither U nor V alone is its alias (each leaves the
+    // other's half), but the two together are.
+    let s = run(&Pair::new(400, 0.0, 11));
+    assert_eq!(
+        s.findings.iter().map(|f| f.cand).collect::<Vec<_>>(),
+        vec![P::F]
+    );
+    let aliases = &s.findings[0].aliases;
+    assert_eq!(
+        aliases.len(),
+        1,
+        "one joint alias, no single one: {aliases:?}"
+    );
+    assert_eq!(
+        (aliases[0].cand, aliases[0].group.clone()),
+        (P::U, vec![P::V])
+    );
+    assert!(aliases[0].p_finding_given_alias > opts.alias_alpha);
+    // f has a direction (t²) the pair lacks: the pair does not explain F, no alias.
+    let s = run(&Pair::new(400, 0.8, 11));
+    assert_eq!(s.findings[0].cand, P::F);
+    assert!(
+        s.findings[0].aliases.iter().all(|a| a.group.is_empty()),
+        "{:?}",
+        s.findings[0].aliases
+    );
+}
