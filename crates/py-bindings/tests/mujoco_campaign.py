@@ -289,6 +289,7 @@ class Outcome:
     alarm_beyond_geometry: bool
     named: bool  # the hidden effect among the findings at its joint (and axis)
     named_or_alias: bool  # ... or among a finding's aliases
+    joint_alias: bool  # ... among them as a joint alias (axes 'x+y')
     #: a finding that is neither the hidden effect (nor its alias) nor geometric_nonlinearity
     wrong: bool
     unexplained: bool
@@ -323,6 +324,9 @@ def judge(camp: MujocoCampaign, noise_given: bool, weightless: bool = False) -> 
 
     named = any(hit(f.effect, f.joint, f.axis) for f in d.findings)
     alias = named or any(hit(a.effect or f.effect, a.joint, a.axis) for f in d.findings for a in f.aliases)
+    joint_alias = any(
+        hit(a.effect or f.effect, a.joint, a.axis) and "+" in (a.axis or "") for f in d.findings for a in f.aliases
+    )
     wrong = any(
         f.effect != GEOMETRY
         and not hit(f.effect, f.joint, f.axis)
@@ -334,6 +338,7 @@ def judge(camp: MujocoCampaign, noise_given: bool, weightless: bool = False) -> 
         alarm_beyond_geometry=bool(d.unexplained) or any(f.effect != GEOMETRY for f in d.findings),
         named=named,
         named_or_alias=alias,
+        joint_alias=joint_alias,
         wrong=wrong,
         unexplained=bool(d.unexplained),
         findings=[_label(f.effect, f.joint, f.axis) for f in d.findings],
