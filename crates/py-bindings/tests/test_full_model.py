@@ -26,13 +26,16 @@ def test_identify_recovers_a_hidden_link_translation(panda):
     effect = {"effect": "link_translation", "joint": 4, "axis": "z", "compliance": c}
     data = vjm.simulate(panda, [effect], n_poses=60, seed=3, gravity=None).measurements
     res = panda.identify(data.q, data.wrench, data.displacement, model="traditional + J4tz", gravity=None)
-    # The model's labels (Rust's Spring labels); res.labels still print a translation as J4z
-    # (ParameterEstimate carries joint and axis only: known gap, see the branch's report).
+    # The result's labels are the model's (a translation reads J4tz, not J4z).
     k = panda.labels("traditional + J4tz").index("J4tz")
+    assert res.labels == panda.labels("traditional + J4tz")
+    assert res.parameters[k].kind == "translation" and res.parameters[0].kind == "rotation"
     assert res.identifiable[k]
     assert abs(res.compliance[k] - c) < 0.1 * c, res.compliance[k]
     full = panda.identify(data.q, data.wrench, data.displacement, model="full", gravity=None)
-    assert len(full.labels) == 42
+    assert full.labels == panda.labels("full")
+    for c in full.combinations:
+        assert all(label in full.labels for label, _ in c.terms), c.terms
 
 
 def test_gravity_with_translations_is_refused_by_name(panda):

@@ -14,7 +14,7 @@ use crate::lanes::kinematics::ChainLanes;
 use crate::lsq::{
     self, RankRevealingSolution, SolveOptions, TriangularAccumulator, TriangularFactor,
 };
-use crate::model::{SpringAxis, VirtualJointModel};
+use crate::model::{SpringAxis, SpringKind, VirtualJointModel};
 use crate::regressor::Measured;
 use crate::stats::student_t_975;
 
@@ -130,11 +130,15 @@ pub struct ParameterEstimate {
     pub joint: usize,
     /// Name of the actuated joint.
     pub joint_name: String,
-    /// Spring axis: `z` torsion, `x`/`y` tilt.
+    /// Spring axis: `z` torsion, `x`/`y` tilt (for a translation: the direction it moves).
     pub axis: SpringAxis,
-    /// Compliance in rad/(N·m), `None` when not identifiable.
+    /// Rotation (torsion, tilt) or translation (model `full`); left out of the JSON for a
+    /// rotation, so the rotational models' output is as before.
+    #[serde(skip_serializing_if = "SpringKind::is_rotation")]
+    pub kind: SpringKind,
+    /// Compliance in rad/(N·m) (a translation's in m/N), `None` when not identifiable.
     pub compliance: Option<f64>,
-    /// Standard error, rad/(N·m).
+    /// Standard error, in the compliance's unit.
     pub stderr: Option<f64>,
     /// 95 % confidence interval.
     pub ci95: Option<(f64, f64)>,
@@ -154,8 +158,36 @@ pub struct CombinationTerm {
     pub joint: usize,
     /// Spring axis.
     pub axis: SpringAxis,
-    /// Coefficient (dimensionless: all parameters are rad/(N·m)).
+    /// Rotation or translation (left out of the JSON for a rotation).
+    #[serde(skip_serializing_if = "SpringKind::is_rotation")]
+    pub kind: SpringKind,
+    /// Coefficient: the ratio of the independent parameter's unit to this one's
+    /// (dimensionless between two rotations or two translations; m/rad for a translation in
+    /// a rotation's combination).
     pub coefficient: f64,
+}
+
+impl ParameterEstimate {
+    /// The spring's label: `J3x` (rotation), `J3tx` (translation).
+    pub fn label(&self) -> String {
+        spring_of(self.joint, self.axis, self.kind).to_string()
+    }
+}
+
+impl CombinationTerm {
+    /// The spring's label: `J3x` (rotation), `J3tx` (translation).
+    pub fn label(&self) -> String {
+        spring_of(self.joint, self.axis, self.kind).to_string()
+    }
+}
+
+/// The spring at 1-based `joint`.
+fn spring_of(joint: usize, axis: SpringAxis, kind: SpringKind) -> crate::model::Spring {
+    crate::model::Spring {
+        joint: joint.saturating_sub(1),
+        axis,
+        kind,
+    }
 }
 
 /// An identifiable linear combination of compliances (a base parameter):
@@ -1033,6 +1065,7 @@ fn finish(
             joint: s.joint + 1,
             joint_name: chain.joint_names()[s.joint].clone(),
             axis: s.axis,
+            kind: s.kind,
             compliance: sol.estimate[k],
             stderr: sol.stderr[k],
             ci95: ci95[k],
@@ -1051,6 +1084,7 @@ fn finish(
                     param,
                     joint: springs[param].joint + 1,
                     axis: springs[param].axis,
+                    kind: springs[param].kind,
                     coefficient,
                 })
                 .collect();

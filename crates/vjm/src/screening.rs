@@ -248,7 +248,7 @@ pub fn outlier_rows(wrench: &[f64], displacement: &[f64]) -> Vec<DataWarning> {
 /// [`outlier_rows`], then the compliance scale, then significantly negative compliances.
 pub fn review(id: &Identification, wrench: &[f64], displacement: &[f64]) -> Vec<DataWarning> {
     let mut out = outlier_rows(wrench, displacement);
-    let label = |p: &crate::ParameterEstimate| format!("J{}{}", p.joint, p.axis);
+    let label = |p: &crate::ParameterEstimate| p.label();
     // The compliance scale is read on the best-determined estimate (largest |value| / its
     // standard error): a parameter identifiable alone, or a combination as the lower bound
     // |value| / Σ|β| of its largest compliance. A unit error scales every estimate by 10³,

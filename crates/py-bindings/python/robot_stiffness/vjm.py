@@ -155,9 +155,10 @@ class Combination:
 @dataclass(frozen=True)
 class IdentifiedParameter:
     """One parameter of an identification: the spring at ``joint`` (1-based, base → tip; its
-    URDF name ``joint_name``) about ``axis`` (``z`` torsion, ``x``/``y`` tilt); ``compliance``
-    and ``stderr`` in rad/(N·m) and the 95 % interval ``ci95``, all None when the parameter is
-    not identifiable on its own."""
+    URDF name ``joint_name``) about ``axis`` (``z`` torsion, ``x``/``y`` tilt) or, when
+    ``kind`` is ``"translation"`` (model ``full``), along it; ``compliance`` and ``stderr`` in
+    rad/(N·m) (a translation's in m/N) and the 95 % interval ``ci95``, all None when the
+    parameter is not identifiable on its own."""
 
     joint: int
     joint_name: str
@@ -168,22 +169,37 @@ class IdentifiedParameter:
     identifiable: bool
     #: Identifiable alone but weak: the standard error exceeds the compliance or 1e-2 rad/(N·m).
     weak: bool = False
+    #: ``"rotation"`` (torsion, tilt) or ``"translation"``.
+    kind: str = "rotation"
 
     @property
     def label(self) -> str:
-        """``J3x``-style label."""
-        return f"J{self.joint}{self.axis}"
+        """The spring's label: ``J3x`` (rotation), ``J3tx`` (translation)."""
+        return _spring_label(self.joint, self.axis, self.kind)
 
 
 @dataclass(frozen=True)
 class CombinationTerm:
     """One term of a combination: parameter index ``param`` (0-based, model order), its
-    ``joint`` (1-based) and ``axis``, and the dimensionless ``coefficient``."""
+    ``joint`` (1-based), ``axis`` and ``kind``, and the ``coefficient`` (dimensionless between
+    springs of one kind)."""
 
     param: int
     joint: int
     axis: str
     coefficient: float
+    #: ``"rotation"`` or ``"translation"``.
+    kind: str = "rotation"
+
+    @property
+    def label(self) -> str:
+        """The spring's label: ``J3x`` (rotation), ``J3tx`` (translation)."""
+        return _spring_label(self.joint, self.axis, self.kind)
+
+
+def _spring_label(joint: int, axis: str, kind: str) -> str:
+    # The core's Spring labels (vjm::Spring's Display): a translation reads `J3tx`.
+    return f"J{joint}{'t' if kind == 'translation' else ''}{axis}"
 
 
 @dataclass(frozen=True)
@@ -221,10 +237,37 @@ class _CoreIdentification:
     gravity_iterations: int = 0
 
 
+def _json_parameter(p: IdentifiedParameter) -> Dict[str, object]:
+    # As the core serialises a parameter: the kind only for a translation.
+    out: Dict[str, object] = {"joint": p.joint, "axis": p.axis}
+    if p.kind != "rotation":
+        out["kind"] = p.kind
+    out.update(
+        {
+            "joint_name": p.joint_name,
+            "compliance": p.compliance,
+            "stderr": p.stderr,
+            "ci95": None if p.ci95 is None else list(p.ci95),
+            "identifiable": p.identifiable,
+            "weak": p.weak,
+        }
+    )
+    return out
+
+
+def _json_term(t: CombinationTerm) -> Dict[str, object]:
+    # As the core serialises a term: the kind only for a translation.
+    out: Dict[str, object] = {"param": t.param, "joint": t.joint, "axis": t.axis}
+    if t.kind != "rotation":
+        out["kind"] = t.kind
+    out["coefficient"] = t.coefficient
+    return out
+
+
 def _json_combination(c: _CoreCombination) -> Dict[str, object]:
     return {
         "label": c.label,
-        "terms": [{"param": t.param, "joint": t.joint, "axis": t.axis, "coefficient": t.coefficient} for t in c.terms],
+        "terms": [_json_term(t) for t in c.terms],
         "value": c.value,
         "stderr": c.stderr,
         "ci95": None if c.ci95 is None else list(c.ci95),
@@ -296,7 +339,7 @@ class Identification(FieldEq):
         combos = [
             Combination(
                 label=c.label,
-                terms=[(f"J{t.joint}{t.axis}", t.coefficient) for t in c.terms],
+                terms=[(t.label, t.coefficient) for t in c.terms],
                 value=c.value,
                 stderr=np.nan if c.stderr is None else c.stderr,
                 ci95=(np.nan, np.nan) if c.ci95 is None else c.ci95,
@@ -331,27 +374,16 @@ class Identification(FieldEq):
 
     def to_dict(self) -> Dict[str, object]:
         """The JSON form written by ``robot-stiffness identify vjm``: ``model``, ``n_params``,
-        ``rank``, ``parameters`` [{``joint`` (1-based), ``axis`` (z|x|y), ``compliance``
-        (rad/(N·m) or None), ``stderr``, ``identifiable``}], ``combinations`` (with ``value``),
+        ``rank``, ``parameters`` [{``joint`` (1-based), ``axis`` (z|x|y), ``kind`` (only for a
+        translation), ``compliance`` (rad/(N·m), a translation's m/N, or None), ``stderr``,
+        ``identifiable``}], ``combinations`` (with ``value``),
         plus ``aliases`` and diagnostics."""
         return {
             "model": self.model,
             "n_params": self.n_params,
             "rank": self.rank,
             "n_equations": self.n_equations,
-            "parameters": [
-                {
-                    "joint": p.joint,
-                    "axis": p.axis,
-                    "joint_name": p.joint_name,
-                    "compliance": p.compliance,
-                    "stderr": p.stderr,
-                    "ci95": None if p.ci95 is None else list(p.ci95),
-                    "identifiable": p.identifiable,
-                    "weak": p.weak,
-                }
-                for p in self.parameters
-            ],
+            "parameters": [_json_parameter(p) for p in self.parameters],
             "combinations": list(self._combinations_json),
             "aliases": [list(a) for a in self.aliases],
             "residual_rms": self.residual_rms,

@@ -131,6 +131,18 @@ fn identify_recovers_link_translations_of_the_full_model() {
         "the translations add directions: rank {}",
         id.rank
     );
+    // The result names each parameter as the model does (a translation is `J4tz`, not `J4z`),
+    // and its JSON states the kind of a translation only.
+    let labels: Vec<String> = id.parameters.iter().map(|p| p.label()).collect();
+    assert_eq!(labels, model.labels());
+    let json = serde_json::to_value(&id.parameters).unwrap();
+    assert_eq!(json[3]["kind"], "translation");
+    assert!(json[0].get("kind").is_none(), "{}", json[0]);
+    for c in &id.combinations {
+        for t in &c.terms {
+            assert_eq!(t.label(), labels[t.param]);
+        }
+    }
 }
 
 /// The vocabulary: `full`, translation labels and `link_translation(...)` findings.
