@@ -68,7 +68,7 @@ fn torques(
         let g = g.vector();
         for (k, s) in model.springs().iter().enumerate() {
             let (w, c) = state.springs[k];
-            out[k] += w.dot(&bodies.lever(s.joint, &c).cross(&g));
+            out[k] += bodies.torque(s, &w, &c, &g);
         }
     }
     if let Some(wr) = loading.wrench {

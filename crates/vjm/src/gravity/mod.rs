@@ -121,6 +121,27 @@ impl BodySums {
     pub(crate) fn lever(&self, joint: usize, c: &Vector3<f64>) -> Vector3<f64> {
         self.moment[joint] - c * self.mass[joint]
     }
+
+    /// `M = Σ_{b ≥ j} m_b` (kg): the mass a translational spring at joint j carries.
+    pub(crate) fn mass(&self, joint: usize) -> f64 {
+        self.mass[joint]
+    }
+
+    /// `−∂U/∂θ` of spring `spring` with axis `w` through `c` (base frame), N·m or N: a
+    /// rotation's `w · (R × g)`, a translation's `M (w · g)` (it lifts the mass beyond it).
+    pub(crate) fn torque(
+        &self,
+        spring: &crate::model::Spring,
+        w: &Vector3<f64>,
+        c: &Vector3<f64>,
+        g: &Vector3<f64>,
+    ) -> f64 {
+        if spring.is_translation() {
+            self.mass(spring.joint) * w.dot(g)
+        } else {
+            w.dot(&self.lever(spring.joint, c).cross(g))
+        }
+    }
 }
 
 /// The torques of gravity on the virtual springs at joint positions `q` (rad) and θ = 0:

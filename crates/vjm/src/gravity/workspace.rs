@@ -19,7 +19,8 @@ use crate::stiffness_model::PointMass;
 pub const MAX_COUPLING_ITERATIONS: usize = 60;
 
 /// Reusable scratch for τ_g(q) and K_G(q) of a model's springs (base frame, N·m and
-/// N·m/rad, the conventions of the [module](super)), one configuration at a time.
+/// N·m/rad, the conventions of the [module](super); a translational spring's generalised
+/// force is in N and its entries of K_G in N/rad or N/m), one configuration at a time.
 #[derive(Debug, Clone)]
 pub struct GravityWorkspace {
     model: VirtualJointModel,
@@ -28,6 +29,8 @@ pub struct GravityWorkspace {
     ws: Workspace,
     frames: Vec<Isometry3<f64>>,
     levers: Vec<Vector3<f64>>,
+    /// Mass beyond each spring (kg): a translation's lever.
+    carried: Vec<f64>,
     torques: Vec<f64>,
     stiffness: DMatrix<f64>,
     theta: Vec<f64>,
@@ -48,16 +51,6 @@ impl GravityWorkspace {
         payload: Option<&PointMass>,
     ) -> Result<Self, VjmError> {
         chain.mass_model()?;
-        if model.has_translations() {
-            // Every gravity path (identify, predict, sag, compensate, design under gravity)
-            // builds this workspace: refuse here rather than return a rotation's torque.
-            return Err(VjmError::InvalidModel {
-                message: "gravity (the arm's weight) with translational link springs (model \
-                          `full`, J3tx, link_translation) is not supported yet: use the model \
-                          without gravity (weightless), or a rotational model"
-                    .into(),
-            });
-        }
         let ws = Workspace::new(chain, model)?;
         let m = model.n_params();
         Ok(Self {
@@ -67,6 +60,7 @@ impl GravityWorkspace {
             ws,
             frames: Vec::with_capacity(chain.n_joints()),
             levers: vec![Vector3::zeros(); m],
+            carried: vec![0.0; m],
             torques: vec![0.0; m],
             stiffness: DMatrix::zeros(m, m),
             theta: vec![0.0; m],
@@ -96,18 +90,29 @@ impl GravityWorkspace {
         let tip = t * chain.tip_offset();
         let sums = BodySums::new(masses, &self.frames, &tip, self.payload.as_ref());
         self.ws.evaluate(chain, q);
-        for (k, s) in self.model.springs().iter().enumerate() {
-            self.levers[k] = sums.lever(s.joint, &self.ws.c[k]);
-        }
         let g = self.gravity;
+        let springs = self.model.springs();
+        for (k, s) in springs.iter().enumerate() {
+            self.levers[k] = sums.lever(s.joint, &self.ws.c[k]);
+            self.carried[k] = sums.mass(s.joint);
+            self.torques[k] = sums.torque(s, &self.ws.w[k], &self.ws.c[k], &g);
+        }
         let m = self.model.n_params();
         for k in 0..m {
             let (wk, rk) = (self.ws.w[k], self.levers[k]);
-            self.torques[k] = wk.dot(&rk.cross(&g));
             let (wk_g, rk_g) = (wk.dot(&g), rk.dot(&g));
+            let k_moves = springs[k].is_translation();
             for i in 0..=k {
                 let wi = self.ws.w[i];
-                let v = wi.dot(&rk) * wk_g - wi.dot(&wk) * rk_g;
+                // ∂τ_k/∂θ_i for spring i at or before k. A rotation i turns k's axis and the
+                // bodies beyond k about w_i; a translation i moves them and k's point alike,
+                // which changes no torque of a later spring; and a translation's own torque
+                // M (w·g) does not change when it moves.
+                let v = match (springs[i].is_translation(), k_moves) {
+                    (false, false) => wi.dot(&rk) * wk_g - wi.dot(&wk) * rk_g,
+                    (false, true) if i < k => self.carried[k] * wi.cross(&wk).dot(&g),
+                    _ => 0.0,
+                };
                 self.stiffness[(i, k)] = v;
                 self.stiffness[(k, i)] = v;
             }

@@ -128,9 +128,13 @@ proptest! {
 
     /// τ_g is minus the gradient of the potential evaluated on the deflected chain.
     #[test]
-    fn torques_are_minus_the_gradient_of_the_potential((chain, q, g, p) in arb_case(), extended in any::<bool>()) {
+    fn torques_are_minus_the_gradient_of_the_potential((chain, q, g, p) in arb_case(), which in 0..3usize) {
         let n = chain.n_joints();
-        let model = if extended { VirtualJointModel::extended(n) } else { VirtualJointModel::traditional(n) };
+        let model = match which {
+            0 => VirtualJointModel::traditional(n),
+            1 => VirtualJointModel::extended(n),
+            _ => VirtualJointModel::full(n),
+        };
         let tau = gravity_torques(&chain, &model, &q, &g, p.as_ref()).unwrap();
         let fd = torques_fd(&chain, &model, &q, &g, p.as_ref());
         let scale = moment_scale(&chain, &g, p.as_ref());
@@ -141,9 +145,10 @@ proptest! {
 
     /// K_G is the Hessian of −U on the deflected chain, and symmetric.
     #[test]
-    fn stiffness_is_minus_the_hessian_of_the_potential((chain, q, g, p) in arb_case()) {
+    fn stiffness_is_minus_the_hessian_of_the_potential((chain, q, g, p) in arb_case(), full in any::<bool>()) {
         let n = chain.n_joints();
-        let model = VirtualJointModel::extended(n);
+        // `full`: translations too (N and N/m entries; the differences step 1e-4 m).
+        let model = if full { VirtualJointModel::full(n) } else { VirtualJointModel::extended(n) };
         let kg = gravity_stiffness(&chain, &model, &q, &g, p.as_ref()).unwrap();
         let fd = stiffness_fd(&chain, &model, &q, &g, p.as_ref());
         let scale = moment_scale(&chain, &g, p.as_ref());
@@ -387,11 +392,19 @@ proptest! {
     /// At the equilibrium under gravity the total potential ½θᵀKθ + U_g(θ) is stationary:
     /// K θ* equals −∂U_g/∂θ at θ*, by differences of the potential on the deflected chain.
     #[test]
-    fn the_equilibrium_under_weight_is_a_stationary_point_of_the_potential((chain, q, g, p) in arb_case()) {
+    fn the_equilibrium_under_weight_is_a_stationary_point_of_the_potential((chain, q, g, p) in arb_case(), full in any::<bool>()) {
         use vjm::gravity::{static_equilibrium, Loading};
         let n = chain.n_joints();
-        let model = VirtualJointModel::extended(n);
-        let c = arm_compliances(n);
+        let (model, c) = if full {
+            // Links of 10 N/µm beside the Panda-class rotations.
+            let c: Vec<f64> = arm_compliances(n)
+                .chunks(3)
+                .flat_map(|r| [r[0], r[1], r[2], 1e-7, 1e-7, 1e-7])
+                .collect();
+            (VirtualJointModel::full(n), c)
+        } else {
+            (VirtualJointModel::extended(n), arm_compliances(n))
+        };
         let loading = Loading { gravity: Some(g), payload: p.as_ref(), wrench: None };
         let eq = static_equilibrium(&chain, &model, &c, &q, &loading).unwrap();
         let h = 1e-6;
