@@ -102,13 +102,13 @@ impl GravityWorkspace {
             let (wk, rk) = (self.ws.w[k], self.levers[k]);
             let (wk_g, rk_g) = (wk.dot(&g), rk.dot(&g));
             let k_moves = springs[k].is_translation();
-            for i in 0..=k {
+            for (i, spring_i) in springs.iter().enumerate().take(k + 1) {
                 let wi = self.ws.w[i];
                 // ∂τ_k/∂θ_i for spring i at or before k. A rotation i turns k's axis and the
                 // bodies beyond k about w_i; a translation i moves them and k's point alike,
                 // which changes no torque of a later spring; and a translation's own torque
                 // M (w·g) does not change when it moves.
-                let v = match (springs[i].is_translation(), k_moves) {
+                let v = match (spring_i.is_translation(), k_moves) {
                     (false, false) => wi.dot(&rk) * wk_g - wi.dot(&wk) * rk_g,
                     (false, true) if i < k => self.carried[k] * wi.cross(&wk).dot(&g),
                     _ => 0.0,
