@@ -9,6 +9,7 @@ mod compensation;
 mod design;
 mod full_model;
 mod gear;
+mod gear_predict;
 mod gravity;
 mod identification;
 mod identify_partial;
