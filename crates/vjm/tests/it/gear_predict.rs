@@ -99,7 +99,10 @@ fn a_gear_curve_adds_its_excess_at_the_load_torque() {
 fn under_gravity_a_gear_curve_works_about_the_weights_preload() {
     let (chain, sm, data) = panda_model();
     let curve = shoulder_curve();
-    let curved = sm.clone().with_gear_curves(std::slice::from_ref(&curve)).unwrap();
+    let curved = sm
+        .clone()
+        .with_gear_curves(std::slice::from_ref(&curve))
+        .unwrap();
     let model = VirtualJointModel::traditional(7);
     let c = sm.determined_compliance().unwrap();
     let g = Gravity::default();

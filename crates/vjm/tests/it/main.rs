@@ -9,6 +9,7 @@ mod compensation;
 mod design;
 mod full_model;
 mod gear;
+mod gear_compensate;
 mod gear_predict;
 mod gravity;
 mod identification;
