@@ -10,6 +10,7 @@ mod design;
 mod full_model;
 mod gear;
 mod gear_compensate;
+mod gear_diagnose;
 mod gear_predict;
 mod gravity;
 mod identification;
