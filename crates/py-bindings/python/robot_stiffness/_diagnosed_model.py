@@ -6,7 +6,7 @@ A spring model holds the joints' virtual springs: the diagnosis' baseline and th
 found — a wrench bias, a tracker-frame rotation — are not the arm's: they are taken out of the
 rows with the diagnosis' joint estimates (recorded wrench − bias; displacement rotated back by the
 frame rotation) before the springs are identified on every row. What the arm does that a spring
-model cannot hold (a link's or the mount's translation, a gear's curve, lost motion, a scaled K_C)
+model cannot hold (a link's or the mount's translation, lost motion, a scaled K_C)
 is left out and listed, so that the user knows what predictions will miss.
 
 A gear's curve (``joint_torsion_nonlinear``) is kept: the model file records it as the joint's
