@@ -12,6 +12,10 @@ use crate::convert::{batch, to_numpy, to_numpy_bool};
 use crate::errors::{run, PyResultExt};
 use crate::vjm::{IdentifyArgs, PyRobot};
 
+/// A gear curve across the binding: `(joint (1-based), knots (N·m), coefficients
+/// (rad/(N·m)))`.
+type GearCurveTuple = (usize, Vec<f64>, Vec<f64>);
+
 /// A stiffness model bound to the robot it describes (immutable).
 #[pyclass(frozen, module = "robot_stiffness._core", name = "StiffnessModel")]
 #[derive(Debug, Clone)]
@@ -95,6 +99,36 @@ impl PyStiffnessModel {
     #[getter]
     fn gravity(&self) -> Option<[f64; 3]> {
         self.model.gravity().map(|g| g.vector().into())
+    }
+
+    /// The model's gear curves ([`vjm::gear::GearCurve`]): `(joint, knots, coefficients)` with
+    /// the joint 1-based, knots in N·m and coefficients in rad/(N·m); empty without curves.
+    #[getter]
+    fn gear_curves(&self) -> PyResult<Vec<GearCurveTuple>> {
+        Ok(self
+            .model
+            .gear_curves()
+            .py()?
+            .iter()
+            .map(|c| (c.joint() + 1, c.knots().to_vec(), c.coefficients().to_vec()))
+            .collect())
+    }
+
+    /// This model with the gear curves `curves` (`(joint, knots, coefficients)`, joint 1-based,
+    /// knots N·m, coefficients rad/(N·m)) in place of any it had; an error names the joint of
+    /// a malformed curve or of one without a torsion spring.
+    fn with_gear_curves(&self, curves: Vec<GearCurveTuple>) -> PyResult<Self> {
+        let mut out = Vec::with_capacity(curves.len());
+        for (joint, knots, coefficients) in curves {
+            if joint == 0 {
+                return Err(crate::errors::value_error(
+                    "a gear curve's joint is 1-based (1 = the first joint), got 0",
+                ));
+            }
+            out.push(vjm::gear::GearCurve::new(joint - 1, knots, coefficients).py()?);
+        }
+        let model = (*self.model).clone().with_gear_curves(&out).py()?;
+        Ok(Self::new(model, self.chain.clone()))
     }
 
     /// Whether the model predicts rotations.

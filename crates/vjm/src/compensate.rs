@@ -5,7 +5,9 @@
 //! the model's tip deflection `J(q') Δθ` with `Δθ = C J(q')ᵀ W` or, with the complementary
 //! stiffness, `Δθ = (I − C K_C)⁻¹ C Jᵀ W`. The position residual is in m; with
 //! [`CompensateOptions::match_orientation`] the orientation residual
-//! `log(exp(δ_rot) R(q') R(q_nominal)ᵀ)` (rad, base frame) is matched too.
+//! `log(exp(δ_rot) R(q') R(q_nominal)ᵀ)` (rad, base frame) is matched too. With gear curves
+//! ([`compensate_with_gears`], [`crate::gear`]) a curved torsion spring deflects by its curve of
+//! the torque it carries instead of `c τ`.
 //!
 //! The iteration is a damped Gauss–Newton (chord) method: the step uses the rigid actuated
 //! Jacobian J_a, minimum-norm for redundant arms (`Δq = J_aᵀ (J_a J_aᵀ + λ²I)⁻¹ (−r)`), and
@@ -20,7 +22,8 @@ use stiffness_core::so3::{exp, log};
 
 use crate::chain::{check_finite, SerialChain};
 use crate::error::VjmError;
-use crate::gravity::{static_equilibrium, Loading};
+use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
+use crate::gravity::{static_equilibrium_with_gears, Loading};
 use crate::kinematics::{jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
 use crate::stiffness_model::Load;
@@ -62,7 +65,8 @@ pub struct CompensateOptions {
     /// Correct the tip's sag under the arm's own weight as well as the load's deflection:
     /// the model's loaded tip is then the springs' static equilibrium under gravity, the
     /// payload's weight and the wrench on the deflected chain
-    /// ([`crate::gravity::static_equilibrium`], no linearisation; `with_kc` does not apply),
+    /// ([`crate::gravity::static_equilibrium`], no linearisation; `with_kc` does not apply;
+    /// with gear curves [`crate::gravity::static_equilibrium_with_gears`]),
     /// against the rigid kinematics. The chain needs its masses
     /// ([`SerialChain::mass_model`]). Default `None`: the load's deflection only (weightless).
     pub gravity: Option<crate::gravity::Gravity>,
@@ -203,6 +207,8 @@ pub struct CompensationWorkspace {
     theta0: Vec<f64>,
     theta: Vec<f64>,
     ktheta: Vec<f64>,
+    /// The load's torque on each spring at θ = 0, N·m (the gear curves' argument).
+    tau: Vec<f64>,
     dq: Vec<f64>,
 }
 
@@ -221,6 +227,7 @@ impl CompensationWorkspace {
             theta0: vec![0.0; m],
             theta: vec![0.0; m],
             ktheta: vec![0.0; m],
+            tau: vec![0.0; m],
             dq: vec![0.0; n],
         })
     }
@@ -283,13 +290,13 @@ enum RowLoad {
 #[allow(clippy::needless_range_loop)] // indexes four parallel per-spring arrays
 fn loaded_tip(
     chain: &SerialChain,
-    model: &VirtualJointModel,
-    compliance: &[f64],
+    springs: &ModelSprings<'_>,
     q: &[f64],
     load: &RowLoad,
     opts: &CompensateOptions,
     ws: &mut CompensationWorkspace,
 ) -> Result<Option<LoadedTip>, VjmError> {
+    let (model, compliance, curved) = (springs.model, springs.compliance, &springs.curved);
     jacobian_in_place(chain, model, q, &mut ws.springs, &mut ws.jac)?;
     let p = ws.springs.p;
     let r = ws.springs.tip_rotation(chain);
@@ -307,7 +314,8 @@ fn loaded_tip(
                 wrench: None,
             },
         };
-        return match static_equilibrium(chain, model, compliance, q, &loading) {
+        let gears = curved.curves();
+        return match static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading) {
             Ok(eq) => {
                 let d = eq.tip.translation.vector - p;
                 let phi = (eq.tip.rotation.to_rotation_matrix()
@@ -327,9 +335,12 @@ fn loaded_tip(
     for k in 0..m {
         let col = &ws.jac[6 * k..6 * k + 6];
         let tau: f64 = col.iter().zip(&wrench).map(|(a, b)| a * b).sum();
+        ws.tau[k] = tau;
         ws.theta0[k] = compliance[k] * tau;
         ws.theta[k] = ws.theta0[k];
     }
+    // A curved spring deflects by c τ + e(τ) (`crate::gear`).
+    curved.add_excess(&ws.tau, &mut ws.theta);
     if opts.with_kc {
         let mut converged = false;
         for _ in 0..DEFLECTION_MAX_ITERATIONS {
@@ -337,7 +348,14 @@ fn loaded_tip(
             let mut change = 0.0f64;
             let mut scale = 0.0f64;
             for k in 0..m {
-                let next = ws.theta0[k] + compliance[k] * ws.ktheta[k];
+                let mut next = ws.theta0[k] + compliance[k] * ws.ktheta[k];
+                if let Some(curve) = curved.of(k) {
+                    // The curve at the spring's whole torque, the load's and K_C's.
+                    let e = curve.excess(ws.tau[k] + ws.ktheta[k]);
+                    if e != 0.0 {
+                        next += e;
+                    }
+                }
                 change = change.max((next - ws.theta[k]).abs());
                 scale = scale.max(next.abs());
                 ws.theta[k] = next;
@@ -499,6 +517,26 @@ pub fn compensate(
     load: Load<'_>,
     opts: &CompensateOptions,
 ) -> Result<Compensation, VjmError> {
+    compensate_with_gears(chain, model, compliance, &[], q_nominal, load, opts)
+}
+
+/// [`compensate`] with non-linear gears ([`GearCurve`], on the torsion springs of `model`; an
+/// error names a joint without one): the model's loaded tip bends each curved spring by its
+/// curve. Under gravity ([`CompensateOptions::gravity`]) that is the exact equilibrium with the
+/// curves ([`static_equilibrium_with_gears`]); weightless, the curved spring deflects by
+/// `c τ + e(τ)` at the load's torque τ (with K_C, `τ = Jᵀ W + (K_C Δθ)_k`), `e(T) = Σ a h(T)`
+/// the curve's excess. Without curves it is [`compensate`], bit for bit.
+pub fn compensate_with_gears(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    gears: &[GearCurve],
+    q_nominal: &[f64],
+    load: Load<'_>,
+    opts: &CompensateOptions,
+) -> Result<Compensation, VjmError> {
+    let springs = torsion_springs(model, gears)?;
+    let curved = CurvedSprings::new(gears, &springs);
     let n = chain.n_joints().max(1);
     let mut q = vec![0.0; q_nominal.len()];
     let mut rows = vec![
@@ -526,8 +564,13 @@ pub fn compensate(
         COMPENSATION_BLOCK_ROWS,
         |range, rows, q| {
             let mut ws = CompensationWorkspace::new(chain, model)?;
+            let spring = ModelSprings {
+                model,
+                compliance,
+                curved,
+            };
             compensate_rows(
-                chain, model, compliance, q_nominal, load, opts, &mut ws, range, q, rows,
+                chain, &spring, q_nominal, load, opts, &mut ws, range, q, rows,
             )
         },
     )?;
@@ -569,10 +612,14 @@ pub fn compensate_in_place(
             message: "the compensation workspace was built for another chain or model; create it with CompensationWorkspace::new(chain, model)".into(),
         });
     }
-    compensate_rows(
-        chain,
+    let spring = ModelSprings {
         model,
         compliance,
+        curved: CurvedSprings::new(&[], &[]),
+    };
+    compensate_rows(
+        chain,
+        &spring,
         q_nominal,
         load,
         opts,
@@ -581,6 +628,15 @@ pub fn compensate_in_place(
         q_out,
         rows_out,
     )
+}
+
+/// The model's springs as a compensation evaluates them: the spring model, its compliances
+/// (rad/(N·m)) and its gear curves.
+#[derive(Debug, Clone, Copy)]
+struct ModelSprings<'a> {
+    model: &'a VirtualJointModel,
+    compliance: &'a [f64],
+    curved: CurvedSprings<'a>,
 }
 
 /// Rows per block of a multi-threaded [`compensate`]: a Gauss–Newton solve per row costs
@@ -639,8 +695,7 @@ fn check_inputs(
 #[allow(clippy::too_many_arguments)]
 fn compensate_rows(
     chain: &SerialChain,
-    model: &VirtualJointModel,
-    compliance: &[f64],
+    springs: &ModelSprings<'_>,
     q_nominal: &[f64],
     load: Load<'_>,
     opts: &CompensateOptions,
@@ -659,7 +714,7 @@ fn compensate_rows(
         let qn = &q_nominal[i * n..(i + 1) * n];
         let k = i - first;
         let q = &mut q_out[k * n..(k + 1) * n];
-        rows_out[k] = compensate_row(chain, model, compliance, qn, &row_load, opts, ws, q)?;
+        rows_out[k] = compensate_row(chain, springs, qn, &row_load, opts, ws, q)?;
     }
     Ok(())
 }
@@ -667,8 +722,7 @@ fn compensate_rows(
 #[allow(clippy::too_many_arguments)]
 fn compensate_row(
     chain: &SerialChain,
-    model: &VirtualJointModel,
-    compliance: &[f64],
+    springs: &ModelSprings<'_>,
     q_nominal: &[f64],
     load: &RowLoad,
     opts: &CompensateOptions,
@@ -687,7 +741,7 @@ fn compensate_row(
         inverse_condition: f64::NAN,
         limit_joint: None,
     };
-    let Some(nominal) = loaded_tip(chain, model, compliance, q, load, opts, ws)? else {
+    let Some(nominal) = loaded_tip(chain, springs, q, load, opts, ws)? else {
         return Ok(report);
     };
     // Conditioning at the nominal targets (a row can start at a singularity and leave it).
@@ -744,7 +798,7 @@ fn compensate_row(
             norm_q += *x * *x;
         }
         report.iterations += 1;
-        match loaded_tip(chain, model, compliance, q, load, opts, ws)? {
+        match loaded_tip(chain, springs, q, load, opts, ws)? {
             Some(t) => tip = t,
             None => {
                 report.status = CompensationStatus::Unstable;
@@ -811,10 +865,12 @@ impl crate::stiffness_model::StiffnessModel {
         // What the data determine: K_C and the equilibria are non-linear in C and would
         // amplify the noise of a barely seen direction.
         let compliance = self.determined_compliance()?;
-        Ok(compensate(
+        let gears = self.gear_curves()?;
+        Ok(compensate_with_gears(
             chain,
             &model,
             &compliance,
+            &gears,
             q_nominal,
             load,
             opts,

@@ -121,11 +121,25 @@ impl<'a> CurvedSprings<'a> {
         self.springs.iter().copied().zip(self.curves.iter())
     }
 
+    /// The curves, in the order given.
+    pub(crate) fn curves(&self) -> &'a [GearCurve] {
+        self.curves
+    }
+
+    /// The curve of spring `k`, if it has one.
+    pub(crate) fn of(&self, k: usize) -> Option<&'a GearCurve> {
+        self.iter().find(|(s, _)| *s == k).map(|(_, c)| c)
+    }
+
     /// Adds each curved spring's [`excess`](GearCurve::excess) at its torque `torque[k]`
-    /// (N·m) to `theta[k]` (rad).
+    /// (N·m) to `theta[k]` (rad). An excess of exactly 0 adds nothing (a curve of zero
+    /// coefficients leaves `theta` as no curve does, bit for bit, a −0 included).
     pub(crate) fn add_excess(&self, torque: &[f64], theta: &mut [f64]) {
         for (k, curve) in self.iter() {
-            theta[k] += curve.excess(torque[k]);
+            let e = curve.excess(torque[k]);
+            if e != 0.0 {
+                theta[k] += e;
+            }
         }
     }
 }

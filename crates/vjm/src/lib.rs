@@ -69,8 +69,8 @@ pub use chain::{
     BUNDLED_URDF, BUNDLED_URDF_PATH,
 };
 pub use compensate::{
-    compensate, compensate_in_place, CompensateOptions, CompensatedRow, Compensation,
-    CompensationStatus, CompensationWorkspace,
+    compensate, compensate_in_place, compensate_with_gears, CompensateOptions, CompensatedRow,
+    Compensation, CompensationStatus, CompensationWorkspace,
 };
 pub use design::plan::{
     design, design_monitored, pose_compliance_wrenches, predicted_stderr, NoiseModel, Plan,

@@ -6,12 +6,20 @@ A spring model holds the joints' virtual springs: the diagnosis' baseline and th
 found — a wrench bias, a tracker-frame rotation — are not the arm's: they are taken out of the
 rows with the diagnosis' joint estimates (recorded wrench − bias; displacement rotated back by the
 frame rotation) before the springs are identified on every row. What the arm does that a spring
-model cannot hold (a link's or the mount's translation, a gear's curve, lost motion, a scaled K_C)
+model cannot hold (a link's or the mount's translation, lost motion, a scaled K_C)
 is left out and listed, so that the user knows what predictions will miss.
+
+A gear's curve (``joint_torsion_nonlinear``) is kept: the model file records it as the joint's
+gear curve (``gear_curves``: the finding's ``knots`` in N·m and the extended fit's coefficients
+in rad/(N·m)), which ``predict`` and ``compensate`` evaluate. The springs are then identified on
+the rows with the curve's share taken out (its first-order column, as ``predict`` evaluates it,
+at the springs identified on the raw rows first), so that they do not absorb it twice.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple
 
@@ -21,6 +29,7 @@ from ._arguments import DEFAULT_GRAVITY
 from ._equality import FieldEq
 from . import so3
 from ._errors import ArgumentTypeError
+from .model import GearCurve
 
 if TYPE_CHECKING:
     from .vjm import Identification, Robot
@@ -42,6 +51,9 @@ class DiagnosedModel(FieldEq):
     corrected: Dict[str, List[float]]
     #: ``(label, why)`` of each finding the spring model does not hold.
     left_out: Tuple[Tuple[str, str], ...]
+    #: The gears' curves the model holds (``joint_torsion_nonlinear`` findings), as the saved
+    #: model's :attr:`~robot_stiffness.model.StiffnessModel.gear_curves`.
+    gear_curves: Tuple[GearCurve, ...] = ()
 
 
 def _label(f: Any) -> str:
@@ -75,11 +87,18 @@ def diagnosed_model(
     terms = [diagnosis.baseline.model]
     corrected: Dict[str, List[float]] = {}
     left_out: List[Tuple[str, str]] = []
+    curves: List[GearCurve] = []
     for f in diagnosis.findings:
         if f.effect == "joint_tilt":
             terms.append(_label(f))
         elif f.effect in CORRECTED:
             corrected[f.effect] = _estimate(diagnosis, f.effect)
+        elif f.effect == "joint_torsion_nonlinear" and f.knots is not None:
+            coefficients = tuple(float(a) for a in f.evidence.estimate)
+            if len(coefficients) == len(f.knots) and all(math.isfinite(a) for a in coefficients):
+                curves.append(GearCurve(int(f.joint), tuple(float(t) for t in f.knots), coefficients))
+            else:
+                left_out.append((_label(f), "its curve's coefficients are not determined by these data"))
         else:
             left_out.append((_label(f), "not a virtual spring of a joint: predictions will not include it"))
     wrench = np.array(data.wrench, dtype=np.float64)
@@ -90,10 +109,31 @@ def diagnosed_model(
         # recorded = R(φ)·d: rotate back, d = R(−φ)·recorded (rows: recorded · R(−φ)ᵀ).
         displacement = displacement @ so3.exp(-np.asarray(corrected["frame_misalignment"])).T
     springs = " + ".join(terms)
-    identification = robot.identify(
-        data.q, wrench, displacement, springs, gravity=gravity, data_file=data_file,
-        robust_covariance=True, allow_outside_limits=allow_outside_limits,
-    )
+
+    def fit(d: Any) -> "Identification":
+        return robot.identify(
+            data.q, wrench, d, springs, gravity=gravity, data_file=data_file,
+            robust_covariance=True, allow_outside_limits=allow_outside_limits,
+        )
+
+    identification = fit(displacement)
+    if curves:
+        # The curves' share of each row (curved − linear prediction of the springs fitted on the
+        # raw rows: the diagnosis' column times its coefficients) is taken out, the springs
+        # fitted again, and the curves put in the saved model.
+        first = identification.stiffness_model
+        assert first is not None  # Robot.identify always makes one
+        bent = first.with_gear_curves(curves)
+        share = (
+            bent.predict(data.q, wrench=wrench, gravity=gravity, allow_outside_limits=allow_outside_limits).deflection
+            - first.predict(data.q, wrench=wrench, gravity=gravity, allow_outside_limits=allow_outside_limits).deflection
+        )
+        width = displacement.shape[1]
+        identification = fit(displacement - np.nan_to_num(share[:, :width]))
+        model = identification.stiffness_model
+        assert model is not None
+        identification = dataclasses.replace(identification, stiffness_model=model.with_gear_curves(curves))
     return DiagnosedModel(
         identification=identification, springs=springs, corrected=corrected, left_out=tuple(left_out),
+        gear_curves=tuple(curves),
     )

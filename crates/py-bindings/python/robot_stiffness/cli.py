@@ -633,6 +633,9 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
     if saved is not None:
         fixes = "".join(f"; {k} taken out of the rows" for k in saved.corrected)
         print(f"saved {args.save}: springs {saved.springs} identified on all {len(data)} rows{fixes}")
+        for curve in saved.gear_curves:
+            print(f"  with the gear curve of joint {curve.joint}: knots {', '.join(f'{t:.3g}' for t in curve.knots)} "
+                  f"N·m, coefficients {', '.join(f'{a:.3g}' for a in curve.coefficients)} rad/(N·m)")
         for label, why in saved.left_out:
             print(f"  not in the saved model: {label} ({why})")
     return 0
@@ -916,7 +919,8 @@ effects (--effect NAME:key=value,...):
     dv.add_argument("--report", metavar="DIR", help=REPORT_HELP)
     dv.add_argument("--save", metavar="MODEL.json",
                     help="save the springs of the model the diagnosis found (baseline + tilts) identified on every row, "
-                    "wrench bias and tracker-frame rotation taken out, as a model file for predict and compensate")
+                    "wrench bias and tracker-frame rotation taken out, with a found gear's curve, as a model file for "
+                    "predict and compensate")
     dv.add_argument("--force", action="store_true", help=FORCE_HELP)
     dv.add_argument("--quiet", action="store_true", help="no progress display")
     dv.add_argument("--allow-outside-limits", action="store_true",

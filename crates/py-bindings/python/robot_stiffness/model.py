@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union, cast
+from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -45,10 +45,23 @@ from ._use_model import Compensation, _compensation, _q_and_wrench
 if TYPE_CHECKING:  # pragma: no cover
     from .vjm import Robot
 
-__all__ = ["StiffnessModel", "Prediction", "STANDARD_GRAVITY", "Payload"]
+__all__ = ["StiffnessModel", "Prediction", "STANDARD_GRAVITY", "Payload", "GearCurve"]
 
 Array = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
+
+class GearCurve(NamedTuple):
+    """A joint's non-linear gear (``docs/gravity.md``, *Non-linear gears in the model*): its
+    torsion spring deflects by θ(T) = c·T + Σ a_k h_k(T) under the total torque T it carries,
+    h_k(T) = sign(T)·max(|T| − t_k, 0)."""
+
+    #: 1-based joint (base → tip); the model has its torsion spring ``J<joint>z``.
+    joint: int
+    #: The knots t_k, N·m.
+    knots: Tuple[float, ...]
+    #: The coefficients a_k, rad/(N·m): the tangent compliance's change beyond each knot.
+    coefficients: Tuple[float, ...]
+
 
 #: Standard gravity (m/s²) acting along −z of the base frame on a payload (vjm::STANDARD_GRAVITY).
 STANDARD_GRAVITY = 9.80665
@@ -197,6 +210,32 @@ class StiffnessModel:
         return int(self._inner.rank)
 
     @property
+    def gear_curves(self) -> List[GearCurve]:
+        """The model's non-linear gears (read-only; empty for a model without curves): one
+        :class:`GearCurve` per curved joint, as the model file's ``gear_curves`` records them.
+        :meth:`predict`, :meth:`predict_sag` and :meth:`compensate` evaluate them."""
+        return [
+            GearCurve(int(j), tuple(float(t) for t in k), tuple(float(a) for a in c))
+            for j, k, c in self._inner.gear_curves
+        ]
+
+    @checked
+    def with_gear_curves(self, curves: Sequence[Any]) -> "StiffnessModel":
+        """This model with the gear curves ``curves`` (each a :class:`GearCurve` or a
+        ``(joint, knots, coefficients)`` triple: 1-based joint, knots in N·m, coefficients in
+        rad/(N·m)) in place of any it had. An error names the joint of a malformed curve or of
+        one whose joint has no torsion spring in the model."""
+        triples = [
+            (
+                int(j),
+                [real(t, f"the gear curve of joint {j}: knot {i}") for i, t in enumerate(k)],
+                [real(a, f"the gear curve of joint {j}: coefficient {i}") for i, a in enumerate(c)],
+            )
+            for j, k, c in curves
+        ]
+        return StiffnessModel(self._inner.with_gear_curves(triples), self._robot)
+
+    @property
     def determined_compliance(self) -> npt.NDArray[np.float64]:
         """What the data determine, rad/(N·m) per spring (parameter order): the stored
         compliances without their weak directions — those whose standard error exceeds their
@@ -256,7 +295,9 @@ class StiffnessModel:
         gravity the deflection is the load's from the arm at rest under its own weight — what
         a measurement under gravity records and ``identify(gravity=...)`` fits — taken at the
         sagged pose with gravity's stiffness coupling into the load's torque (docs/gravity.md);
-        the URDF must then give the link masses.
+        the URDF must then give the link masses. A model with :attr:`gear_curves` adds each
+        curved joint's deflection beyond its linear spring, the curve's change from the
+        weight's preload to preload + load (first order, as the diagnosis fits it).
         """
         g = model_gravity(gravity, self.gravity, unrecorded=None)
         arr = f64(q, "q")

@@ -299,13 +299,16 @@ class ConnectionTest(_Result):
 class Finding(_Result):
     """A named effect: ``effect``, ``joint`` (1-based, base → tip) and ``axis`` or None, its
     ``aliases`` and the ``evidence`` (a :class:`ConnectionTest` for the CSJM's
-    ``connection_term``)."""
+    ``connection_term``); ``knots`` for a VJM ``joint_torsion_nonlinear``."""
 
     effect: str
     joint: Optional[int]
     axis: Optional[str]
     aliases: List[Alias]
     evidence: Union[Evidence, ConnectionTest]
+    #: VJM ``joint_torsion_nonlinear``: the knots of its hinges, N·m (with
+    #: ``evidence.estimate``, rad/(N·m), the gear curve a saved model holds); None otherwise.
+    knots: Optional[List[float]] = _only(VJM)
 
 
 @dataclass(frozen=True, eq=False)

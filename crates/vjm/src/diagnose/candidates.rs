@@ -13,6 +13,16 @@ use crate::model::SpringAxis;
 /// Knots of the torsion non-linearity hinges, in units of the joint's RMS training torque.
 pub const TORSION_KNOTS: [f64; 2] = [0.33, 1.0];
 
+/// The knots (N·m) of a joint's `joint_torsion_nonlinear` hinges: [`TORSION_KNOTS`] times the
+/// joint's RMS total torsion torque over the training rows, `tau_scale` (N·m; floored at
+/// 1e-12 so that an unloaded joint has distinct knots). The one rule of the candidate's
+/// column and of the gear curve a finding reports
+/// ([`Finding::gear_curve`](super::report::Finding::gear_curve)).
+pub fn torsion_knots(tau_scale: f64) -> [f64; 2] {
+    let s = tau_scale.max(1e-12);
+    TORSION_KNOTS.map(|k| k * s)
+}
+
 /// One candidate extension of the model. Joints are 0-based here and 1-based in the report.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Candidate {
@@ -330,11 +340,10 @@ pub fn candidate_columns(
             // unloaded) deflection is the curve's change from τ_g to τ_g + τ.
             let t = row.tau[3 * joint];
             let tg = row.tau_gravity[3 * joint];
-            let s = tau_scale[joint].max(1e-12);
             let a = col3(&row.jacobian, 3 * joint);
             let hinge = crate::gear::hinge;
-            for k in TORSION_KNOTS {
-                out.push(scale3(a, hinge(tg + t, k * s) - hinge(tg, k * s)));
+            for knot in torsion_knots(tau_scale[joint]) {
+                out.push(scale3(a, hinge(tg + t, knot) - hinge(tg, knot)));
             }
         }
         Candidate::JointBacklash { joint } => {

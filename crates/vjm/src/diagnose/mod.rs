@@ -841,6 +841,12 @@ fn run_diagnosis<'a>(
                         .unwrap_or_default(),
                     unit: c.unit(),
                 },
+                knots: match c {
+                    Candidate::JointTorsionNonlinear { joint } => {
+                        Some(candidates::torsion_knots(problem.tau_scale[joint]).to_vec())
+                    }
+                    _ => None,
+                },
             }
         })
         .collect();

@@ -95,6 +95,25 @@ pub struct Finding {
     pub aliases: Vec<Alias>,
     /// The statistics behind the finding.
     pub evidence: Evidence,
+    /// `joint_torsion_nonlinear`: the knots t_k of its hinges, N·m (the gear curve's, with
+    /// [`Evidence::estimate`] its coefficients; [`Finding::gear_curve`]); null otherwise.
+    pub knots: Option<Vec<f64>>,
+}
+
+impl Finding {
+    /// A `joint_torsion_nonlinear` finding as the gear curve of its joint
+    /// ([`GearCurve`](crate::gear::GearCurve)): its hinges' knots (N·m) and the extended fit's
+    /// coefficients (rad/(N·m), the change of tangent compliance beyond each knot; the
+    /// candidate's column `J_jz (h_k(τ₀ + τ) − h_k(τ₀))` times them is the curve's excess under
+    /// the load). `Ok(None)` for any other effect; an error names the joint when the estimate
+    /// is missing or not finite.
+    pub fn gear_curve(&self) -> Result<Option<crate::gear::GearCurve>, crate::VjmError> {
+        let (Some(knots), Some(joint)) = (&self.knots, self.joint) else {
+            return Ok(None);
+        };
+        crate::gear::GearCurve::new(joint - 1, knots.clone(), self.evidence.estimate.clone())
+            .map(Some)
+    }
 }
 
 /// The first-step score of one catalogue candidate against the baseline.
@@ -218,6 +237,15 @@ pub struct BlockTest {
 }
 
 impl Diagnosis {
+    /// The gear curves of the findings ([`Finding::gear_curve`]), in the order found.
+    pub fn gear_curves(&self) -> Result<Vec<crate::gear::GearCurve>, crate::VjmError> {
+        let mut out = Vec::new();
+        for f in &self.findings {
+            out.extend(f.gear_curve()?);
+        }
+        Ok(out)
+    }
+
     /// The result as pretty JSON.
     pub fn to_json(&self) -> String {
         // Serialising plain structs of numbers and strings cannot fail; non-finite floats

@@ -39,6 +39,7 @@
 
 mod error;
 mod file;
+mod gear_load;
 mod output_table;
 mod pose_table;
 mod predict;

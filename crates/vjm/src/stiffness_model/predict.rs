@@ -1,9 +1,11 @@
 //! Predicted tip deflections and their standard deviations from a [`StiffnessModel`].
 
+use super::gear_load::add_gear_load;
 use super::{ModelError, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::dataset::{MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
 use crate::error::VjmError;
+use crate::gear::{torsion_springs, CurvedSprings};
 use crate::gravity::{Gravity, GravityWorkspace, RowFrame};
 use crate::kinematics::Workspace;
 use crate::model::VirtualJointModel;
@@ -152,7 +154,12 @@ impl Prediction {
 impl StiffnessModel {
     /// Predicts the tip deflection for N rows: `q` is N×n row-major (rad), `load` the wrench
     /// per row or a payload. Linear in the compliances (no K_C), the model the identification
-    /// fitted, for a weightless arm. Errors name the row (0-based) and column of a bad value.
+    /// fitted, for a weightless arm. A model with gear curves ([`Self::gear_curves`]) adds each
+    /// curved torsion spring's excess beyond its linear compliance at the load's torque τ on it,
+    /// `J_k Σ a_i h_i(τ)` (the diagnosis' `joint_torsion_nonlinear` column times its
+    /// coefficients; `docs/gravity.md`, *Non-linear gears in the model*); `stddev`,
+    /// `identified` and `excitation` are the linear springs' (the curves are taken as known).
+    /// Errors name the row (0-based) and column of a bad value.
     pub fn predict(
         &self,
         chain: &SerialChain,
@@ -169,6 +176,12 @@ impl StiffnessModel {
     /// to the sagged pose θ₀ ([`GravityWorkspace::sag`]: its Jacobian there) and the load's
     /// torque gets gravity's coupling, τ_eff = τ + K_G Δθ
     /// ([`GravityWorkspace::effective_torques`]): `d = J(θ₀) C τ_eff`, linear in the load.
+    /// A gear curve adds `J_k(θ₀) (e(τ₀ + τ_eff) − e(τ₀))` for its spring k, its excess
+    /// `e(T) = Σ a_i h_i(T)` at the total torque with the preload τ₀ of the sag: the curve's
+    /// change from the weight's working point, to first order in the compliances as the rest
+    /// of the prediction (the exact equilibrium with curves is
+    /// [`deflection_under_gravity_with_gears`](crate::gravity::deflection_under_gravity_with_gears);
+    /// they differ by the load's K_C and by ‖C K_G‖ ≈ 1e-2 of the curve's share).
     /// `stddev`, `identified` and `excitation` are the weightless prediction's: the
     /// identification's row space is that of the weightless regressor, and the weight moves a
     /// row's regressor by ‖C K_G‖ ≈ 1e-2 of it, which would flag rows of a rank-deficient model
@@ -221,6 +234,11 @@ impl StiffnessModel {
         // Rows are independent: fixed-size blocks on every core, each with its own workspace,
         // give the serial run's values and its first error whatever the number of threads.
         let c = self.determined_compliance()?;
+        // The gears' excess under the load (`gear_load`), on their torsion springs.
+        let gears = self.gear_curves()?;
+        let gear_springs = torsion_springs(&model, &gears)?;
+        let curved = CurvedSprings::new(&gears, &gear_springs);
+        let axes = if self.noise.use_rotations { 6 } else { 3 };
         let mut out = vec![Prediction::UNSET; rows];
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
             let mut ws = Workspace::new(chain, &model)?;
@@ -252,6 +270,28 @@ impl StiffnessModel {
                             *d = dot(&a[r * m..(r + 1) * m], &c);
                         }
                     }
+                }
+                if gears.is_empty() {
+                    continue;
+                }
+                match weight.as_ref() {
+                    // At the sagged pose: its Jacobian, the preload τ₀ and the load's torque
+                    // with gravity's coupling, as the linear prediction above.
+                    Some(s) => add_gear_load(
+                        &curved,
+                        &s.jac,
+                        |k| (s.preload[k], s.effective[k]),
+                        axes,
+                        &mut o.deflection,
+                    ),
+                    // Weightless: no preload, the load's torque J_kᵀ W at q.
+                    None => add_gear_load(
+                        &curved,
+                        &ws.jac,
+                        |k| (0.0, dot(&ws.jac[6 * k..6 * k + 6], &wrench)),
+                        axes,
+                        &mut o.deflection,
+                    ),
                 }
             }
             Ok::<_, ModelError>(())
