@@ -3,7 +3,6 @@
 under gravity."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from robot_stiffness import vjm
