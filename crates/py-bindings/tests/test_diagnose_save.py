@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from robot_stiffness import StiffnessError, vjm
+from robot_stiffness import vjm
 
 TILT = {"effect": "joint_tilt", "joint": 3, "axis": "x", "compliance": 6e-5}
 BIAS = {"effect": "wrench_bias", "bias": [2.0, 0.0, -2.0, 0.0, 0.2, 0.0]}
