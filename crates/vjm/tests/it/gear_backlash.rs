@@ -420,3 +420,85 @@ fn compensation_under_gravity_takes_up_the_lost_motion() {
         "the lost motion matters on only {misses} rows"
     );
 }
+
+/// A gear whose torque at the equilibrium without lost motion is nearly zero (1e-4 N·m): its
+/// lost motion's ½ b shifts the arm and, through the load's K_C, the torque by far more. Where
+/// K_C reverses the torque (one of a wrench W and −W, each tuned so that the shoulder carries
+/// 1e-4 N·m without lost motion) the sign never settles and the equilibrium is an error naming
+/// the joint, quickly (not a hang); where K_C keeps it, the equilibrium has θ₂ − c τ₂ = ½ b
+/// sign(τ₂) at its own torque (the shoulder's torque recovered from a linear equilibrium with
+/// the same θ: the secant check).
+#[test]
+fn a_gear_whose_slack_reverses_its_torque_is_an_error_naming_the_joint() {
+    let panda = SerialChain::bundled();
+    let model = VirtualJointModel::traditional(7);
+    let c = [2e-4, 1.0 / 5e3, 2e-4, 1.0 / 5e3, 2e-4, 2e-4, 2e-4];
+    let q = [0.2, 0.6, -0.1, -1.2, 0.1, 1.6, 0.3];
+    let curve = GearCurve::with_lost_motion(1, vec![], vec![], B).unwrap();
+    let j = vjm::jacobian(&panda, &model, &q).unwrap();
+    // A force direction that loads the shoulder: its Jacobian column's linear part.
+    let e = [j[(0, 1)], j[(1, 1)], j[(2, 1)], 0.0, 0.0, 0.0];
+    let (mut errors, mut settled) = (0, 0);
+    for sign in [1.0, -1.0] {
+        let base = [sign * 40.0, sign * -60.0, sign * -80.0, 0.0, 0.0, 0.0];
+        let at = |alpha: f64| {
+            let w: [f64; 6] = std::array::from_fn(|r| base[r] + alpha * e[r]);
+            let loading = Loading {
+                gravity: None,
+                payload: None,
+                wrench: Some(w),
+            };
+            let plain = static_equilibrium(&panda, &model, &c, &q, &loading).unwrap();
+            (plain.theta[1] / c[1], w)
+        };
+        // Secant iterations on alpha: the shoulder's torque at equilibrium → 1e-4 N·m.
+        let (mut a0, mut a1) = (0.0, 1.0);
+        let (mut t0, mut t1) = (at(a0).0 - 1e-4, at(a1).0 - 1e-4);
+        for _ in 0..30 {
+            if t1.abs() < 1e-9 {
+                break;
+            }
+            let a2 = a1 - t1 * (a1 - a0) / (t1 - t0);
+            (a0, t0) = (a1, t1);
+            a1 = a2;
+            t1 = at(a1).0 - 1e-4;
+        }
+        let (tau2, w) = at(a1);
+        assert!((tau2 - 1e-4).abs() < 1e-8, "tuned torque {tau2}");
+        let loading = Loading {
+            gravity: None,
+            payload: None,
+            wrench: Some(w),
+        };
+        match static_equilibrium_with_gears(
+            &panda,
+            &model,
+            &c,
+            std::slice::from_ref(&curve),
+            &q,
+            &loading,
+        ) {
+            Err(err) => {
+                let text = err.to_string();
+                assert!(
+                    text.contains("joint 2") && text.contains("dead band"),
+                    "{text}"
+                );
+                errors += 1;
+            }
+            Ok(eq) => {
+                // The shoulder rests on a flank of its dead band: θ₂ = c τ₂ ± ½ b with the
+                // torque K_C gives it, |c τ₂| ≪ ½ b (K_C ½ b ≈ 0.05 N·m: c τ₂ ≈ 1e-5 rad).
+                let flank = (eq.theta[1].abs() - 0.5 * B).abs();
+                assert!(
+                    flank <= 0.05 * B,
+                    "θ₂ = {} rad, ½ b = {}",
+                    eq.theta[1],
+                    0.5 * B
+                );
+                settled += 1;
+            }
+        }
+    }
+    assert_eq!(errors, 1, "{errors} errors, {settled} settled");
+}
