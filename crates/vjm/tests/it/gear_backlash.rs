@@ -502,3 +502,52 @@ fn a_gear_whose_slack_reverses_its_torque_is_an_error_naming_the_joint() {
     }
     assert_eq!(errors, 1, "{errors} errors, {settled} settled");
 }
+
+/// Weightless without K_C: at the corrected targets q′, FK(q′) + J(q′) θ with θ_k = c_k τ_k
+/// and the shoulder's ½ b sign(τ₂) written by cases, τ = J(q′)ᵀ W, is the nominal tip.
+#[test]
+fn weightless_compensation_takes_up_the_lost_motion_by_cases() {
+    let (chain, sm, data) = panda_model();
+    let curved = sm
+        .clone()
+        .with_gear_curves(&[GearCurve::with_lost_motion(1, vec![], vec![], B).unwrap()])
+        .unwrap();
+    let model = VirtualJointModel::traditional(7);
+    let c = sm.determined_compliance().unwrap();
+    let mut opts = CompensateOptions::default();
+    (opts.with_kc, opts.check_limits) = (false, false);
+    let rows = data.len().min(40);
+    let q = &data.q_flat()[..7 * rows];
+    let w = &data.wrench_flat()[..6 * rows];
+    let out = curved
+        .compensate(&chain, q, Load::Wrench(w), &opts)
+        .unwrap();
+    let (mut positive, mut negative) = (0, 0);
+    for i in 0..rows {
+        assert_eq!(out.rows[i].status, CompensationStatus::Converged, "row {i}");
+        let qc = &out.q[7 * i..7 * i + 7];
+        let wr = data.wrench(i);
+        let j = vjm::jacobian(&chain, &model, qc).unwrap();
+        let mut tip = chain.forward_kinematics(qc).unwrap().translation.vector;
+        for k in 0..7 {
+            let tau: f64 = (0..6).map(|r| j[(r, k)] * wr[r]).sum();
+            let mut theta = c[k] * tau;
+            if k == 1 {
+                if tau > 0.0 {
+                    theta += 0.5 * B;
+                    positive += 1;
+                } else if tau < 0.0 {
+                    theta -= 0.5 * B;
+                    negative += 1;
+                }
+            }
+            for r in 0..3 {
+                tip[r] += j[(r, k)] * theta;
+            }
+        }
+        let target = chain.forward_kinematics(&q[7 * i..7 * i + 7]).unwrap();
+        let miss = (tip - target.translation.vector).norm();
+        assert!(miss <= 2e-9, "row {i}: misses by {miss} m");
+    }
+    assert!(positive >= 5 && negative >= 5, "{positive} +, {negative} −");
+}
