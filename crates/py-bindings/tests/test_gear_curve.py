@@ -151,3 +151,17 @@ def test_a_gear_curve_holds_lost_motion(robot):
         model.with_gear_curves([(2, [], [], -1e-3)])
     with pytest.raises(Exception, match="joint 2"):
         model.with_gear_curves([(2, [], [], 0.0)])
+
+
+def test_cli_diagnose_save_writes_the_lost_motion(tmp_path):
+    proc = run_cli(["simulate", "vjm", "--out", "c.csv", "--seed", "5", "--poses", "40", "--no-gravity",
+                    "--effect", "joint_backlash:joint=1,lost_motion=1e-3"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    proc = run_cli(["diagnose", "vjm", "c.csv", "--save", "m.json", "--no-gravity"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "with the gear curve of joint 1: lost motion" in proc.stdout, proc.stdout
+    assert "not in the saved model: joint_backlash" not in proc.stdout, proc.stdout
+    curves = json.loads((tmp_path / "m.json").read_text())["model"]["gear_curves"]
+    assert [c["joint"] for c in curves] == [1] and abs(curves[0]["lost_motion_rad"] - 1e-3) < 2e-4, curves
+    proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "p.csv", "--no-gravity"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
