@@ -14,7 +14,7 @@ use crate::vjm::{IdentifyArgs, PyRobot};
 
 /// A gear curve across the binding: `(joint (1-based), knots (N·m), coefficients
 /// (rad/(N·m)))`.
-type GearCurveTuple = (usize, Vec<f64>, Vec<f64>);
+type GearCurveTuple = (usize, Vec<f64>, Vec<f64>, f64);
 
 /// A stiffness model bound to the robot it describes (immutable).
 #[pyclass(frozen, module = "robot_stiffness._core", name = "StiffnessModel")]
@@ -101,8 +101,9 @@ impl PyStiffnessModel {
         self.model.gravity().map(|g| g.vector().into())
     }
 
-    /// The model's gear curves ([`vjm::gear::GearCurve`]): `(joint, knots, coefficients)` with
-    /// the joint 1-based, knots in N·m and coefficients in rad/(N·m); empty without curves.
+    /// The model's gear curves ([`vjm::gear::GearCurve`]): `(joint, knots, coefficients,
+    /// lost_motion)` with the joint 1-based, knots in N·m, coefficients in rad/(N·m) and the
+    /// lost motion in rad (0 without); empty without curves.
     #[getter]
     fn gear_curves(&self) -> PyResult<Vec<GearCurveTuple>> {
         Ok(self
@@ -110,22 +111,32 @@ impl PyStiffnessModel {
             .gear_curves()
             .py()?
             .iter()
-            .map(|c| (c.joint() + 1, c.knots().to_vec(), c.coefficients().to_vec()))
+            .map(|c| {
+                (
+                    c.joint() + 1,
+                    c.knots().to_vec(),
+                    c.coefficients().to_vec(),
+                    c.lost_motion(),
+                )
+            })
             .collect())
     }
 
-    /// This model with the gear curves `curves` (`(joint, knots, coefficients)`, joint 1-based,
-    /// knots N·m, coefficients rad/(N·m)) in place of any it had; an error names the joint of
-    /// a malformed curve or of one without a torsion spring.
+    /// This model with the gear curves `curves` (`(joint, knots, coefficients, lost_motion)`,
+    /// joint 1-based, knots N·m, coefficients rad/(N·m), lost motion rad) in place of any it
+    /// had; an error names the joint of a malformed curve or of one without a torsion spring.
     fn with_gear_curves(&self, curves: Vec<GearCurveTuple>) -> PyResult<Self> {
         let mut out = Vec::with_capacity(curves.len());
-        for (joint, knots, coefficients) in curves {
+        for (joint, knots, coefficients, lost_motion) in curves {
             if joint == 0 {
                 return Err(crate::errors::value_error(
                     "a gear curve's joint is 1-based (1 = the first joint), got 0",
                 ));
             }
-            out.push(vjm::gear::GearCurve::new(joint - 1, knots, coefficients).py()?);
+            out.push(
+                vjm::gear::GearCurve::with_lost_motion(joint - 1, knots, coefficients, lost_motion)
+                    .py()?,
+            );
         }
         let model = (*self.model).clone().with_gear_curves(&out).py()?;
         Ok(Self::new(model, self.chain.clone()))

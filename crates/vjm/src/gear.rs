@@ -5,15 +5,18 @@
 //! preload plus the load's torque, positive in the spring's rotation sense) by
 //!
 //! ```text
-//! θ(T) = c·T + Σ_k a_k h_k(T),     h_k(T) = sign(T)·max(|T| − t_k, 0)
+//! θ(T) = c·T + Σ_k a_k h_k(T) + ½ b·sign(T),     h_k(T) = sign(T)·max(|T| − t_k, 0)
 //! ```
 //!
 //! with c the spring's linear compliance (rad/(N·m), the model's parameter), knots t_k ≥ 0
-//! (N·m) and coefficients a_k (rad/(N·m): the change of the tangent compliance beyond knot k;
-//! `a_k h_k(T)` is in rad). The hinges are odd and continuous at T = 0, so a gear without lost
-//! motion is one curve through the origin. A [`GearCurve`] holds the knots and the
-//! coefficients; its [`excess`](GearCurve::excess) is the part `Σ_k a_k h_k(T)` beyond the
-//! linear spring.
+//! (N·m), coefficients a_k (rad/(N·m): the change of the tangent compliance beyond knot k;
+//! `a_k h_k(T)` is in rad) and the lost motion b ≥ 0 (rad, the width of the gear's dead band;
+//! sign(0) = 0). The hinges are odd and continuous at T = 0, so a gear without lost motion is
+//! one curve through the origin; the lost motion makes θ jump by b where the torque changes
+//! sign, the diagnosis' `joint_backlash` (its column with `sign`, the mean deflection of a known
+//! torque). A [`GearCurve`] holds the knots, the coefficients and the lost motion (a curve may
+//! have lost motion and no knots: one joint, one curve); its [`excess`](GearCurve::excess) is
+//! the part `Σ_k a_k h_k(T) + ½ b·sign(T)` beyond the linear spring.
 //!
 //! Under a load the spring deflects by `θ(τ_g + τ) − θ(τ_g)` (τ_g the preload of the weight);
 //! the sag under the weight alone is `θ(τ_g)` from the rigid, unloaded arm
@@ -28,27 +31,55 @@ pub fn hinge(t: f64, knot: f64) -> f64 {
     (t.abs() - knot).max(0.0).copysign(t)
 }
 
+/// sign(t) with sign(0) = 0 (and sign(−0) = 0, sign(NaN) = NaN).
+pub fn signum0(t: f64) -> f64 {
+    if t == 0.0 {
+        0.0
+    } else {
+        t.signum()
+    }
+}
+
 /// The torsion curve of one joint's gear: see the [module documentation](self).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GearCurve {
     joint: usize,
     knots: Vec<f64>,
     coefficients: Vec<f64>,
+    lost_motion: f64,
 }
 
 impl GearCurve {
     /// The curve of `joint` (0-based) with `knots` (N·m, finite, ≥ 0) and one coefficient per
-    /// knot (rad/(N·m), finite). An error names the joint and the value.
+    /// knot (rad/(N·m), finite), without lost motion. An error names the joint and the value.
     pub fn new(joint: usize, knots: Vec<f64>, coefficients: Vec<f64>) -> Result<Self, VjmError> {
+        Self::with_lost_motion(joint, knots, coefficients, 0.0)
+    }
+
+    /// The curve of `joint` (0-based) with `knots` (N·m, finite, ≥ 0), one coefficient per
+    /// knot (rad/(N·m), finite) and the lost motion `lost_motion` (rad, finite, ≥ 0). The knots
+    /// may be empty when the lost motion is > 0 (a gear with backlash and a linear spring). An
+    /// error names the joint and the value.
+    pub fn with_lost_motion(
+        joint: usize,
+        knots: Vec<f64>,
+        coefficients: Vec<f64>,
+        lost_motion: f64,
+    ) -> Result<Self, VjmError> {
         let bad = |message: String| {
             Err(VjmError::InvalidModel {
                 message: format!("the gear curve of joint {}: {message}", joint + 1),
             })
         };
-        if knots.is_empty() || knots.len() != coefficients.len() {
+        if !(lost_motion.is_finite() && lost_motion >= 0.0) {
             return bad(format!(
-                "needs one coefficient per knot and at least one knot, got {} knots and {} \
-                 coefficients",
+                "the lost motion is {lost_motion} rad, it must be finite and ≥ 0"
+            ));
+        }
+        if knots.len() != coefficients.len() || (knots.is_empty() && lost_motion == 0.0) {
+            return bad(format!(
+                "needs one coefficient per knot and at least one knot or a lost motion > 0, got \
+                 {} knots, {} coefficients and a lost motion of {lost_motion} rad",
                 knots.len(),
                 coefficients.len()
             ));
@@ -69,6 +100,8 @@ impl GearCurve {
             joint,
             knots,
             coefficients,
+            // +0 for a −0 given: the curve, its file and its hash do not depend on the sign.
+            lost_motion: lost_motion + 0.0,
         })
     }
 
@@ -85,18 +118,42 @@ impl GearCurve {
         &self.coefficients
     }
 
-    /// `Σ_k a_k h_k(t)`: the deflection (rad) beyond the linear spring's `c·t` at a total
-    /// torque `t` (N·m).
+    /// The lost motion b, rad (0 for a gear without backlash).
+    pub fn lost_motion(&self) -> f64 {
+        self.lost_motion
+    }
+
+    /// This curve with the lost motion `lost_motion` (rad, finite, ≥ 0) instead of its own;
+    /// an error names the joint and the value.
+    pub fn and_lost_motion(self, lost_motion: f64) -> Result<Self, VjmError> {
+        Self::with_lost_motion(self.joint, self.knots, self.coefficients, lost_motion)
+    }
+
+    /// `Σ_k a_k h_k(t) + ½ b·sign(t)` (sign(0) = 0): the deflection (rad) beyond the linear
+    /// spring's `c·t` at a total torque `t` (N·m). Without lost motion it is the hinges' sum,
+    /// bit for bit.
     pub fn excess(&self, t: f64) -> f64 {
-        self.knots
+        self.excess_with_sign(t, signum0(t))
+    }
+
+    /// [`excess`](Self::excess) with `sign` (−1, 0 or 1) in place of sign(t) in the lost
+    /// motion's term (the equilibrium's settled sign).
+    pub(crate) fn excess_with_sign(&self, t: f64, sign: f64) -> f64 {
+        let hinges: f64 = self
+            .knots
             .iter()
             .zip(&self.coefficients)
             .map(|(&knot, &a)| a * hinge(t, knot))
-            .sum()
+            .sum();
+        if self.lost_motion == 0.0 || sign == 0.0 {
+            hinges
+        } else {
+            hinges + 0.5 * self.lost_motion * sign
+        }
     }
 
     /// The deflection of the spring of linear compliance `c` (rad/(N·m)) under a total torque
-    /// `t` (N·m): `c·t + Σ_k a_k h_k(t)`, rad.
+    /// `t` (N·m): `c·t + Σ_k a_k h_k(t) + ½ b·sign(t)`, rad.
     pub fn deflection(&self, c: f64, t: f64) -> f64 {
         c * t + self.excess(t)
     }

@@ -6,12 +6,14 @@ A spring model holds the joints' virtual springs: the diagnosis' baseline and th
 found — a wrench bias, a tracker-frame rotation — are not the arm's: they are taken out of the
 rows with the diagnosis' joint estimates (recorded wrench − bias; displacement rotated back by the
 frame rotation) before the springs are identified on every row. What the arm does that a spring
-model cannot hold (a link's or the mount's translation, lost motion, a scaled K_C)
+model cannot hold (a link's or the mount's translation, a scaled K_C)
 is left out and listed, so that the user knows what predictions will miss.
 
-A gear's curve (``joint_torsion_nonlinear``) is kept: the model file records it as the joint's
-gear curve (``gear_curves``: the finding's ``knots`` in N·m and the extended fit's coefficients
-in rad/(N·m)), which ``predict`` and ``compensate`` evaluate. The springs are then identified on
+A gear's curve (``joint_torsion_nonlinear``) and its lost motion (``joint_backlash``) are kept:
+the model file records them as the joint's gear curve (``gear_curves``: the finding's ``knots``
+in N·m and the extended fit's coefficients in rad/(N·m); the backlash's estimate b in rad as
+``lost_motion_rad``; one curve per joint when both are found), which ``predict`` and
+``compensate`` evaluate. The springs are then identified on
 the rows with the curve's share taken out (its first-order column, as ``predict`` evaluates it,
 at the springs identified on the raw rows first), so that they do not absorb it twice.
 """
@@ -51,7 +53,8 @@ class DiagnosedModel(FieldEq):
     corrected: Dict[str, List[float]]
     #: ``(label, why)`` of each finding the spring model does not hold.
     left_out: Tuple[Tuple[str, str], ...]
-    #: The gears' curves the model holds (``joint_torsion_nonlinear`` findings), as the saved
+    #: The gears' curves the model holds (``joint_torsion_nonlinear`` and ``joint_backlash``
+    #: findings, one curve per joint), as the saved
     #: model's :attr:`~robot_stiffness.model.StiffnessModel.gear_curves`.
     gear_curves: Tuple[GearCurve, ...] = ()
 
@@ -88,6 +91,17 @@ def diagnosed_model(
     corrected: Dict[str, List[float]] = {}
     left_out: List[Tuple[str, str]] = []
     curves: List[GearCurve] = []
+
+    def add(curve: GearCurve) -> None:
+        """``curve`` as its joint's curve, merged with one found before (knots from the torsion
+        finding, lost motion from the backlash finding)."""
+        for i, have in enumerate(curves):
+            if have.joint == curve.joint:
+                shape = have if have.knots else curve
+                curves[i] = shape._replace(lost_motion=max(have.lost_motion, curve.lost_motion))
+                return
+        curves.append(curve)
+
     for f in diagnosis.findings:
         if f.effect == "joint_tilt":
             terms.append(_label(f))
@@ -96,9 +110,15 @@ def diagnosed_model(
         elif f.effect == "joint_torsion_nonlinear" and f.knots is not None:
             coefficients = tuple(float(a) for a in f.evidence.estimate)
             if len(coefficients) == len(f.knots) and all(math.isfinite(a) for a in coefficients):
-                curves.append(GearCurve(int(f.joint), tuple(float(t) for t in f.knots), coefficients))
+                add(GearCurve(int(f.joint), tuple(float(t) for t in f.knots), coefficients))
             else:
                 left_out.append((_label(f), "its curve's coefficients are not determined by these data"))
+        elif f.effect == "joint_backlash" and f.joint is not None:
+            b = [float(x) for x in f.evidence.estimate]
+            if len(b) == 1 and math.isfinite(b[0]) and b[0] > 0.0:
+                add(GearCurve(int(f.joint), (), (), b[0]))
+            else:
+                left_out.append((_label(f), f"its lost motion {b} rad is not a positive number on these data"))
         else:
             left_out.append((_label(f), "not a virtual spring of a joint: predictions will not include it"))
     wrench = np.array(data.wrench, dtype=np.float64)

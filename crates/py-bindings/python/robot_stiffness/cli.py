@@ -634,8 +634,13 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
         fixes = "".join(f"; {k} taken out of the rows" for k in saved.corrected)
         print(f"saved {args.save}: springs {saved.springs} identified on all {len(data)} rows{fixes}")
         for curve in saved.gear_curves:
-            print(f"  with the gear curve of joint {curve.joint}: knots {', '.join(f'{t:.3g}' for t in curve.knots)} "
-                  f"N·m, coefficients {', '.join(f'{a:.3g}' for a in curve.coefficients)} rad/(N·m)")
+            parts = []
+            if curve.knots:
+                parts.append(f"knots {', '.join(f'{t:.3g}' for t in curve.knots)} N·m, "
+                             f"coefficients {', '.join(f'{a:.3g}' for a in curve.coefficients)} rad/(N·m)")
+            if curve.lost_motion > 0.0:
+                parts.append(f"lost motion {curve.lost_motion:.3g} rad")
+            print(f"  with the gear curve of joint {curve.joint}: {'; '.join(parts)}")
         for label, why in saved.left_out:
             print(f"  not in the saved model: {label} ({why})")
     return 0

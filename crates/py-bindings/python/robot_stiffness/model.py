@@ -52,8 +52,9 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 class GearCurve(NamedTuple):
     """A joint's non-linear gear (``docs/gravity.md``, *Non-linear gears in the model*): its
-    torsion spring deflects by θ(T) = c·T + Σ a_k h_k(T) under the total torque T it carries,
-    h_k(T) = sign(T)·max(|T| − t_k, 0)."""
+    torsion spring deflects by θ(T) = c·T + Σ a_k h_k(T) + ½ b·sign(T) under the total torque T
+    it carries, h_k(T) = sign(T)·max(|T| − t_k, 0), b the lost motion (sign(0) = 0). A curve
+    may hold lost motion and no knots."""
 
     #: 1-based joint (base → tip); the model has its torsion spring ``J<joint>z``.
     joint: int
@@ -61,6 +62,9 @@ class GearCurve(NamedTuple):
     knots: Tuple[float, ...]
     #: The coefficients a_k, rad/(N·m): the tangent compliance's change beyond each knot.
     coefficients: Tuple[float, ...]
+    #: The lost motion b, rad (≥ 0; 0 for a gear without backlash): the width of the dead band
+    #: the joint crosses when its torque changes sign.
+    lost_motion: float = 0.0
 
 
 #: Standard gravity (m/s²) acting along −z of the base frame on a payload (vjm::STANDARD_GRAVITY).
@@ -215,25 +219,30 @@ class StiffnessModel:
         :class:`GearCurve` per curved joint, as the model file's ``gear_curves`` records them.
         :meth:`predict`, :meth:`predict_sag` and :meth:`compensate` evaluate them."""
         return [
-            GearCurve(int(j), tuple(float(t) for t in k), tuple(float(a) for a in c))
-            for j, k, c in self._inner.gear_curves
+            GearCurve(int(j), tuple(float(t) for t in k), tuple(float(a) for a in c), float(b))
+            for j, k, c, b in self._inner.gear_curves
         ]
 
     @checked
     def with_gear_curves(self, curves: Sequence[Any]) -> "StiffnessModel":
         """This model with the gear curves ``curves`` (each a :class:`GearCurve` or a
-        ``(joint, knots, coefficients)`` triple: 1-based joint, knots in N·m, coefficients in
-        rad/(N·m)) in place of any it had. An error names the joint of a malformed curve or of
-        one whose joint has no torsion spring in the model."""
-        triples = [
-            (
+        ``(joint, knots, coefficients[, lost_motion])`` tuple: 1-based joint, knots in N·m,
+        coefficients in rad/(N·m), lost motion in rad, 0 when left out) in place of any it had.
+        An error names the joint of a malformed curve or of one whose joint has no torsion spring
+        in the model."""
+        tuples = []
+        for curve in curves:
+            j, k, c, *rest = curve
+            if len(rest) > 1:
+                raise InvalidValueError(f"the gear curve of joint {j}: (joint, knots, coefficients[, lost_motion]), "
+                                 f"got {len(rest) + 3} entries")
+            tuples.append((
                 int(j),
                 [real(t, f"the gear curve of joint {j}: knot {i}") for i, t in enumerate(k)],
                 [real(a, f"the gear curve of joint {j}: coefficient {i}") for i, a in enumerate(c)],
-            )
-            for j, k, c in curves
-        ]
-        return StiffnessModel(self._inner.with_gear_curves(triples), self._robot)
+                real(rest[0], f"the gear curve of joint {j}: lost_motion") if rest else 0.0,
+            ))
+        return StiffnessModel(self._inner.with_gear_curves(tuples), self._robot)
 
     @property
     def determined_compliance(self) -> npt.NDArray[np.float64]:

@@ -101,19 +101,68 @@ pub struct Finding {
 }
 
 impl Finding {
-    /// A `joint_torsion_nonlinear` finding as the gear curve of its joint
-    /// ([`GearCurve`](crate::gear::GearCurve)): its hinges' knots (N·m) and the extended fit's
-    /// coefficients (rad/(N·m), the change of tangent compliance beyond each knot; the
-    /// candidate's column `J_jz (h_k(τ₀ + τ) − h_k(τ₀))` times them is the curve's excess under
-    /// the load). `Ok(None)` for any other effect; an error names the joint when the estimate
-    /// is missing or not finite.
+    /// A `joint_torsion_nonlinear` or `joint_backlash` finding as the gear curve of its joint
+    /// ([`GearCurve`](crate::gear::GearCurve)). Torsion: its hinges' knots (N·m) and the
+    /// extended fit's coefficients (rad/(N·m), the change of tangent compliance beyond each
+    /// knot; the candidate's column `J_jz (h_k(τ₀ + τ) − h_k(τ₀))` times them is the curve's
+    /// excess under the load). Backlash: no knots and the extended fit's lost motion b (rad;
+    /// the candidate's column `J_jz ½ (s(τ₀ + τ) − sign(τ₀))` times it is the curve's lost
+    /// motion under the load). `Ok(None)` for any other effect; an error names the joint when
+    /// the estimate is missing or not finite, or a lost motion is negative.
     pub fn gear_curve(&self) -> Result<Option<crate::gear::GearCurve>, crate::VjmError> {
-        let (Some(knots), Some(joint)) = (&self.knots, self.joint) else {
+        let Some(joint) = self.joint else {
+            return Ok(None);
+        };
+        if self.effect == "joint_backlash" {
+            let b = match self.evidence.estimate.as_slice() {
+                [b] => *b,
+                other => {
+                    return Err(crate::VjmError::InvalidModel {
+                        message: format!(
+                            "the backlash finding of joint {joint} has {} estimates, it needs \
+                             one lost motion (rad)",
+                            other.len()
+                        ),
+                    })
+                }
+            };
+            return crate::gear::GearCurve::with_lost_motion(joint - 1, vec![], vec![], b)
+                .map(Some);
+        }
+        let Some(knots) = &self.knots else {
             return Ok(None);
         };
         crate::gear::GearCurve::new(joint - 1, knots.clone(), self.evidence.estimate.clone())
             .map(Some)
     }
+}
+
+/// One joint's two curves as one: the knots and coefficients of the one that has them, the
+/// lost motion of the one that has it; an error names the joint when both have knots or both
+/// have lost motion (one finding per effect and joint).
+fn merge_curves(
+    a: &crate::gear::GearCurve,
+    b: &crate::gear::GearCurve,
+) -> Result<crate::gear::GearCurve, crate::VjmError> {
+    let both = |what: &str| crate::VjmError::InvalidModel {
+        message: format!(
+            "joint {} has two findings with {what}: one gear curve cannot hold both",
+            a.joint() + 1
+        ),
+    };
+    if !a.knots().is_empty() && !b.knots().is_empty() {
+        return Err(both("knots"));
+    }
+    if a.lost_motion() != 0.0 && b.lost_motion() != 0.0 {
+        return Err(both("lost motion"));
+    }
+    let (shape, lost) = if a.knots().is_empty() { (b, a) } else { (a, b) };
+    crate::gear::GearCurve::with_lost_motion(
+        a.joint(),
+        shape.knots().to_vec(),
+        shape.coefficients().to_vec(),
+        shape.lost_motion().max(lost.lost_motion()),
+    )
 }
 
 /// The first-step score of one catalogue candidate against the baseline.
@@ -237,11 +286,20 @@ pub struct BlockTest {
 }
 
 impl Diagnosis {
-    /// The gear curves of the findings ([`Finding::gear_curve`]), in the order found.
+    /// The gear curves of the findings ([`Finding::gear_curve`]), one per joint in the order
+    /// its first finding was found: a joint's `joint_torsion_nonlinear` and `joint_backlash`
+    /// findings are one curve (the torsion's knots and coefficients with the backlash's lost
+    /// motion).
     pub fn gear_curves(&self) -> Result<Vec<crate::gear::GearCurve>, crate::VjmError> {
-        let mut out = Vec::new();
+        let mut out: Vec<crate::gear::GearCurve> = Vec::new();
         for f in &self.findings {
-            out.extend(f.gear_curve()?);
+            let Some(curve) = f.gear_curve()? else {
+                continue;
+            };
+            match out.iter_mut().find(|c| c.joint() == curve.joint()) {
+                None => out.push(curve),
+                Some(have) => *have = merge_curves(have, &curve)?,
+            }
         }
         Ok(out)
     }

@@ -26,6 +26,15 @@ use super::{gravity_stiffness, BodySums, Gravity};
 /// Iteration cap of [`static_equilibrium`].
 pub const MAX_EQUILIBRIUM_ITERATIONS: usize = 100;
 
+/// The band around zero torque, relative to the largest spring torque of the iterate, within
+/// which a curved spring with lost motion sits in its dead band ([`static_equilibrium_with_gears`]).
+pub const LOST_MOTION_TORQUE_BAND: f64 = 1e-9;
+
+/// How many times the settled sign of a curved spring's torque may change during
+/// [`static_equilibrium_with_gears`] before the joint is reported as not settling in its dead
+/// band.
+pub const MAX_LOST_MOTION_SIGN_CHANGES: usize = 4;
+
 /// What loads the arm: its weight (with a payload) and a tip wrench, each optional.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Loading<'a> {
@@ -109,6 +118,17 @@ pub fn static_equilibrium(
 /// ([`GearCurve`]), the other springs by `c_k τ_k(θ)`. The chord iterations keep the linear
 /// tangent; the curve's share of the compliance times the load's stiffness sets their ratio.
 /// Without curves it is [`static_equilibrium`], bit for bit.
+///
+/// Lost motion ([`GearCurve::lost_motion`]) makes θ(T) jump by b at T = 0. Each iteration
+/// settles the sign s of every such spring's torque at the iterate and treats `½ b s` as a
+/// fixed term, so the iterations converge as without it once the signs stay put (the weight's
+/// preload usually fixes them from the first step). A torque within
+/// [`LOST_MOTION_TORQUE_BAND`] × the iterate's largest spring torque of 0 counts as s = 0: the
+/// gear carries no torque and sits anywhere in its dead band, and the equilibrium reports the
+/// band's mid-point (`θ = c·T + Σ a h(T)`). A sign that changes more than
+/// [`MAX_LOST_MOTION_SIGN_CHANGES`] times (the gear's own slack reverses its torque: the
+/// joint rests inside its dead band at a torque the chord iterations do not find) is an error
+/// naming the joint, as is any iterate that does not settle within the cap.
 pub fn static_equilibrium_with_gears(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -132,10 +152,45 @@ pub fn static_equilibrium_with_gears(
     let c = DVector::from_column_slice(compliance);
     let lu = identity_minus_c_times(&c, &tangent).lu();
     let mut theta = vec![0.0; m];
+    let lost = curved.curves().iter().any(|g| g.lost_motion() != 0.0);
+    // The settled sign of each curve's torque and how often it changed (lost motion only).
+    let mut signs: Vec<Option<f64>> = vec![None; gears.len()];
+    let mut changes = vec![0usize; gears.len()];
     for iteration in 1..=MAX_EQUILIBRIUM_ITERATIONS {
         let (tau, _) = torques(chain, model, q, &theta, loading)?;
         let mut r = DVector::from_iterator(m, (0..m).map(|k| c[k] * tau[k] - theta[k]));
-        curved.add_excess(&tau, r.as_mut_slice());
+        if lost {
+            let band = LOST_MOTION_TORQUE_BAND * tau.iter().fold(0.0f64, |a, t| a.max(t.abs()));
+            for (i, (k, curve)) in curved.iter().enumerate() {
+                let t = tau[k];
+                let s = if curve.lost_motion() == 0.0 || t.abs() <= band {
+                    0.0
+                } else {
+                    t.signum()
+                };
+                if signs[i].is_some_and(|p| p != s) {
+                    changes[i] += 1;
+                    if changes[i] > MAX_LOST_MOTION_SIGN_CHANGES {
+                        return Err(VjmError::Numerical {
+                            message: format!(
+                                "the static equilibrium did not settle: the torque of joint \
+                                 {}'s gear ({t:.3e} N·m) changes sign within its lost motion \
+                                 of {} rad (the joint rests inside its dead band)",
+                                curve.joint() + 1,
+                                curve.lost_motion()
+                            ),
+                        });
+                    }
+                }
+                signs[i] = Some(s);
+                let e = curve.excess_with_sign(t, s);
+                if e != 0.0 {
+                    r[k] += e;
+                }
+            }
+        } else {
+            curved.add_excess(&tau, r.as_mut_slice());
+        }
         let step = lu.solve(&r).ok_or_else(|| VjmError::Numerical {
             message: "the tangent of the static equilibrium is singular (a load at the arm's \
                       buckling limit?)"

@@ -24,7 +24,7 @@ mod workspace;
 pub use equilibrium::{
     deflection_under_gravity, deflection_under_gravity_with_gears, gravity_sag,
     gravity_sag_with_gears, static_equilibrium, static_equilibrium_with_gears, Equilibrium,
-    Loading, MAX_EQUILIBRIUM_ITERATIONS,
+    Loading, LOST_MOTION_TORQUE_BAND, MAX_EQUILIBRIUM_ITERATIONS, MAX_LOST_MOTION_SIGN_CHANGES,
 };
 pub use mass::{Body, MassModel};
 pub use workspace::{GravityWorkspace, RowFrame, MAX_COUPLING_ITERATIONS};

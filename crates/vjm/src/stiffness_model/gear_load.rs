@@ -3,11 +3,12 @@
 //!
 //! A curved torsion spring k deflects under the load by `θ(τ₀ + τ) − θ(τ₀)` ([`GearCurve`]):
 //! its linear part `c_k τ` is the model's linear prediction, and its excess beyond it moves the
-//! tip by `J_k (e(τ₀ + τ) − e(τ₀))`, `e(T) = Σ_i a_i h_i(T)` — the column of the diagnosis'
-//! `joint_torsion_nonlinear` candidate times its coefficients, to first order in the
-//! compliances as the linear prediction is: J_k is the spring's Jacobian column at the row's
-//! (sagged) pose, τ₀ its preload under the weight (0 weightless) and τ the load's torque on it
-//! with gravity's coupling, all as the linear prediction takes them.
+//! tip by `J_k (e(τ₀ + τ) − e(τ₀))`, `e(T) = Σ_i a_i h_i(T) + ½ b sign(T)` (sign(0) = 0) — the
+//! columns of the diagnosis' `joint_torsion_nonlinear` and `joint_backlash` candidates times
+//! their coefficients (the backlash's with `sign`, the mean of a known torque), to first order
+//! in the compliances as the linear prediction is: J_k is the spring's Jacobian column at the
+//! row's (sagged) pose, τ₀ its preload under the weight (0 weightless) and τ the load's torque
+//! on it with gravity's coupling, all as the linear prediction takes them.
 //!
 //! [`GearCurve`]: crate::gear::GearCurve
 
@@ -16,7 +17,8 @@ use crate::gear::CurvedSprings;
 /// Adds each curved spring's excess under the load to the first `axes` components of
 /// `deflection` (m, rad; base frame): `J_k (e(τ₀ + τ) − e(τ₀))` with `jacobian` the row's 6×m
 /// Jacobian (column-major) and `torque(k)` the spring's `(τ₀, τ)` (N·m). A change of exactly 0
-/// (a curve of zero coefficients, or a torque within the first knot) adds nothing, so such a
+/// (a curve of zero coefficients and no lost motion, or a torque within the first knot that
+/// keeps its sign) adds nothing, so such a
 /// model predicts what the model without curves predicts, bit for bit.
 pub(super) fn add_gear_load(
     curved: &CurvedSprings<'_>,

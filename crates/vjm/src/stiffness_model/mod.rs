@@ -282,7 +282,7 @@ pub const GEAR_KNOT_UNIT: &str = "N·m";
 pub const GEAR_COEFFICIENT_UNIT: &str = "rad/(N·m)";
 
 /// One joint's gear curve in the file ([`crate::gear::GearCurve`]): its torsion spring
-/// deflects by `θ(T) = c·T + Σ_k a_k h_k(T)` under a total torque T.
+/// deflects by `θ(T) = c·T + Σ_k a_k h_k(T) + ½ b·sign(T)` under a total torque T.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
@@ -297,6 +297,11 @@ pub struct GearCurveRecord {
     pub knot_unit: String,
     /// [`GEAR_COEFFICIENT_UNIT`].
     pub coefficient_unit: String,
+    /// The lost motion b, rad, finite and > 0 (the gear's backlash, the width of its dead
+    /// band); absent for a gear without lost motion (so a curve without it writes, and hashes,
+    /// what earlier versions wrote).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lost_motion_rad: Option<f64>,
 }
 
 impl StiffnessModel {
@@ -490,6 +495,7 @@ impl StiffnessModel {
                 coefficients: c.coefficients().to_vec(),
                 knot_unit: GEAR_KNOT_UNIT.into(),
                 coefficient_unit: GEAR_COEFFICIENT_UNIT.into(),
+                lost_motion_rad: (c.lost_motion() != 0.0).then_some(c.lost_motion()),
             })
             .collect();
         self.validate()
@@ -851,8 +857,25 @@ fn gear_curve(i: usize, r: &GearCurveRecord, n: usize) -> Result<GearCurve, Stri
             ));
         }
     }
-    GearCurve::new(r.joint - 1, r.knots.clone(), r.coefficients.clone())
-        .map_err(|e| format!("{field} (knots, coefficients): {e}"))
+    let lost_motion = match r.lost_motion_rad {
+        None => 0.0,
+        // Written only when > 0: a 0 in the file would be a second spelling of "none".
+        Some(b) if b.is_finite() && b > 0.0 => b,
+        Some(b) => {
+            return Err(format!(
+                "{field}.lost_motion_rad is {b} (joint {}), it must be finite and > 0 rad \
+                 (absent for none)",
+                r.joint
+            ))
+        }
+    };
+    GearCurve::with_lost_motion(
+        r.joint - 1,
+        r.knots.clone(),
+        r.coefficients.clone(),
+        lost_motion,
+    )
+    .map_err(|e| format!("{field} (knots, coefficients, lost_motion_rad): {e}"))
 }
 
 fn robot_record(chain: &SerialChain) -> RobotRecord {

@@ -156,8 +156,10 @@ impl StiffnessModel {
     /// per row or a payload. Linear in the compliances (no K_C), the model the identification
     /// fitted, for a weightless arm. A model with gear curves ([`Self::gear_curves`]) adds each
     /// curved torsion spring's excess beyond its linear compliance at the load's torque τ on it,
-    /// `J_k Σ a_i h_i(τ)` (the diagnosis' `joint_torsion_nonlinear` column times its
-    /// coefficients; `docs/gravity.md`, *Non-linear gears in the model*); `stddev`,
+    /// `J_k (Σ a_i h_i(τ) + ½ b sign(τ))` (the diagnosis' `joint_torsion_nonlinear` and
+    /// `joint_backlash` columns times their coefficients, with sign(0) = 0 and `sign`, not the
+    /// diagnosis' erf: the mean deflection of a known torque; `docs/gravity.md`, *Non-linear
+    /// gears in the model*); `stddev`,
     /// `identified` and `excitation` are the linear springs' (the curves are taken as known).
     /// Errors name the row (0-based) and column of a bad value.
     pub fn predict(
@@ -177,7 +179,9 @@ impl StiffnessModel {
     /// torque gets gravity's coupling, τ_eff = τ + K_G Δθ
     /// ([`GravityWorkspace::effective_torques`]): `d = J(θ₀) C τ_eff`, linear in the load.
     /// A gear curve adds `J_k(θ₀) (e(τ₀ + τ_eff) − e(τ₀))` for its spring k, its excess
-    /// `e(T) = Σ a_i h_i(T)` at the total torque with the preload τ₀ of the sag: the curve's
+    /// `e(T) = Σ a_i h_i(T) + ½ b sign(T)` at the total torque with the preload τ₀ of the sag
+    /// (the lost motion adds `½ b (sign(τ₀ + τ_eff) − sign(τ₀))`: nothing while the load keeps
+    /// the preload's sign, `± b` when it reverses it): the curve's
     /// change from the weight's working point, to first order in the compliances as the rest
     /// of the prediction (the exact equilibrium with curves is
     /// [`deflection_under_gravity_with_gears`](crate::gravity::deflection_under_gravity_with_gears);

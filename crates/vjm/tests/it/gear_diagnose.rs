@@ -175,3 +175,121 @@ fn under_gravity_a_diagnosed_gear_curve_reproduces_the_extended_fit_to_first_ord
     );
     assert!(miss > 10.0 * worst, "without the curve: {miss}");
 }
+
+/// The model `diagnose --save` makes of a `joint_backlash` finding (as
+/// `robot_stiffness._diagnosed_model` does: the traditional springs identified on the rows with
+/// the curve's first-order share taken out, the curve put in the model): the finding's curve is
+/// the shoulder's lost motion (no knots, b the extended fit's estimate, near the truth), and
+/// the saved model predicts a second, held-out campaign's true displacements better than the
+/// same model without the lost motion (measured 6.5 µm RMS against 210 µm, and 133 µm for the
+/// springs fitted on the raw rows; bound 0.2×; b within 1.5 % of the truth, bound 10 %). A
+/// torsion finding at the same joint merges into one
+/// curve with both.
+#[test]
+fn a_diagnosed_backlash_is_the_saved_models_lost_motion() {
+    let chain = SerialChain::bundled();
+    let b_true = 1e-3;
+    let truth = TrueModel::nominal(7).with_effect(Effect::Backlash {
+        joint: 1,
+        lost_motion: b_true,
+    });
+    let campaign = simulate(
+        &chain,
+        &truth,
+        &CampaignSpec {
+            seed: 4,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let opts = DiagnoseOptions {
+        max_findings: 1,
+        ..Default::default()
+    };
+    let d = diagnose(&chain, &campaign.dataset, &opts).unwrap();
+    assert_eq!(d.findings.len(), 1, "{}", d.to_json());
+    let f = &d.findings[0];
+    assert_eq!((f.effect, f.joint), ("joint_backlash", Some(2)));
+    let curves = d.gear_curves().unwrap();
+    assert_eq!(curves.len(), 1);
+    let curve = &curves[0];
+    assert_eq!((curve.joint(), curve.knots().len()), (1, 0));
+    assert_eq!(curve.lost_motion(), f.evidence.estimate[0]);
+    assert!(
+        (curve.lost_motion() - b_true).abs() <= 0.1 * b_true,
+        "b = {} rad",
+        curve.lost_motion()
+    );
+    // The saved model.
+    let data = &campaign.dataset;
+    let model = VirtualJointModel::traditional(7);
+    let (q, w, disp) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
+    let width = disp.len() / data.len();
+    let iopts = IdentifyOptions::default();
+    let fit = |d: &[f64]| {
+        let id = identify(&chain, &model, q, w, d, None, &iopts).unwrap();
+        StiffnessModel::from_identification(
+            &id,
+            &chain,
+            &model,
+            &iopts,
+            DataSource::in_memory(data.len()),
+        )
+        .unwrap()
+    };
+    let first = fit(disp);
+    let bent = first.clone().with_gear_curves(&curves).unwrap();
+    let (a, b) = (
+        bent.predict(&chain, q, Load::Wrench(w)).unwrap(),
+        first.predict(&chain, q, Load::Wrench(w)).unwrap(),
+    );
+    let mut corrected = disp.to_vec();
+    for i in 0..data.len() {
+        for r in 0..width {
+            corrected[i * width + r] -= a[i].deflection[r] - b[i].deflection[r];
+        }
+    }
+    let without = fit(&corrected);
+    let saved = without.clone().with_gear_curves(&curves).unwrap();
+    // Held out: another campaign of the same arm, its true (noise-free) displacements.
+    let other = simulate(
+        &chain,
+        &truth,
+        &CampaignSpec {
+            seed: 11,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let rms = |m: &StiffnessModel| {
+        let (q, w) = (other.dataset.q_flat(), other.applied_wrench.concat());
+        let p = m.predict(&chain, q, Load::Wrench(&w)).unwrap();
+        let sq: f64 = p
+            .iter()
+            .zip(&other.true_displacement)
+            .map(|(p, t)| {
+                (0..3)
+                    .map(|r| (p.deflection[r] - t[r]).powi(2))
+                    .sum::<f64>()
+            })
+            .sum();
+        (sq / p.len() as f64).sqrt()
+    };
+    let (with_b, without_b, raw) = (rms(&saved), rms(&without), rms(&first));
+    assert!(
+        with_b < 0.2 * without_b && with_b < 0.2 * raw,
+        "held-out RMS: {with_b} m with the lost motion, {without_b} m without, {raw} m raw fit"
+    );
+    // A torsion finding at the same joint: one curve, its knots and the backlash's b.
+    let mut both = d.clone();
+    let mut torsion = f.clone();
+    torsion.effect = "joint_torsion_nonlinear";
+    torsion.knots = Some(vec![3.0, 9.0]);
+    torsion.evidence.estimate = vec![2e-5, -1e-5];
+    both.findings.insert(0, torsion);
+    let merged = both.gear_curves().unwrap();
+    assert_eq!(merged.len(), 1);
+    assert_eq!(merged[0].knots(), &[3.0, 9.0]);
+    assert_eq!(merged[0].coefficients(), &[2e-5, -1e-5]);
+    assert_eq!(merged[0].lost_motion(), curve.lost_motion());
+}

@@ -9,6 +9,7 @@ mod compensation;
 mod design;
 mod full_model;
 mod gear;
+mod gear_backlash;
 mod gear_compensate;
 mod gear_diagnose;
 mod gear_predict;
