@@ -18,11 +18,19 @@ fn distance(a: &nalgebra::Isometry3<f64>, b: &nalgebra::Isometry3<f64>) -> f64 {
 /// targets corrected without the curve miss it by micrometres.
 #[test]
 fn compensation_under_gravity_hits_the_target_with_the_curved_equilibrium() {
+    let misses = curved_compensation_misses(&shoulder_curve(), 1e-6);
+    assert!(misses >= 6, "the curve matters on only {misses} rows");
+}
+
+/// Compensates 12 rows of the Panda campaign under gravity with and without `curve`, checks
+/// that the curved equilibrium at the curve's targets puts the tip on the nominal pose within
+/// 2e-9 m (every row converged), and returns on how many rows the curve-free targets miss it by
+/// more than `miss_at_least` m.
+pub(crate) fn curved_compensation_misses(curve: &GearCurve, miss_at_least: f64) -> usize {
     let (chain, sm, data) = panda_model();
-    let curve = shoulder_curve();
     let curved = sm
         .clone()
-        .with_gear_curves(std::slice::from_ref(&curve))
+        .with_gear_curves(std::slice::from_ref(curve))
         .unwrap();
     let model = VirtualJointModel::traditional(7);
     let c = sm.determined_compliance().unwrap();
@@ -54,7 +62,7 @@ fn compensation_under_gravity_hits_the_target_with_the_curved_equilibrium() {
                 &chain,
                 &model,
                 &c,
-                std::slice::from_ref(&curve),
+                std::slice::from_ref(curve),
                 qc,
                 &loading,
             )
@@ -64,12 +72,9 @@ fn compensation_under_gravity_hits_the_target_with_the_curved_equilibrium() {
         let hit = distance(&at(&bent.q[7 * i..7 * i + 7]), &target);
         assert!(hit <= 2e-9, "row {i}: the curved tip misses by {hit} m");
         let miss = distance(&at(&flat.q[7 * i..7 * i + 7]), &target);
-        misses += usize::from(miss > 1e-6);
+        misses += usize::from(miss > miss_at_least);
     }
-    assert!(
-        misses >= rows / 2,
-        "the curve matters on only {misses} rows"
-    );
+    misses
 }
 
 /// Weightless without K_C: at the corrected targets q', FK(q') + J(q') θ with
