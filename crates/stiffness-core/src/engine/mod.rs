@@ -19,6 +19,7 @@
 
 pub mod basis;
 pub mod compressed;
+mod exchange;
 pub mod fit;
 pub mod select;
 pub mod verdict;

@@ -3,6 +3,7 @@
 
 use super::basis::cosine;
 use super::compressed::RowSet;
+use super::exchange;
 use super::fit::{cluster_robust, fit, score, score_given, sse, Fit, Score};
 use super::Problem;
 use crate::stats::{benjamini_hochberg, FTest};
@@ -134,6 +135,8 @@ pub fn select<P: Problem>(
     let mut rejected_on_holdout = Vec::new();
     let mut explained_by_guard = Vec::new();
     let mut scores = first_scores.clone();
+    // The state of each accepted step, for the exchange ([`exchange::exchange`]).
+    let mut steps: Vec<Step<P::Term, P::Lin>> = Vec::new();
     // The guard test is a family too: with many guarded candidates (VJM: the mount's and every
     // link's translations), one that only noise separates from its guard passes at
     // `alias_alpha` by chance. Bonferroni over that family keeps the chance that any does at
@@ -157,7 +160,6 @@ pub fn select<P: Problem>(
         if step == 1 {
             extra_rejected.copy_from_slice(&rejected[testable.len()..]);
         }
-        let m = p.len();
         let mut order: Vec<usize> = (0..testable.len()).filter(|&k| rejected[k]).collect();
         // Most significant first; p-values and F statistics equal to 9 significant digits are
         // ties (exact aliases, e.g. two tilts about one line, differ only by rounding) and keep
@@ -201,70 +203,17 @@ pub fn select<P: Problem>(
             break;
         };
         let a = testable[k];
-        let sigma2 = a.sse_full / a.f_test.df_den.max(1.0);
-        // Aliases: significant candidates b such that, once b is in the model, the data no
-        // longer need a (its F test given b has p > alias_alpha), or whose columns are
-        // near-collinear with a's after projecting out the model.
-        let bh_cut = {
-            let mut sorted = p.clone();
-            sorted.sort_by(|x, y| x.total_cmp(y));
-            (0..m)
-                .filter(|&r| sorted[r] <= opts.fdr * (r + 1) as f64 / m as f64)
-                .map(|r| sorted[r])
-                .fold(0.0, f64::max)
-        };
-        let mut aliases = Vec::new();
-        for b in &testable {
-            cancel.check()?;
-            if b.cand == a.cand {
-                continue;
-            }
-            let delta = (b.sse_full - a.sse_full) / sigma2;
-            let one_column = |t: P::Term| problem.columns(t).len() == 1;
-            let cos = (one_column(a.cand) && one_column(b.cand))
-                .then(|| cosine(&a.first_residual, &b.first_residual).abs());
-            let collinear = cos.is_some_and(|c| c >= opts.alias_cosine);
-            let p_given = if b.f_test.p_value <= bh_cut {
-                score_given(problem, &current, &[b.cand], &[a.cand])?[0]
-                    .f_test
-                    .p_value
-            } else {
-                0.0
-            };
-            if collinear || p_given > opts.alias_alpha {
-                aliases.push(AliasOf {
-                    cand: b.cand,
-                    cosine: cos,
-                    delta_chi2: delta,
-                    p_finding_given_alias: p_given,
-                    group: Vec::new(),
-                });
-            }
-        }
-        let singles = aliases.len();
-        for group in problem.alias_groups(a.cand) {
-            cancel.check()?;
-            if let Some(alias) = group_alias(problem, &current, &testable, a, &group, bh_cut, opts)?
-            {
-                if !aliases[..singles].iter().any(|s| group.contains(&s.cand)) {
-                    aliases.push(alias);
-                }
-            }
-        }
-        let rank_a = p.iter().filter(|&&v| v <= p[k]).count();
+        let bh_cut = bh_cut(&p, opts.fdr);
+        let aliases = aliases_of(problem, &current, &testable, a, bh_cut, opts)?;
+        let singles = aliases.iter().filter(|al| al.group.is_empty()).count();
         let evidence = SelectionEvidence {
             step,
-            f_test: a.f_test,
-            n_candidates: m,
-            bh_threshold: opts.fdr * rank_a as f64 / m as f64,
-            sse_reduction: 1.0 - a.sse_full / a.sse_reduced,
             cluster_robust: if opts.defer_cluster_robust {
                 None
             } else {
                 cluster_robust(problem, &trial, problem.columns(a.cand).len())?
             },
-            heldout_sse_before: before,
-            heldout_sse_after: after,
+            ..step_evidence(a, &p, opts.fdr, before, after)
         };
         // A joint alias's members stay candidates: none of them alone is the finding's alias.
         pool.retain(|c| *c != a.cand && !aliases[..singles].iter().any(|b| b.cand == *c));
@@ -280,7 +229,23 @@ pub fn select<P: Problem>(
             aliases,
             evidence,
         });
+        steps.push(Step {
+            before: current,
+            scores: testable.iter().map(|s| (*s).clone()).collect(),
+            p,
+            bh_cut,
+        });
         current = trial;
+        if findings.len() >= 2 {
+            let mut state = exchange::State {
+                current: &mut current,
+                findings: &mut findings,
+                deferred: &mut deferred,
+                pool: &mut pool,
+                steps: &steps,
+            };
+            exchange::exchange(problem, &mut state, opts)?;
+        }
         progress(Progress {
             stage: "selection",
             done: step,
@@ -302,6 +267,109 @@ pub fn select<P: Problem>(
         extra_rejected,
         deferred_cluster_robust: deferred,
     })
+}
+
+/// The state of an accepted step that the exchange needs to restate its finding as one of
+/// its aliases: the model before the step and the step's scores and family.
+#[derive(Debug, Clone)]
+pub(super) struct Step<T, L> {
+    /// The model the step scored against.
+    pub before: Fit<T, L>,
+    /// Its testable candidates' scores.
+    pub scores: Vec<Score<T>>,
+    /// The p-values of its Benjamini–Hochberg family.
+    pub p: Vec<f64>,
+    /// The family's largest rejected p-value.
+    pub bh_cut: f64,
+}
+
+/// The largest p-value that Benjamini–Hochberg at `fdr` rejects in `p` (0 when none).
+fn bh_cut(p: &[f64], fdr: f64) -> f64 {
+    let m = p.len();
+    let mut sorted = p.to_vec();
+    sorted.sort_by(|x, y| x.total_cmp(y));
+    (0..m)
+        .filter(|&r| sorted[r] <= fdr * (r + 1) as f64 / m as f64)
+        .map(|r| sorted[r])
+        .fold(0.0, f64::max)
+}
+
+/// The evidence of candidate `a` at a step whose family's p-values are `p` (cluster-robust
+/// test left to the caller, step number 0 until set).
+pub(super) fn step_evidence<T>(
+    a: &Score<T>,
+    p: &[f64],
+    fdr: f64,
+    heldout_sse_before: f64,
+    heldout_sse_after: f64,
+) -> SelectionEvidence {
+    let m = p.len();
+    let rank_a = p.iter().filter(|&&v| v <= a.f_test.p_value).count();
+    SelectionEvidence {
+        step: 0,
+        f_test: a.f_test,
+        n_candidates: m,
+        bh_threshold: fdr * rank_a as f64 / m as f64,
+        sse_reduction: 1.0 - a.sse_full / a.sse_reduced,
+        cluster_robust: None,
+        heldout_sse_before,
+        heldout_sse_after,
+    }
+}
+
+/// The aliases of candidate `a` at a step that scored `testable` against `current`:
+/// significant candidates b such that, once b is in the model, the data no longer need a (its
+/// F test given b has p > alias_alpha), or whose columns are near-collinear with a's after
+/// projecting out the model; then the joint aliases ([`Problem::alias_groups`]) that no
+/// single alias already covers. Singles come first.
+pub(super) fn aliases_of<P: Problem>(
+    problem: &P,
+    current: &Fit<P::Term, P::Lin>,
+    testable: &[&Score<P::Term>],
+    a: &Score<P::Term>,
+    bh_cut: f64,
+    opts: &SelectOptions,
+) -> Result<Vec<AliasOf<P::Term>>, Cancelled> {
+    let cancel = problem.cancel();
+    let sigma2 = a.sse_full / a.f_test.df_den.max(1.0);
+    let mut aliases = Vec::new();
+    for b in testable {
+        cancel.check()?;
+        if b.cand == a.cand {
+            continue;
+        }
+        let delta = (b.sse_full - a.sse_full) / sigma2;
+        let one_column = |t: P::Term| problem.columns(t).len() == 1;
+        let cos = (one_column(a.cand) && one_column(b.cand))
+            .then(|| cosine(&a.first_residual, &b.first_residual).abs());
+        let collinear = cos.is_some_and(|c| c >= opts.alias_cosine);
+        let p_given = if b.f_test.p_value <= bh_cut {
+            score_given(problem, current, &[b.cand], &[a.cand])?[0]
+                .f_test
+                .p_value
+        } else {
+            0.0
+        };
+        if collinear || p_given > opts.alias_alpha {
+            aliases.push(AliasOf {
+                cand: b.cand,
+                cosine: cos,
+                delta_chi2: delta,
+                p_finding_given_alias: p_given,
+                group: Vec::new(),
+            });
+        }
+    }
+    let singles = aliases.len();
+    for group in problem.alias_groups(a.cand) {
+        cancel.check()?;
+        if let Some(alias) = group_alias(problem, current, testable, a, &group, bh_cut, opts)? {
+            if !aliases[..singles].iter().any(|s| group.contains(&s.cand)) {
+                aliases.push(alias);
+            }
+        }
+    }
+    Ok(aliases)
 }
 
 /// `group` as a joint alias of the finding `a` ([`Problem::alias_groups`]): every member
