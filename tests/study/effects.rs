@@ -102,6 +102,24 @@ impl Hidden {
         )
     }
 
+    /// Whether the effect acts on the arm (its springs, mount, links, tool) rather than on the
+    /// instruments: then its noise-free signal is the true displacement with the effect minus
+    /// that without it at the same applied wrenches, and its detectability λ
+    /// (`vjm::diagnose::detectability`, docs/diagnose.md §4) is what the study reports per run.
+    /// A wrench bias, a misalignment, drift and cross-talk change what is recorded, not the
+    /// displacement; pairs mix both.
+    pub fn arm_side(&self) -> bool {
+        !matches!(
+            self,
+            Hidden::Clean
+                | Hidden::WrenchBias(_)
+                | Hidden::Misalignment(_)
+                | Hidden::Drift(_)
+                | Hidden::Crosstalk(_)
+                | Hidden::Pair(..)
+        )
+    }
+
     /// The campaign spec: the study's defaults, loads scaled for K_C.
     pub fn spec(&self, base: &CampaignSpec) -> CampaignSpec {
         match self {

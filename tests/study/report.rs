@@ -174,3 +174,54 @@ pub fn power_summary(cells: &[CellResult]) -> String {
     }
     s
 }
+
+/// The power above the detectability threshold: one row per robot × effect × magnitude whose
+/// effect acts on the arm, with the median λ and, among the runs with λ ≥ 64, how many found
+/// the effect without / with the noise given; the last row sums every cell.
+pub fn threshold_table(cells: &[CellResult]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| robot | effect | magnitude | median λ | runs with λ ≥ 64 | found (not given) | found (given) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|");
+    let mut total = [0usize; 3];
+    for given in cells.iter().filter(|c| c.noise_given) {
+        let Some(lambda) = given.median_lambda else {
+            continue;
+        };
+        let not_given = cells.iter().find(|c| {
+            !c.noise_given
+                && c.robot == given.robot
+                && c.effect == given.effect
+                && c.magnitude == given.magnitude
+        });
+        let found_ng = not_given.map_or(0, |c| c.detected_above);
+        total[0] += given.runs_above;
+        total[1] += found_ng;
+        total[2] += given.detected_above;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.0} | {} / {} | {} | {} |",
+            given.robot,
+            given.effect,
+            given.magnitude,
+            lambda,
+            given.runs_above,
+            given.runs,
+            found_ng,
+            given.detected_above
+        );
+    }
+    let share = |n: usize| pct(n as f64 / total[0].max(1) as f64);
+    let _ = writeln!(
+        s,
+        "| **all** | | | | {} | {} ({}) | {} ({}) |",
+        total[0],
+        total[1],
+        share(total[1]),
+        total[2],
+        share(total[2])
+    );
+    s
+}

@@ -78,9 +78,21 @@ pub struct CellResult {
     /// Median over runs of the extended model's `scaled_rms` (RMS of the residuals in units of
     /// the assumed noise, ≈ 1 when only noise of the assumed size remains).
     pub median_scaled_rms: f64,
+    /// Median over runs of the effect's detectability λ (docs/diagnose.md §4: the signal energy
+    /// the baseline cannot absorb, in units of the instruments' true noise variance), for
+    /// effects on the arm ([`Hidden::arm_side`]); `None` otherwise. The same in both modes.
+    pub median_lambda: Option<f64>,
+    /// Runs whose λ reaches the threshold [`LAMBDA_THRESHOLD`] (0 when λ is not computed).
+    pub runs_above: usize,
+    /// Of those, runs where the effect was detected.
+    pub detected_above: usize,
     /// Wall time of the cell (both modes share simulation), s.
     pub seconds: f64,
 }
+
+/// The detectability threshold of docs/diagnose.md §4: an effect with λ ≥ 64 (its orthogonal
+/// signal 8 σ) must be found.
+pub const LAMBDA_THRESHOLD: f64 = 64.0;
 
 impl CellResult {
     /// 95 % Clopper–Pearson interval of the detection rate.
@@ -151,10 +163,14 @@ pub fn run_cell(
         verdicts: BTreeMap::new(),
         mean_gain: 0.0,
         median_scaled_rms: 0.0,
+        median_lambda: None,
+        runs_above: 0,
+        detected_above: 0,
         seconds: 0.0,
     };
     let mut out = [empty(false), empty(true)];
     let mut scaled_rms: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    let mut lambdas: Vec<f64> = Vec::new();
     let chain = &robot.chain;
     let needs_rms = format!("{hidden:?}").contains("TorsionNonlinear");
     let force_sensor = ForceSensorNoise {
@@ -195,6 +211,18 @@ pub fn run_cell(
             .map(|i| campaign.dataset.q(i).to_vec())
             .collect();
         let tool_axes = tool_axis_translations(chain, &q_rows);
+        let lambda = if hidden.arm_side() {
+            Some(detectability_of(
+                robot,
+                &spec,
+                &campaign,
+                sigma,
+                force_sensor.sigma(),
+            )?)
+        } else {
+            None
+        };
+        lambdas.extend(lambda);
         for (k, given) in [false, true].into_iter().enumerate() {
             let mut opts = DiagnoseOptions::default();
             if given {
@@ -210,7 +238,12 @@ pub fn run_cell(
                 })?;
             let r = &mut out[k];
             r.runs += 1;
-            r.detected += hidden.detected(&d, &tool_axes) as usize;
+            let found = hidden.detected(&d, &tool_axes);
+            r.detected += found as usize;
+            if lambda.is_some_and(|l| l >= LAMBDA_THRESHOLD) {
+                r.runs_above += 1;
+                r.detected_above += found as usize;
+            }
             r.any_finding += (!d.findings.is_empty()) as usize;
             r.unexplained += d.unexplained as usize;
             r.alarm += (!d.findings.is_empty() || d.unexplained) as usize;
@@ -232,8 +265,61 @@ pub fn run_cell(
             n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
         };
         r.seconds = secs;
+        r.median_lambda = median(&mut lambdas.clone());
     }
     Ok(out)
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => None,
+        n if n % 2 == 1 => Some(v[n / 2]),
+        n => Some(0.5 * (v[n / 2 - 1] + v[n / 2])),
+    }
+}
+
+/// λ of the effect in `campaign`: its noise-free displacement minus the torsion-only arm's at
+/// the same poses and applied wrenches (a noise-free campaign with the same seed has the same
+/// ones), whitened with the instruments' true noise (tracker `sigma`, F/T `wrench_sigma`).
+fn detectability_of(
+    robot: &StudyRobot,
+    spec: &CampaignSpec,
+    campaign: &vjm::testbed::Campaign,
+    sigma: f64,
+    wrench_sigma: [f64; 6],
+) -> Result<f64, StudyError> {
+    let quiet = CampaignSpec {
+        noise: false,
+        ..spec.clone()
+    };
+    let nominal = simulate(
+        &robot.chain,
+        &TrueModel::torsion_only(&robot.torsion),
+        &quiet,
+    )
+    .map_err(|e| StudyError::Simulate {
+        robot: robot.name.into(),
+        seed: spec.seed,
+        message: e.to_string(),
+    })?;
+    let signal: Vec<[f64; 3]> = campaign
+        .true_displacement
+        .iter()
+        .zip(&nominal.true_displacement)
+        .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+        .collect();
+    let mut opts = DiagnoseOptions::default();
+    opts.noise.displacement_sigma = sigma;
+    opts.noise.wrench_sigma = wrench_sigma;
+    opts.noise_known = true;
+    vjm::diagnose::detectability(&robot.chain, &campaign.dataset, &signal, &opts).map_err(|e| {
+        StudyError::Diagnose {
+            robot: robot.name.into(),
+            seed: spec.seed,
+            message: format!("detectability: {e}"),
+        }
+    })
 }
 
 /// The CSJM false-alarm cell: clean campaigns (`CsjmEffects::none()`, the seed's campaign) with

@@ -38,7 +38,7 @@ def test_clean_data_have_no_verdict_and_a_typed_one(clean):
     assert d.verdict.goodness_of_fit is None  # no noise level given
     assert d.verdict.remaining is None
     assert {b.block for b in d.verdict.blocks} == {
-        "linear_in_wrench", "tool_frame", "pose_offsets", "pose_compliance", "springs"}
+        "linear_in_wrench", "tool_frame", "pose_offsets", "pose_compliance", "angle_compliance", "springs"}
     assert all(isinstance(b, BlockTest) for b in d.verdict.blocks)
     assert d.verdict.lack_of_fit.p_value > 0.01
 
@@ -74,6 +74,12 @@ def test_a_gear_whose_stiffness_follows_its_angle_is_unexplained_in_words():
     d = vjm.diagnose(robot, data.measurements)
     assert d.unexplained
     assert "pose_compliance" in (d.verdict.remaining or ""), d.verdict.remaining
+    # With the noise level given, the angle_compliance block (each torsion column × sin q, cos q)
+    # decides too, and it is the one that sees a smooth dependence on the angle best.
+    given = vjm.diagnose(robot, data.measurements, tracker_sigma=2.1213e-5, force_sigma=0.5, moment_sigma=0.05)
+    angle = next(b for b in given.verdict.blocks if b.block == "angle_compliance")
+    assert given.unexplained and angle.f_test.p_value < 1e-6, angle
+    assert "compliance block" in (given.verdict.remaining or ""), given.verdict.remaining
     with pytest.raises(ValueError, match="amplitude"):
         vjm.simulate(robot, [{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 1.0}])
 

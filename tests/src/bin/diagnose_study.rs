@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use robot_stiffness_tests::study::effects::{catalogue_grid, outside_grid, pair_grid, Hidden};
 use robot_stiffness_tests::study::report::{
-    csjm_table, false_alarm_table, power_summary, power_table,
+    csjm_table, false_alarm_table, power_summary, power_table, threshold_table,
 };
 use robot_stiffness_tests::study::robots::{load_robot, StudyRobot, ROBOTS};
 use robot_stiffness_tests::study::run::{run_cell, run_csjm, CellResult, CsjmResult};
@@ -283,6 +283,8 @@ fn run(args: &Args) -> Result<(), String> {
             100.0 * args.ft_accuracy[0]
         );
         println!("{}", power_summary(&power));
+        println!("#### Above the detectability threshold (λ ≥ 64, docs/diagnose.md §4)\n");
+        println!("{}", threshold_table(&power));
         println!("#### Every power cell\n");
         println!("{}", power_table(&power));
     }

@@ -528,9 +528,11 @@ class ChiSquareTest(_Result):
 @dataclass(frozen=True, eq=False)
 class BlockTest(_Result):
     """One block of the lack-of-fit alternative (``linear_in_wrench``, ``tool_frame``,
-    ``pose_offsets``, ``pose_compliance``, ``springs``) tested alone against the extended
-    model, and what structure in it means. ``pose_compliance`` (per pose, its own offsets and
-    its own scale of each joint's torsion response) also decides ``unexplained``."""
+    ``pose_offsets``, ``pose_compliance``, ``angle_compliance``, ``springs``) tested alone
+    against the extended model, and what structure in it means. ``pose_compliance`` (per pose,
+    its own offsets and its own scale of each joint's torsion response) also decides
+    ``unexplained``; ``angle_compliance`` (each joint's torsion compliance varying with sin and
+    cos of its angle) decides too when the noise level was given."""
 
     block: str
     f_test: FTest

@@ -427,17 +427,25 @@ pub enum Alternative {
     /// A compliance in the tool frame, `d = R C Rᵀ f` with R the tip frame (9 parameters): a
     /// compliant tool, gripper or force-sensor flange.
     ToolFrame,
+    /// Each joint's torsion compliance varying with that joint's angle to first harmonic,
+    /// `c_j (1 + a_j sin q_j + b_j cos q_j)` (2n parameters, the torsion column times sin q_j
+    /// and cos q_j): a gear whose stiffness changes with its position. Not in [`Self::ALL`]:
+    /// it is a test of its own in the verdict ([`crate::diagnose`]'s `angle_compliance`), as
+    /// the per-pose compliance is, so that its few columns are not diluted among the overall
+    /// alternative's many.
+    AngleCompliance,
 }
 
 impl Alternative {
     /// Every block.
     pub const ALL: [Alternative; 2] = [Alternative::LinearInWrench, Alternative::ToolFrame];
 
-    /// Number of columns.
-    pub fn n_columns(&self) -> usize {
+    /// Number of columns on an arm of `n_joints` joints.
+    pub fn n_columns(&self, n_joints: usize) -> usize {
         match self {
             Alternative::LinearInWrench => 18,
             Alternative::ToolFrame => 9,
+            Alternative::AngleCompliance => 2 * n_joints,
         }
     }
 
@@ -446,6 +454,7 @@ impl Alternative {
         match self {
             Alternative::LinearInWrench => "linear_in_wrench",
             Alternative::ToolFrame => "tool_frame",
+            Alternative::AngleCompliance => "angle_compliance",
         }
     }
 
@@ -458,6 +467,9 @@ impl Alternative {
             Alternative::ToolFrame => {
                 "linear in the force along the tool's own axes: a compliant tool, gripper or sensor flange?"
             }
+            Alternative::AngleCompliance => {
+                "a joint's torsion compliance changes with that joint's angle: a gear whose stiffness depends on its position (an eccentric or worn gear)?"
+            }
         }
     }
 
@@ -465,6 +477,14 @@ impl Alternative {
     pub fn columns(&self, row: &RowKinematics, out: &mut Vec<[f64; 3]>) {
         let w = &row.wrench;
         match self {
+            Alternative::AngleCompliance => {
+                for (j, q) in row.q.iter().enumerate() {
+                    let t = spring_column(row, 3 * j);
+                    let (sin, cos) = q.sin_cos();
+                    out.push(scale3(t, sin));
+                    out.push(scale3(t, cos));
+                }
+            }
             Alternative::LinearInWrench => {
                 for r in 0..3 {
                     for wk in w.iter() {

@@ -180,9 +180,12 @@ impl<'a> VjmProblem<'a> {
         let y = next;
         let mut next = y + 1;
         let mut alternatives = Vec::new();
-        for a in Alternative::ALL {
-            alternatives.push((a, next..next + a.n_columns()));
-            next += a.n_columns();
+        for a in Alternative::ALL
+            .into_iter()
+            .chain([Alternative::AngleCompliance])
+        {
+            alternatives.push((a, next..next + a.n_columns(n)));
+            next += a.n_columns(n);
         }
         Self {
             chain,
