@@ -190,20 +190,28 @@ pub fn run_cell(
             ..Default::default()
         };
         let spec = hidden.spec(&base);
-        let rms = if needs_rms {
-            // The same seed gives the same poses and loads without noise.
+        // The torsion-only arm without noise: the same seed gives the same poses and loads.
+        // It scales the non-linear torsion's knots and is the reference of λ.
+        let nominal = if needs_rms || hidden.arm_side() {
             let quiet = CampaignSpec {
                 noise: false,
                 ..spec.clone()
             };
-            let c = simulate(chain, &TrueModel::torsion_only(&robot.torsion), &quiet)
-                .map_err(sim_err)?;
-            let q: Vec<Vec<f64>> = (0..c.dataset.len())
-                .map(|i| c.dataset.q(i).to_vec())
-                .collect();
-            rms_torque(chain, &q, &c.applied_wrench, EFFECT_JOINT)
+            Some(
+                simulate(chain, &TrueModel::torsion_only(&robot.torsion), &quiet)
+                    .map_err(sim_err)?,
+            )
         } else {
-            0.0
+            None
+        };
+        let rms = match &nominal {
+            Some(c) if needs_rms => {
+                let q: Vec<Vec<f64>> = (0..c.dataset.len())
+                    .map(|i| c.dataset.q(i).to_vec())
+                    .collect();
+                rms_torque(chain, &q, &c.applied_wrench, EFFECT_JOINT)
+            }
+            _ => 0.0,
         };
         let truth = hidden.truth(&robot.torsion, rms);
         let campaign = simulate(chain, &truth, &spec).map_err(sim_err)?;
@@ -211,16 +219,16 @@ pub fn run_cell(
             .map(|i| campaign.dataset.q(i).to_vec())
             .collect();
         let tool_axes = tool_axis_translations(chain, &q_rows);
-        let lambda = if hidden.arm_side() {
-            Some(detectability_of(
+        let lambda = match &nominal {
+            Some(nominal) if hidden.arm_side() => Some(detectability_of(
                 robot,
-                &spec,
+                seed,
                 &campaign,
+                nominal,
                 sigma,
                 force_sensor.sigma(),
-            )?)
-        } else {
-            None
+            )?),
+            _ => None,
         };
         lambdas.extend(lambda);
         for (k, given) in [false, true].into_iter().enumerate() {
@@ -256,16 +264,12 @@ pub fn run_cell(
         progress(done + 1);
     }
     let secs = start.elapsed().as_secs_f64();
+    let median_lambda = median(&mut lambdas);
     for (r, v) in out.iter_mut().zip(scaled_rms.iter_mut()) {
         r.mean_gain /= r.runs.max(1) as f64;
-        v.sort_by(f64::total_cmp);
-        r.median_scaled_rms = match v.len() {
-            0 => f64::NAN,
-            n if n % 2 == 1 => v[n / 2],
-            n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-        };
+        r.median_scaled_rms = median(v).unwrap_or(f64::NAN);
         r.seconds = secs;
-        r.median_lambda = median(&mut lambdas.clone());
+        r.median_lambda = median_lambda;
     }
     Ok(out)
 }
@@ -279,30 +283,17 @@ fn median(v: &mut [f64]) -> Option<f64> {
     }
 }
 
-/// λ of the effect in `campaign`: its noise-free displacement minus the torsion-only arm's at
-/// the same poses and applied wrenches (a noise-free campaign with the same seed has the same
-/// ones), whitened with the instruments' true noise (tracker `sigma`, F/T `wrench_sigma`).
+/// λ of the effect in `campaign` (seed `seed`): its noise-free displacement minus `nominal`'s,
+/// the torsion-only arm's noise-free campaign at the same poses and applied wrenches, whitened
+/// with the instruments' true noise (tracker `sigma`, F/T `wrench_sigma`).
 fn detectability_of(
     robot: &StudyRobot,
-    spec: &CampaignSpec,
+    seed: u64,
     campaign: &vjm::testbed::Campaign,
+    nominal: &vjm::testbed::Campaign,
     sigma: f64,
     wrench_sigma: [f64; 6],
 ) -> Result<f64, StudyError> {
-    let quiet = CampaignSpec {
-        noise: false,
-        ..spec.clone()
-    };
-    let nominal = simulate(
-        &robot.chain,
-        &TrueModel::torsion_only(&robot.torsion),
-        &quiet,
-    )
-    .map_err(|e| StudyError::Simulate {
-        robot: robot.name.into(),
-        seed: spec.seed,
-        message: e.to_string(),
-    })?;
     let signal: Vec<[f64; 3]> = campaign
         .true_displacement
         .iter()
@@ -316,7 +307,7 @@ fn detectability_of(
     vjm::diagnose::detectability(&robot.chain, &campaign.dataset, &signal, &opts).map_err(|e| {
         StudyError::Diagnose {
             robot: robot.name.into(),
-            seed: spec.seed,
+            seed,
             message: format!("detectability: {e}"),
         }
     })

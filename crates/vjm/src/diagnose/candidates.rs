@@ -437,8 +437,16 @@ pub enum Alternative {
 }
 
 impl Alternative {
-    /// Every block.
+    /// Every block of the overall lack-of-fit alternative.
     pub const ALL: [Alternative; 2] = [Alternative::LinearInWrench, Alternative::ToolFrame];
+
+    /// Every block with columns in the problem's layout: [`Self::ALL`] and the blocks that are
+    /// tests of their own.
+    pub const IN_LAYOUT: [Alternative; 3] = [
+        Alternative::LinearInWrench,
+        Alternative::ToolFrame,
+        Alternative::AngleCompliance,
+    ];
 
     /// Number of columns on an arm of `n_joints` joints.
     pub fn n_columns(&self, n_joints: usize) -> usize {

@@ -552,11 +552,13 @@ pub const POSE_COMPLIANCE: &str = "pose_compliance";
 /// lack-of-fit alternative, ascending, then y.
 fn within_selection(problem: &VjmProblem<'_>, model: &[Term]) -> Vec<usize> {
     use stiffness_core::engine::Problem as _;
+    let m = 3 * problem.chain.n_joints();
     let mut sel: Vec<usize> = model
         .iter()
-        .chain(&alternative_terms(3 * problem.chain.n_joints()))
-        .chain(&[Term::Alt(Alternative::AngleCompliance)])
-        .flat_map(|t| problem.columns(*t))
+        .copied()
+        .chain((0..m).map(Term::Spring))
+        .chain(Alternative::IN_LAYOUT.map(Term::Alt))
+        .flat_map(|t| problem.columns(t))
         .collect();
     sel.sort_unstable();
     sel.dedup();

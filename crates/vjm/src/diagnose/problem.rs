@@ -180,10 +180,7 @@ impl<'a> VjmProblem<'a> {
         let y = next;
         let mut next = y + 1;
         let mut alternatives = Vec::new();
-        for a in Alternative::ALL
-            .into_iter()
-            .chain([Alternative::AngleCompliance])
-        {
+        for a in Alternative::IN_LAYOUT {
             alternatives.push((a, next..next + a.n_columns(n)));
             next += a.n_columns(n);
         }
