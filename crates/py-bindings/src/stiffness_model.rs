@@ -293,10 +293,11 @@ impl PyStiffnessModel {
 
 /// Identification that also returns the stiffness model: `(result, StiffnessModel)`, the result
 /// as native Python values ([`crate::results::summary`]).
-/// `data_file` is the measurement file the arrays came from (hashed into the model);
+/// `data_file` is the measurement file the arrays came from (hashed into the model, or
+/// `data_sha256` recorded when the reader hashed what it read);
 /// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
 #[pyfunction]
-#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false, allow_outside_limits = false, gravity = None))]
+#[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false, allow_outside_limits = false, gravity = None, data_sha256 = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn vjm_identify_model<'py>(
     py: Python<'py>,
@@ -315,6 +316,7 @@ pub fn vjm_identify_model<'py>(
     robust_covariance: bool,
     allow_outside_limits: bool,
     gravity: Option<[f64; 3]>,
+    data_sha256: Option<String>,
 ) -> PyResult<(Bound<'py, PyAny>, PyStiffnessModel)> {
     let args = IdentifyArgs {
         q,
@@ -333,7 +335,10 @@ pub fn vjm_identify_model<'py>(
         py,
         model,
         args,
-        Some(data_file.as_deref()),
+        Some(data_file.as_deref().map(|path| crate::vjm::DataFile {
+            path,
+            sha256: data_sha256.as_deref(),
+        })),
         robust_covariance,
     )?;
     let result = crate::results::summary(py, &id)?;

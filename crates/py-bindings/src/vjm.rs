@@ -318,6 +318,14 @@ pub(crate) struct IdentifyArgs<'py, 'a> {
     pub gravity: Option<[f64; 3]>,
 }
 
+/// The measurement file an identification's arrays were read from: its path and, when the
+/// reader hashed the bytes it read, their SHA-256 (else the file is hashed now).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DataFile<'a> {
+    pub path: &'a str,
+    pub sha256: Option<&'a str>,
+}
+
 impl PyRobot {
     /// Identification; with `model_data` also the [`vjm::StiffnessModel`], built in the same
     /// call so that it cannot drift from the result. `model_data = Some(Some(path))` records the
@@ -330,7 +338,7 @@ impl PyRobot {
         py: Python<'py>,
         model: &Bound<'py, PyAny>,
         a: IdentifyArgs<'py, '_>,
-        model_data: Option<Option<&str>>,
+        model_data: Option<Option<DataFile<'_>>>,
         robust: bool,
     ) -> PyResult<(
         vjm::Identification,
@@ -356,7 +364,13 @@ impl PyRobot {
             return Ok((id, None, Vec::new()));
         };
         let data = match file {
-            Some(path) => vjm::DataSource::file(path, q.rows).py()?,
+            Some(DataFile {
+                path,
+                sha256: Some(sha256),
+            }) => vjm::DataSource::file_with_sha256(path, q.rows, sha256.to_string()).py()?,
+            Some(DataFile { path, sha256: None }) => {
+                run(py, || vjm::DataSource::file(path, q.rows))?.py()?
+            }
             None => vjm::DataSource::in_memory(q.rows),
         };
         let (built, warnings) = run(py, || {

@@ -14,28 +14,35 @@ use crate::interrupt::run_interruptible;
 use crate::vjm::PyRobot;
 
 /// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
-/// (N, 3) or None, `pose` `list[int]` or None, `set` `list[str]` or None.
-pub fn dataset_to_dict<'py>(py: Python<'py>, d: &Dataset<'_>) -> PyResult<Bound<'py, PyDict>> {
+/// (N, 3) or None, `pose` (N,) int64 or None, `set` `list[str]` or None. The columns are moved
+/// into the arrays (a 10⁶-row file is not copied again); `set` holds two shared strings.
+pub fn dataset_to_dict<'py>(py: Python<'py>, d: Dataset<'_>) -> PyResult<Bound<'py, PyDict>> {
     let n = d.len();
+    let c = d.into_columns();
     let out = PyDict::new(py);
-    out.set_item("q", to_numpy(py, d.q_flat().to_vec(), &[n, d.n_joints()])?)?;
-    out.set_item("wrench", to_numpy(py, d.wrench_flat().to_vec(), &[n, 6])?)?;
-    out.set_item(
-        "displacement",
-        to_numpy(py, d.displacement_flat().to_vec(), &[n, 3])?,
-    )?;
-    let rotation: Option<Vec<f64>> = (0..n)
-        .map(|i| d.rotation(i))
-        .collect::<Option<Vec<[f64; 3]>>>()
-        .map(|v| v.concat());
-    match rotation {
+    out.set_item("q", to_numpy(py, c.q, &[n, c.n_joints])?)?;
+    out.set_item("wrench", to_numpy(py, c.wrench, &[n, 6])?)?;
+    out.set_item("displacement", to_numpy(py, c.displacement, &[n, 3])?)?;
+    match c.rotation {
         Some(r) => out.set_item("rotation", to_numpy(py, r, &[n, 3])?)?,
         None => out.set_item("rotation", py.None())?,
     }
-    let pose: Option<Vec<i64>> = (0..n).map(|i| d.pose(i)).collect();
-    out.set_item("pose", pose)?;
-    let set: Option<Vec<&str>> = (0..n).map(|i| d.set(i).map(SetLabel::as_str)).collect();
-    out.set_item("set", set)?;
+    match c.pose {
+        Some(p) => out.set_item("pose", numpy::PyArray1::from_vec(py, p))?,
+        None => out.set_item("pose", py.None())?,
+    }
+    match c.set {
+        Some(labels) => {
+            let train = pyo3::types::PyString::new(py, SetLabel::Train.as_str());
+            let test = pyo3::types::PyString::new(py, SetLabel::Test.as_str());
+            let items = labels.iter().map(|l| match l {
+                SetLabel::Train => &train,
+                SetLabel::Test => &test,
+            });
+            out.set_item("set", PyList::new(py, items)?)?
+        }
+        None => out.set_item("set", py.None())?,
+    }
     Ok(out)
 }
 
@@ -77,8 +84,10 @@ pub fn vjm_read_csv<'py>(
     path: std::path::PathBuf,
     n_joints: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let data = run(py, || Dataset::read_csv(&path, n_joints))?.py()?;
-    dataset_to_dict(py, &data)
+    let (data, sha256) = run(py, || Dataset::read_csv_with_sha256(&path, n_joints))?.py()?;
+    let out = dataset_to_dict(py, data)?;
+    out.set_item("sha256", sha256)?;
+    Ok(out)
 }
 
 /// Validates arrays as a measurement table and returns the CSV text (full precision).
@@ -389,8 +398,10 @@ pub fn vjm_simulate<'py>(
         }
     })?
     .map_err(IntoPyErr::into_py_err)?;
-    let out = dataset_to_dict(py, &campaign.dataset)?;
     let n = campaign.dataset.len();
+    let mut buf = Vec::new();
+    campaign.dataset.to_writer(&mut buf).py()?;
+    let out = dataset_to_dict(py, campaign.dataset)?;
     out.set_item(
         "true_displacement",
         to_numpy(py, campaign.true_displacement.concat(), &[n, 3])?,
@@ -400,8 +411,6 @@ pub fn vjm_simulate<'py>(
         to_numpy(py, campaign.applied_wrench.concat(), &[n, 6])?,
     )?;
     out.set_item("tip", to_numpy(py, campaign.tip.concat(), &[n, 3])?)?;
-    let mut buf = Vec::new();
-    campaign.dataset.to_writer(&mut buf).py()?;
     out.set_item(
         "csv",
         String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))?,

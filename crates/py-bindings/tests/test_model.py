@@ -4,6 +4,7 @@ and bad input on the command line (one line, exit 1, nothing written)."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import sys
 import sysconfig
@@ -179,6 +180,8 @@ def test_cli_identify_save_then_predict(saved, panda, tmp_path):
     doc = json.loads((saved / "m.json").read_text())
     data = doc["model"]["data"]
     assert data["file"] == "c.csv" and len(data["sha256"]) == 64
+    # The reader's hash, taken as it read, is the file's (hashlib: an independent code path).
+    assert data["sha256"] == hashlib.sha256((saved / "c.csv").read_bytes()).hexdigest()
     proc = run_cli(["predict", "vjm", "m.json", "c.csv", "--out", "p.csv"], cwd=saved)
     assert proc.returncode == 0, proc.stderr
     assert "rotations unavailable" in proc.stdout
@@ -306,3 +309,25 @@ def test_cli_identify_save_into_a_missing_folder_writes_nothing(saved, tmp_path)
     assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "--save" in proc.stderr
     assert listing(tmp_path) == before
+
+
+def test_a_read_file_is_fingerprinted_once_and_its_hash_recorded(saved, panda, tmp_path):
+    from robot_stiffness.vjm import DataFile, read_measurements
+
+    path = saved / "c.csv"
+    m = read_measurements(path, panda.n_joints)
+    expected = hashlib.sha256(path.read_bytes()).hexdigest()
+    assert m.source == DataFile(str(path), expected)
+    # Provenance is not content: the same rows from arrays compare equal.
+    assert m == type(m)(q=m.q, wrench=m.wrench, displacement=m.displacement, pose=m.pose, set=m.set)
+    # The recorded hash is the one the reader took, even if the file changes afterwards.
+    copy = tmp_path / "c.csv"
+    copy.write_bytes(path.read_bytes())
+    mc = read_measurements(copy, panda.n_joints)
+    copy.write_text("changed after reading\n")
+    ident = panda.identify(mc.q, mc.wrench, mc.displacement, data_file=mc.source, gravity=None)
+    ident.save(tmp_path / "m.json")
+    data = json.loads((tmp_path / "m.json").read_text())["model"]["data"]
+    assert (data["file"], data["sha256"]) == (str(copy), expected)
+    with pytest.raises(ValueError, match="64 lowercase hex digits"):
+        panda.identify(mc.q, mc.wrench, mc.displacement, data_file=DataFile(str(copy), "XYZ"), gravity=None)

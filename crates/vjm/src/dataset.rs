@@ -33,6 +33,7 @@ use std::path::{Path, PathBuf};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
 use stiffness_core::num::Short;
 use stiffness_core::table::{write_csv, CellKind, Column, CsvReader, Layout, Table, TableError};
@@ -356,6 +357,27 @@ pub struct Dataset<'a> {
     set: Option<Vec<SetLabel>>,
 }
 
+/// A [`Dataset`]'s columns, owned and row-major ([`Dataset::into_columns`]): the same units and
+/// frames as the dataset's accessors.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct DatasetColumns {
+    /// Actuated joints per configuration.
+    pub n_joints: usize,
+    /// Joint angles, N×n, rad.
+    pub q: Vec<f64>,
+    /// Wrenches `[fx, fy, fz, mx, my, mz]`, N×6, base frame, N and N·m.
+    pub wrench: Vec<f64>,
+    /// Tip displacements, N×3, base frame, m.
+    pub displacement: Vec<f64>,
+    /// Tip rotation vectors, N×3, base frame, rad, when the table has them.
+    pub rotation: Option<Vec<f64>>,
+    /// Pose ids, when the table has them.
+    pub pose: Option<Vec<i64>>,
+    /// Set labels, when the table has them.
+    pub set: Option<Vec<SetLabel>>,
+}
+
 const WRENCH_COLUMNS: [&str; 6] = ["fx", "fy", "fz", "mx", "my", "mz"];
 const DISPLACEMENT_COLUMNS: [&str; 3] = ["dx", "dy", "dz"];
 const ROTATION_COLUMNS: [&str; 3] = ["rx", "ry", "rz"];
@@ -469,7 +491,24 @@ pub(crate) fn check_cells(
         }
     };
     let rows = q.len().checked_div(n_joints).unwrap_or(0);
-    for i in 0..rows {
+    // The first failing row is found on every core; its message is built by the loop below.
+    let row_fails = |i: usize| {
+        q[i * n_joints..(i + 1) * n_joints]
+            .iter()
+            .any(|&v| fails(v, MAX_PLAUSIBLE_JOINT_ANGLE))
+            || wrench.is_some_and(|w| (0..6).any(|k| fails(w[i * 6 + k], WRENCH_CAPS[k])))
+            || displacement
+                .is_some_and(|d| (0..3).any(|k| fails(d[i * 3 + k], MAX_PLAUSIBLE_DISPLACEMENT)))
+            || rotation.is_some_and(|r| (0..3).any(|k| fails(r[i * 3 + k], MAX_PLAUSIBLE_ROTATION)))
+    };
+    let Some(first) = (0..rows)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .find_first(|&i| row_fails(i))
+    else {
+        return Ok(());
+    };
+    for i in first..rows {
         for j in 0..n_joints {
             let v = q[i * n_joints + j];
             if fails(v, MAX_PLAUSIBLE_JOINT_ANGLE) {
@@ -871,7 +910,19 @@ impl<'a> Dataset<'a> {
         path: impl AsRef<Path>,
         n_joints: usize,
     ) -> Result<Dataset<'static>, DatasetError> {
-        Dataset::read_table(CsvReader::open(path)?, n_joints)
+        Ok(Dataset::read_table(CsvReader::open(path)?, n_joints)?.0)
+    }
+
+    /// [`Dataset::read_csv`] and the SHA-256 (lowercase hex) of exactly the bytes read, taken
+    /// in the same pass (what a saved model records as its data's fingerprint:
+    /// [`DataSource::file_with_sha256`](crate::stiffness_model::DataSource::file_with_sha256)).
+    pub fn read_csv_with_sha256(
+        path: impl AsRef<Path>,
+        n_joints: usize,
+    ) -> Result<(Dataset<'static>, String), DatasetError> {
+        let (data, sha256) = Dataset::read_table(CsvReader::open_hashing(path)?, n_joints)?;
+        let sha256 = sha256.expect("a hashing reader returns its hash");
+        Ok((data, crate::hashing::hex(&sha256)))
     }
 
     /// Reads and validates a measurement file from any reader (see the module docs for columns).
@@ -879,7 +930,7 @@ impl<'a> Dataset<'a> {
         reader: impl Read,
         n_joints: usize,
     ) -> Result<Dataset<'static>, DatasetError> {
-        Dataset::read_table(CsvReader::from_reader(reader)?, n_joints)
+        Ok(Dataset::read_table(CsvReader::from_reader(reader)?, n_joints)?.0)
     }
 
     /// The rows of an opened table (the one reader of `stiffness_core::table`: chunked, on
@@ -887,7 +938,7 @@ impl<'a> Dataset<'a> {
     fn read_table<R: Read>(
         reader: CsvReader<R>,
         n_joints: usize,
-    ) -> Result<Dataset<'static>, DatasetError> {
+    ) -> Result<(Dataset<'static>, Option<[u8; 32]>), DatasetError> {
         let headers = reader.header();
         if headers.iter().all(|h| h.is_empty()) {
             return Err(DatasetError::NoHeader);
@@ -1003,7 +1054,7 @@ impl<'a> Dataset<'a> {
         )
         .map_err(|e| e.at_file_lines(&table))?;
         check_information(&wrench, &displacement)?;
-        Ok(Dataset {
+        let data = Dataset {
             n_joints,
             q: Cow::Owned(q),
             wrench: Cow::Owned(wrench),
@@ -1011,7 +1062,8 @@ impl<'a> Dataset<'a> {
             rotation: rotation.map(Cow::Owned),
             pose: pose.map(Cow::Owned),
             set,
-        })
+        };
+        Ok((data, table.sha256()))
     }
 
     /// Writes the dataset as CSV to `path`, atomically: the data go to a temporary file in the
@@ -1104,6 +1156,20 @@ impl<'a> Dataset<'a> {
     /// Actuated joints per configuration.
     pub fn n_joints(&self) -> usize {
         self.n_joints
+    }
+
+    /// The columns, owned: moved out when the dataset owns them (a file read), copied when it
+    /// borrows the caller's arrays. What a binding hands over without a copy of 10⁶ rows.
+    pub fn into_columns(self) -> DatasetColumns {
+        DatasetColumns {
+            n_joints: self.n_joints,
+            q: self.q.into_owned(),
+            wrench: self.wrench.into_owned(),
+            displacement: self.displacement.into_owned(),
+            rotation: self.rotation.map(Cow::into_owned),
+            pose: self.pose.map(Cow::into_owned),
+            set: self.set,
+        }
     }
 
     /// Joint angles of row `i`, rad.
@@ -1264,16 +1330,16 @@ fn joint_columns(found: usize) -> String {
 /// zero (shared by the file reader and [`Dataset::new`]).
 fn check_information(wrench: &[f64], displacement: &[f64]) -> Result<(), DatasetError> {
     let rows = displacement.len() / 3;
-    if wrench.iter().all(|&v| v == 0.0) {
+    // The largest |force| and |moment| component, in one pass over the rows.
+    let (force, moment) = wrench.chunks_exact(6).fold((0.0f64, 0.0f64), |(f, m), w| {
+        (
+            f.max(w[0].abs()).max(w[1].abs()).max(w[2].abs()),
+            m.max(w[3].abs()).max(w[4].abs()).max(w[5].abs()),
+        )
+    });
+    if force == 0.0 && moment == 0.0 {
         return Err(DatasetError::NoLoad { rows });
     }
-    let largest = |k: std::ops::Range<usize>| {
-        wrench
-            .chunks_exact(6)
-            .flat_map(|w| w[k.clone()].iter())
-            .fold(0.0f64, |a, v| a.max(v.abs()))
-    };
-    let (force, moment) = (largest(0..3), largest(3..6));
     if force < MIN_INFORMATIVE_FORCE && moment < MIN_INFORMATIVE_MOMENT {
         return Err(DatasetError::NegligibleLoad {
             rows,

@@ -25,7 +25,8 @@ pub fn sha256_hex_reader(mut source: impl std::io::Read) -> std::io::Result<Stri
     }
 }
 
-fn hex(digest: &[u8]) -> String {
+/// Lowercase hex of a digest.
+pub(crate) fn hex(digest: &[u8]) -> String {
     const DIGITS: &[u8; 16] = b"0123456789abcdef";
     let mut s = String::with_capacity(2 * digest.len());
     for b in digest {

@@ -198,6 +198,7 @@ def vjm_identify_model(
     robust_covariance: bool = False,
     allow_outside_limits: bool = False,
     gravity: Optional[Tuple[float, float, float]] = None,
+    data_sha256: Optional[str] = None,
 ) -> Tuple[Dict[str, _CoreValue], StiffnessModel]: ...
 def vjm_read_poses(path: _Path, robot: Robot) -> Tuple[_F64, Optional[_F64], Optional[List[int]]]: ...
 def vjm_write_predictions(

@@ -23,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -34,6 +34,7 @@ from ._errors import ArgumentTypeError
 from .model import GearCurve
 
 if TYPE_CHECKING:
+    from ._vjm_data import DataFile
     from .vjm import Identification, Robot
 
 #: Findings that are errors of the measurement, corrected in the rows before the fit.
@@ -77,7 +78,7 @@ def diagnosed_model(
     diagnosis: Any,
     *,
     gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
-    data_file: Optional[str] = None,
+    data_file: Union[str, DataFile, None] = None,
     allow_outside_limits: bool = False,
 ) -> DiagnosedModel:
     """The spring model of ``diagnosis`` (of :func:`~robot_stiffness.vjm.diagnose` on ``data``,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
@@ -28,6 +28,17 @@ PathLike = Union[str, "os.PathLike[str]"]
 ProgressCallback = Callable[[str, int, int], None]
 
 
+@dataclass(frozen=True)
+class DataFile:
+    """The measurement file a table was read from: ``path`` as given and ``sha256``, the
+    SHA-256 (lowercase hex) of exactly the bytes the reader read, taken in the same pass.
+    ``Robot.identify(data_file=m.source)`` records it in the model without reading the file a
+    second time (which may have changed since)."""
+
+    path: str
+    sha256: str
+
+
 @dataclass(eq=False)
 class Measurements(FieldEq):
     """A validated VJM measurement table (one loaded measurement per row, base frame, SI).
@@ -43,9 +54,12 @@ class Measurements(FieldEq):
     rotation: Optional[Array] = None
     pose: Optional[npt.NDArray[np.int64]] = None
     set: Optional[List[str]] = None
+    # Where the rows came from, not what they are: left out of ==.
+    source: Optional[DataFile] = field(default=None, compare=False)
 
     @classmethod
-    def _from_core(cls, d: Dict[str, Any]) -> "Measurements":
+    def _from_core(cls, d: Dict[str, Any], path: Optional[PathLike] = None) -> "Measurements":
+        sha = d.get("sha256")
         return cls(
             q=d["q"],
             wrench=d["wrench"],
@@ -53,6 +67,7 @@ class Measurements(FieldEq):
             rotation=d["rotation"],
             pose=None if d["pose"] is None else np.asarray(d["pose"], dtype=np.int64),
             set=None if d["set"] is None else list(d["set"]),
+            source=None if path is None or sha is None else DataFile(os.fspath(path), str(sha)),
         )
 
     def __len__(self) -> int:
@@ -109,7 +124,8 @@ def read_measurements(path: PathLike, n_joints: int) -> Measurements:
     Columns: ``q1..qn`` (rad), ``fx,fy,fz`` (N), ``mx,my,mz`` (N·m) — the wrench at the tip
     point, base frame —, ``dx,dy,dz`` (m, base frame), optional ``rx,ry,rz`` (rad), ``pose``,
     ``set``. Errors name the line and column (missing column, NaN, a displacement in mm…);
-    a missing file raises :class:`~robot_stiffness.MissingFileError`.
+    a missing file raises :class:`~robot_stiffness.MissingFileError`. A CSV file's
+    ``Measurements.source`` is its :class:`DataFile` (path and the SHA-256 of the bytes read).
 
     A Parquet (``.parquet``, ``.pq``) or Arrow IPC (``.arrow``, ``.feather``, ``.ipc``) file,
     told by its suffix, is read with pyarrow (the ``[parquet]`` extra) and gets the checks of
@@ -123,7 +139,7 @@ def read_measurements(path: PathLike, n_joints: int) -> Measurements:
             return as_measurements(table, n_joints)
         except DataFileError as e:
             raise DataFileError(f"{os.fspath(path)}: {e}") from None
-    return Measurements._from_core(_core.vjm_read_csv(path, n_joints))
+    return Measurements._from_core(_core.vjm_read_csv(path, n_joints), path)
 
 
 def _pose_ids(values: Array) -> npt.NDArray[np.int64]:

@@ -471,7 +471,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
             rotation=data.rotation if args.use_rotations else None,
             nonnegative=args.nonnegative,
             method=args.method,
-            data_file=args.data,
+            data_file=data.source or args.data,  # the hash the reader took, else the path
             robust_covariance=save_out is not None,
             allow_outside_limits=args.allow_outside_limits,
             gravity=_gravity(args),
@@ -619,7 +619,8 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
         from .vjm import diagnosed_model
 
         with _data_file(args.data):
-            saved = in_worker(diagnosed_model, robot, data, result, gravity=_gravity(args), data_file=args.data,
+            saved = in_worker(diagnosed_model, robot, data, result, gravity=_gravity(args),
+                              data_file=data.source or args.data,
                               allow_outside_limits=args.allow_outside_limits)
         cli_model.write_model(save_out, saved.identification)
     _write_diagnosis(result, json_out, rows_out)

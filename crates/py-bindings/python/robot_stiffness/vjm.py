@@ -51,6 +51,7 @@ from ._errors import (
 )
 from ._vjm_data import (
     Campaign,
+    DataFile,
     Diagnosis,
     Measurements,
     diagnose,
@@ -90,6 +91,7 @@ __all__ = [
     "Combination",
     "ModelSpec",
     "Measurements",
+    "DataFile",
     "Campaign",
     "Diagnosis",
     "read_measurements",
@@ -615,7 +617,7 @@ class Robot:
         nonnegative: bool = False,
         dense: bool = False,
         method: str = "auto",
-        data_file: Optional[PathLike] = None,
+        data_file: Union[PathLike, DataFile, None] = None,
         robust_covariance: bool = False,
         allow_outside_limits: bool = False,
         gravity: Optional[Sequence[float]] = DEFAULT_GRAVITY,
@@ -635,7 +637,9 @@ class Robot:
         ``"auto"`` (normal equations, re-read through QR when the column-scaled design's condition
         number exceeds 1e4), ``"normal_equations"`` or ``"qr"``; ``Identification.method`` says
         which one produced the result. ``data_file``: the measurement file the arrays were read
-        from; its path and SHA-256 are recorded in the saved model (``Identification.save``).
+        from; its path and SHA-256 are recorded in the saved model (``Identification.save``):
+        a path is hashed now, a :class:`DataFile` (``Measurements.source`` of a file read with
+        :func:`read_measurements`) gives the hash its reader took.
         ``robust_covariance``: give the stiffness model the cluster-robust covariance (valid for
         force-sensor noise, which is correlated within a measurement; one more pass over the data,
         about 10 µs per measurement) instead of the identification's own; the CLI's ``--save``
@@ -769,10 +773,12 @@ class Robot:
             nonnegative=bool(nonnegative),
             dense=bool(dense),
             method=str(method),
-            data_file=None if data_file is None else os.fspath(data_file),
+            data_file=None if data_file is None else (
+                data_file.path if isinstance(data_file, DataFile) else os.fspath(data_file)),
             robust_covariance=bool(robust_covariance),
             allow_outside_limits=bool(allow_outside_limits),
             gravity=None if gravity is None else gravity_vector(gravity),
+            data_sha256=data_file.sha256 if isinstance(data_file, DataFile) else None,
         )
         return core, core_model
 

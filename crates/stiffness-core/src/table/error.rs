@@ -84,4 +84,16 @@ impl TableError {
         }
         self
     }
+
+    /// The error of a piece of the file whose first line is file line `line`, with its line
+    /// counted from the start of the file (the piece counted from 0).
+    pub(crate) fn after_lines(mut self, line: u64) -> Self {
+        if let TableError::Malformed { line: l, .. }
+        | TableError::Parse { line: l, .. }
+        | TableError::Label { line: l, .. } = &mut self
+        {
+            *l += line;
+        }
+        self
+    }
 }

@@ -1,15 +1,18 @@
 //! The CSV reader: a header, then chunks of complete lines parsed on every core.
 //!
-//! Memory is bounded by the output columns plus one chunk ([`CHUNK_BYTES`]): the file is read
-//! a chunk at a time, each chunk's complete lines are split into one piece per thread at line
-//! boundaries, the pieces are parsed in parallel and appended in file order. The result does
-//! not depend on the thread count: pieces are concatenated in order, and the error reported is
-//! the first one in file order.
+//! Memory is bounded by the output columns plus two chunks ([`CHUNK_BYTES`]) and one chunk's
+//! parsed rows: the file is read a chunk at a time, each chunk's complete lines are split into
+//! a few pieces per thread at line boundaries and parsed on the pool, while the calling thread
+//! reads the next chunk, appends the previous chunk's rows in file order (and hashes, when
+//! asked). The result does not depend on the thread count: pieces are concatenated in order,
+//! their lines counted from their own start and made the file's in that order, and the error
+//! reported is the first one in file order.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
+use sha2::{Digest, Sha256};
 
 use super::error::TableError;
 use crate::Cancel;
@@ -19,6 +22,10 @@ pub const CHUNK_BYTES: usize = 8 << 20;
 
 /// Pieces smaller than this are not split further (thread start-up would cost more).
 const MIN_PIECE_BYTES: usize = 256 << 10;
+
+/// Pieces per thread in a chunk: more than one, so that the thread that reads the next chunk
+/// meanwhile takes its share of the parsing when it is done.
+const PIECES_PER_THREAD: usize = 4;
 
 /// What the cells of a group of columns become.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -104,9 +111,18 @@ pub struct Table {
     /// (row, line) where the line stops being the previous row's + 1 (after a blank line);
     /// the first entry is row 0.
     breaks: Vec<(usize, u64)>,
+    /// SHA-256 of every byte of the file, when the reader was asked for it.
+    sha256: Option<[u8; 32]>,
 }
 
 impl Table {
+    /// SHA-256 of exactly the bytes read (header, rows, blank lines, BOM), when the reader was
+    /// opened with [`CsvReader::open_hashing`]: the fingerprint of what the arrays came from,
+    /// with no second read of the file (which may have changed meanwhile).
+    pub fn sha256(&self) -> Option<[u8; 32]> {
+        self.sha256
+    }
+
     /// Rows read.
     pub fn rows(&self) -> usize {
         self.rows
@@ -178,29 +194,45 @@ pub struct CsvReader<R> {
     /// Bytes consumed before `buf` (for the row estimate).
     consumed: u64,
     header: Vec<String>,
+    /// SHA-256 of the bytes consumed so far, when asked for ([`CsvReader::open_hashing`]).
+    hasher: Option<Sha256>,
 }
 
 impl CsvReader<std::fs::File> {
     /// Opens `path` and reads its header.
     pub fn open(path: impl AsRef<Path>) -> Result<Self, TableError> {
-        let path = path.as_ref();
+        Self::open_file(path.as_ref(), None)
+    }
+
+    /// [`CsvReader::open`], also hashing every byte read ([`Table::sha256`]). The hash of a
+    /// chunk is taken while the pool parses it, so it costs little more than the read.
+    pub fn open_hashing(path: impl AsRef<Path>) -> Result<Self, TableError> {
+        Self::open_file(path.as_ref(), Some(Sha256::new()))
+    }
+
+    fn open_file(path: &Path, hasher: Option<Sha256>) -> Result<Self, TableError> {
         let io = |source| TableError::Io {
             path: path.to_path_buf(),
             source,
         };
         let file = std::fs::File::open(path).map_err(io)?;
         let size = file.metadata().map_err(io)?.len();
-        Self::start(file, path.to_path_buf(), Some(size))
+        Self::start(file, path.to_path_buf(), Some(size), hasher)
     }
 }
 
 impl<R: Read> CsvReader<R> {
     /// Reads the header from any reader.
     pub fn from_reader(source: R) -> Result<Self, TableError> {
-        Self::start(source, PathBuf::from("<reader>"), None)
+        Self::start(source, PathBuf::from("<reader>"), None, None)
     }
 
-    fn start(source: R, path: PathBuf, size: Option<u64>) -> Result<Self, TableError> {
+    fn start(
+        source: R,
+        path: PathBuf,
+        size: Option<u64>,
+        hasher: Option<Sha256>,
+    ) -> Result<Self, TableError> {
         let mut reader = CsvReader {
             source,
             path,
@@ -211,6 +243,7 @@ impl<R: Read> CsvReader<R> {
             line: 1,
             consumed: 0,
             header: Vec::new(),
+            hasher,
         };
         reader.fill()?;
         if reader.buf[..reader.filled].starts_with("\u{feff}".as_bytes()) {
@@ -250,6 +283,30 @@ impl<R: Read> CsvReader<R> {
         &self.header
     }
 
+    /// Tops the buffer up from the source (until full or at end of input).
+    fn fill(&mut self) -> Result<(), TableError> {
+        fill_buffer(
+            &mut self.source,
+            &self.path,
+            &mut self.buf,
+            &mut self.filled,
+            &mut self.eof,
+        )
+    }
+
+    fn consume(&mut self, n: usize, lines: u64) {
+        if let Some(h) = &mut self.hasher {
+            h.update(&self.buf[..n]);
+        }
+        self.buf.copy_within(n..self.filled, 0);
+        self.filled -= n;
+        self.line += lines;
+        self.consumed += n as u64;
+    }
+}
+
+/// The end (after its `\n`) of the first line of `data`; at end of input the whole rest.
+impl<R: Read> CsvReader<R> {
     /// Reads every row into the layout's groups; polls `cancel` once per chunk.
     pub fn read(mut self, layout: &Layout, cancel: &Cancel) -> Result<Table, TableError> {
         let width = self.header.len();
@@ -268,17 +325,29 @@ impl<R: Read> CsvReader<R> {
             slots,
             groups: &layout.groups,
         };
-        let mut table = Table {
-            rows: 0,
-            values: layout.groups.iter().map(|g| Values::new(g.kind)).collect(),
-            breaks: vec![(0, self.line)],
+        let mut merged = Merged {
+            table: Table {
+                rows: 0,
+                values: layout.groups.iter().map(|g| Values::new(g.kind)).collect(),
+                breaks: vec![(0, self.line)],
+                sha256: None,
+            },
+            line: self.line,
+            bytes: self.consumed,
+            size: self.size,
+            reserved: false,
         };
-        let mut reserved = false;
+        // Chunk k's pieces are parsed on the pool while this thread reads chunk k + 1 into
+        // `spare` and appends chunk k − 1's rows (`pending`): the serial work hides behind
+        // the parallel work. Pieces count their lines themselves (relative to their start);
+        // the merge, in file order, makes them the file's lines.
+        let mut spare = vec![0; CHUNK_BYTES];
+        let mut pending: Option<(Vec<Piece>, usize)> = None;
+        self.fill()?;
         loop {
             if cancel.is_cancelled() {
                 return Err(TableError::Cancelled);
             }
-            self.fill()?;
             let data = &self.buf[..self.filled];
             if data.is_empty() {
                 break;
@@ -287,87 +356,149 @@ impl<R: Read> CsvReader<R> {
                 Some(k) => k + 1,
                 None if self.eof => data.len(),
                 None => {
+                    if let Some((pieces, bytes)) = pending.take() {
+                        merged.append(pieces, bytes, &layout.groups)?;
+                    }
                     return Err(TableError::Malformed {
-                        line: self.line,
+                        line: merged.line,
                         message: format!("a line longer than {CHUNK_BYTES} bytes"),
-                    })
+                    });
                 }
             };
-            let pieces = split_pieces(&data[..end], rayon::current_num_threads());
-            let mut first_lines = Vec::with_capacity(pieces.len());
-            let mut line = self.line;
-            for piece in &pieces {
-                first_lines.push(line);
-                line += memchr::memchr_iter(b'\n', piece).count() as u64;
+            let pieces = split_pieces(
+                &data[..end],
+                PIECES_PER_THREAD * rayon::current_num_threads(),
+            );
+            // The incomplete last line starts the next chunk.
+            let tail = data.len() - end;
+            spare[..tail].copy_from_slice(&data[end..]);
+            let (mut spare_filled, mut spare_eof) = (tail, self.eof);
+            let mut parsed: Vec<Piece> = Vec::new();
+            // The source need not be `Send`: it stays on this thread.
+            let (next, earlier) = rayon::in_place_scope(|scope| {
+                scope.spawn(|_| {
+                    parsed = pieces
+                        .par_iter()
+                        .map(|piece| parse_piece(piece, &plan))
+                        .collect();
+                });
+                let next = fill_buffer(
+                    &mut self.source,
+                    &self.path,
+                    &mut spare,
+                    &mut spare_filled,
+                    &mut spare_eof,
+                );
+                let earlier = match pending.take() {
+                    Some((pieces, bytes)) => merged.append(pieces, bytes, &layout.groups),
+                    None => Ok(()),
+                };
+                if let Some(h) = &mut self.hasher {
+                    h.update(&data[..end]);
+                }
+                (next, earlier)
+            });
+            // Errors in file order: the earlier chunk's, this chunk's, then the read's.
+            earlier?;
+            if let Err(e) = next {
+                merged.append(parsed, end, &layout.groups)?;
+                return Err(e);
             }
-            let mut parsed: Vec<Piece> = pieces
-                .par_iter()
-                .zip(first_lines.par_iter())
-                .map(|(piece, &first)| parse_piece(piece, first, &plan))
-                .collect();
-            for piece in &mut parsed {
-                if let Some(e) = piece.error.take() {
-                    return Err(e.after_rows(table.rows));
-                }
-                for &(row, line) in &piece.breaks {
-                    let row = table.rows + row;
-                    let &(r, l) = table.breaks.last().expect("row 0 has a break");
-                    if row == 0 {
-                        table.breaks[0] = (0, line);
-                    } else if l + (row - r) as u64 != line {
-                        table.breaks.push((row, line));
-                    }
-                }
-                for (all, part) in table.values.iter_mut().zip(piece.values.iter_mut()) {
-                    all.append(part);
-                }
-                table.rows += piece.rows;
-            }
-            // After the first chunk, reserve for the whole file from its size (no doubling).
-            if !reserved {
-                reserved = true;
-                if let Some(size) = self.size {
-                    let per_row = (self.consumed + end as u64) as f64 / table.rows.max(1) as f64;
-                    let rows = (size as f64 / per_row * 1.02) as usize;
-                    let more = rows.saturating_sub(table.rows);
-                    for (values, spec) in table.values.iter_mut().zip(&layout.groups) {
-                        values.reserve(more * spec.columns.len());
-                    }
-                }
-            }
-            self.consume(end, line - self.line);
+            pending = Some((parsed, end));
+            std::mem::swap(&mut self.buf, &mut spare);
+            self.filled = spare_filled;
+            self.eof = spare_eof;
         }
-        Ok(table)
+        if let Some((pieces, bytes)) = pending {
+            merged.append(pieces, bytes, &layout.groups)?;
+        }
+        merged.table.sha256 = self.hasher.map(|h| h.finalize().into());
+        Ok(merged.table)
     }
+}
 
-    /// Tops the buffer up from the source (until full or at end of input).
-    fn fill(&mut self) -> Result<(), TableError> {
-        while !self.eof && self.filled < self.buf.len() {
-            match self.source.read(&mut self.buf[self.filled..]) {
-                Ok(0) => self.eof = true,
-                Ok(n) => self.filled += n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(source) => {
-                    return Err(TableError::Io {
-                        path: self.path.clone(),
-                        source,
-                    })
+/// The rows read so far, in file order, and where the next piece starts.
+struct Merged {
+    table: Table,
+    /// File line of the next piece's first line.
+    line: u64,
+    /// File bytes up to the next piece (for the row estimate).
+    bytes: u64,
+    /// The file's size, when known.
+    size: Option<u64>,
+    reserved: bool,
+}
+
+impl Merged {
+    /// Appends one chunk's pieces (`bytes` long), or returns the first error among them with
+    /// its file line and row.
+    fn append(
+        &mut self,
+        mut pieces: Vec<Piece>,
+        bytes: usize,
+        groups: &[GroupSpec],
+    ) -> Result<(), TableError> {
+        let table = &mut self.table;
+        for piece in &mut pieces {
+            if let Some(e) = piece.error.take() {
+                return Err(e.after_lines(self.line).after_rows(table.rows));
+            }
+            for &(row, line) in &piece.breaks {
+                let (row, line) = (table.rows + row, self.line + line);
+                let &(r, l) = table.breaks.last().expect("row 0 has a break");
+                if row == 0 {
+                    table.breaks[0] = (0, line);
+                } else if l + (row - r) as u64 != line {
+                    table.breaks.push((row, line));
+                }
+            }
+            for (all, part) in table.values.iter_mut().zip(piece.values.iter_mut()) {
+                all.append(part);
+            }
+            table.rows += piece.rows;
+            self.line += piece.lines;
+        }
+        self.bytes += bytes as u64;
+        // After the first chunk, reserve for the whole file from its size (no doubling).
+        if !self.reserved {
+            self.reserved = true;
+            if let Some(size) = self.size {
+                let per_row = self.bytes as f64 / table.rows.max(1) as f64;
+                let rows = (size as f64 / per_row * 1.02) as usize;
+                let more = rows.saturating_sub(table.rows);
+                for (values, spec) in table.values.iter_mut().zip(groups) {
+                    values.reserve(more * spec.columns.len());
                 }
             }
         }
         Ok(())
     }
-
-    /// Drops the first `n` bytes of the buffer, which held `lines` line ends.
-    fn consume(&mut self, n: usize, lines: u64) {
-        self.buf.copy_within(n..self.filled, 0);
-        self.filled -= n;
-        self.line += lines;
-        self.consumed += n as u64;
-    }
 }
 
-/// The end (after its `\n`) of the first line of `data`; at end of input the whole rest.
+/// Reads from `source` into `buf[*filled..]` until it is full or the source ends.
+fn fill_buffer(
+    source: &mut impl Read,
+    path: &Path,
+    buf: &mut [u8],
+    filled: &mut usize,
+    eof: &mut bool,
+) -> Result<(), TableError> {
+    while !*eof && *filled < buf.len() {
+        match source.read(&mut buf[*filled..]) {
+            Ok(0) => *eof = true,
+            Ok(n) => *filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(source) => {
+                return Err(TableError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })
+            }
+        }
+    }
+    Ok(())
+}
+
 fn line_end(data: &[u8], eof: bool) -> Option<usize> {
     match memchr::memchr(b'\n', data) {
         Some(k) => Some(k + 1),
@@ -401,23 +532,28 @@ struct Plan<'a> {
     groups: &'a [GroupSpec],
 }
 
+/// One piece of a chunk, parsed; lines count from the piece's first line (0), the merge
+/// ([`Merged::append`]) makes them the file's.
 struct Piece {
     rows: usize,
     values: Vec<Values>,
-    /// (row in the piece, file line) of every row whose line is not the previous row's + 1,
-    /// and of the piece's first row.
+    /// (row in the piece, line in the piece) of every row whose line is not the previous
+    /// row's + 1, and of the piece's first row.
     breaks: Vec<(usize, u64)>,
+    /// Lines in the piece, blank ones included.
+    lines: u64,
     error: Option<TableError>,
 }
 
-fn parse_piece(piece: &[u8], first_line: u64, plan: &Plan<'_>) -> Piece {
+fn parse_piece(piece: &[u8], plan: &Plan<'_>) -> Piece {
     let mut out = Piece {
         rows: 0,
         values: plan.groups.iter().map(|g| Values::new(g.kind)).collect(),
         breaks: Vec::new(),
+        lines: 0,
         error: None,
     };
-    if let Err(e) = parse_lines(piece, first_line, plan, &mut out) {
+    if let Err(e) = parse_lines(piece, 0, plan, &mut out) {
         out.error = Some(e);
     }
     out
@@ -515,6 +651,7 @@ fn parse_lines(
         line += 1;
         expected = line;
     }
+    out.lines = line - first_line;
     Ok(())
 }
 

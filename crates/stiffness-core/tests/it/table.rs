@@ -202,3 +202,73 @@ proptest! {
         prop_assert_eq!(back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
     }
 }
+
+/// A source that fails after `ok` bytes (a disk or network error mid-file).
+struct FailingAfter<'a> {
+    text: &'a [u8],
+    ok: usize,
+}
+
+impl std::io::Read for FailingAfter<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.ok == 0 {
+            return Err(std::io::Error::other("the disk went away"));
+        }
+        let n = buf.len().min(self.ok).min(self.text.len());
+        buf[..n].copy_from_slice(&self.text[..n]);
+        self.text = &self.text[n..];
+        self.ok -= n;
+        Ok(n)
+    }
+}
+
+/// The next chunk is read while this one is parsed: a read error is reported as such, but a
+/// bad cell before the failure point is reported first (errors in file order).
+#[test]
+fn a_read_error_mid_file_comes_after_the_bad_cells_before_it() {
+    let fail_at = stiffness_core::table::read::CHUNK_BYTES + 4096;
+    for (bad, expect_parse) in [(None, false), (Some(7usize), true), (Some(399_999), false)] {
+        let (text, _) = big_table(bad);
+        let source = FailingAfter {
+            text: text.as_bytes(),
+            ok: fail_at,
+        };
+        let reader = CsvReader::from_reader(source).unwrap();
+        let mut layout = Layout::new();
+        layout.group(
+            CellKind::Float,
+            vec![(0, "i".into()), (1, "x".into()), (2, "y".into())],
+        );
+        match (reader.read(&layout, &Cancel::new()), expect_parse) {
+            (Err(TableError::Parse { row, .. }), true) => assert_eq!(Some(row), bad),
+            (Err(TableError::Io { source, .. }), false) => {
+                assert_eq!(source.to_string(), "the disk went away")
+            }
+            (other, _) => panic!("bad row {bad:?}: unexpected {other:?}"),
+        }
+    }
+}
+
+/// The hash of a read is the SHA-256 of the whole file (BOM, blank lines, CRLF and a last
+/// line without its end included), taken in one pass over a buffer in memory here.
+#[test]
+fn a_hashing_read_fingerprints_every_byte_of_the_file() {
+    use sha2::{Digest, Sha256};
+    let (big, _) = big_table(Some(399_999));
+    let big = big.replace(",oops", ",1.5");
+    let small = "\u{feff}\r\n  x,y\r\n1,2\r\n\r\n3,4".to_string();
+    let dir = std::env::temp_dir().join(format!("table-hash-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (k, text) in [big, small].iter().enumerate() {
+        let path = dir.join(format!("t{k}.csv"));
+        std::fs::write(&path, text).unwrap();
+        let reader = CsvReader::open_hashing(&path).unwrap();
+        let mut layout = Layout::new();
+        layout.group(CellKind::Float, vec![(0, "x".into())]);
+        let table = reader.read(&layout, &Cancel::new()).unwrap();
+        let expected: [u8; 32] = Sha256::digest(text.as_bytes()).into();
+        assert_eq!(table.sha256(), Some(expected), "file {k}");
+        std::fs::remove_file(&path).unwrap();
+    }
+    std::fs::remove_dir(&dir).unwrap();
+}

@@ -241,9 +241,29 @@ impl DataSource {
             source,
         };
         let sha256 = sha256_hex_reader(std::fs::File::open(path).map_err(read)?).map_err(read)?;
+        DataSource::file_with_sha256(path, rows, sha256)
+    }
+
+    /// Data read from `path` whose bytes the reader hashed as it read them
+    /// ([`Dataset::read_csv_with_sha256`](crate::dataset::Dataset::read_csv_with_sha256)):
+    /// `sha256` (64 lowercase hex digits, else an error) is recorded as given, the file is
+    /// not read again.
+    pub fn file_with_sha256(
+        path: impl AsRef<std::path::Path>,
+        rows: usize,
+        sha256: String,
+    ) -> Result<Self, ModelError> {
+        let hex = |c: u8| c.is_ascii_digit() || (b'a'..=b'f').contains(&c);
+        if sha256.len() != 64 || !sha256.bytes().all(hex) {
+            return Err(ModelError::Mismatch {
+                message: format!(
+                    "the data file's SHA-256 must be 64 lowercase hex digits, got {sha256:?}"
+                ),
+            });
+        }
         Ok(DataSource {
             rows,
-            file: Some(path.display().to_string()),
+            file: Some(path.as_ref().display().to_string()),
             sha256: Some(sha256),
         })
     }
