@@ -65,7 +65,7 @@ def phases(robot: Robot, model_path: Path, poses: Path, out: Path, repeat: int) 
     times: Dict[str, float] = {}
     times["read POSES.csv (`_core.vjm_read_poses`)"] = median_time(
         repeat, lambda: _core.vjm_read_poses(str(poses), robot._inner))
-    q, wrench = _core.vjm_read_poses(str(poses), robot._inner)
+    q, wrench, _ = _core.vjm_read_poses(str(poses), robot._inner)
     times["`StiffnessModel.predict`"] = median_time(repeat, lambda: model.predict(q, wrench=wrench))
     pred = model.predict(q, wrench=wrench)
     times["`StiffnessModel.predict_sag`"] = median_time(repeat, lambda: model.predict_sag(q))

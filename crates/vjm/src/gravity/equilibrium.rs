@@ -141,6 +141,29 @@ pub fn static_equilibrium_with_gears(
     q: &[f64],
     loading: &Loading<'_>,
 ) -> Result<Equilibrium, VjmError> {
+    let rest = match loading.gravity {
+        Some(g) => {
+            let mut ws = GravityWorkspace::new(chain, model, &g, loading.payload)?;
+            ws.evaluate(chain, q)?;
+            Some(ws)
+        }
+        None => None,
+    };
+    equilibrium_from(chain, model, compliance, gears, q, loading, rest.as_ref())
+}
+
+/// [`static_equilibrium_with_gears`] given `rest`: a [`GravityWorkspace`] for the loading's
+/// gravity and payload and this `model`, evaluated at `q` (`None` exactly when the loading has
+/// no gravity), so that a batch that evaluates one per row anyway builds none here.
+pub(crate) fn equilibrium_from(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    gears: &[GearCurve],
+    q: &[f64],
+    loading: &Loading<'_>,
+    rest: Option<&GravityWorkspace>,
+) -> Result<Equilibrium, VjmError> {
     check_spring_vector(model, compliance)?;
     let springs = torsion_springs(model, gears)?;
     let curved = CurvedSprings::new(gears, &springs);
@@ -149,9 +172,7 @@ pub fn static_equilibrium_with_gears(
     // weight alone, the torques at θ = 0 come with it (one deflected evaluation fewer).
     let mut tangent = DMatrix::zeros(m, m);
     let mut at_rest: Option<Vec<f64>> = None;
-    if let Some(g) = loading.gravity {
-        let mut ws = GravityWorkspace::new(chain, model, &g, loading.payload)?;
-        ws.evaluate(chain, q)?;
+    if let Some(ws) = rest {
         tangent += ws.stiffness();
         if loading.wrench.is_none() {
             at_rest = Some(ws.torques().to_vec());
@@ -280,14 +301,29 @@ pub fn gravity_sag_with_gears(
     gravity: &Gravity,
     payload: Option<&PointMass>,
 ) -> Result<[f64; 6], VjmError> {
+    let mut ws = GravityWorkspace::new(chain, model, gravity, payload)?;
+    ws.evaluate(chain, q)?;
+    gravity_sag_from(chain, model, compliance, gears, q, &ws)
+}
+
+/// [`gravity_sag_with_gears`] given `rest`, a [`GravityWorkspace`] of this `model` (with the
+/// gravity and payload of the sag) evaluated at `q`.
+pub(crate) fn gravity_sag_from(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    compliance: &[f64],
+    gears: &[GearCurve],
+    q: &[f64],
+    rest: &GravityWorkspace,
+) -> Result<[f64; 6], VjmError> {
     let rigid = chain.forward_kinematics(q)?;
     let loading = Loading {
-        gravity: Some(*gravity),
-        payload,
+        gravity: Some(rest.gravity()),
+        payload: rest.payload(),
         wrench: None,
     };
-    let rest = static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading)?;
-    Ok(tip_difference(&rigid, &rest.tip))
+    let at = equilibrium_from(chain, model, compliance, gears, q, &loading, Some(rest))?;
+    Ok(tip_difference(&rigid, &at.tip))
 }
 
 /// What a measurement under gravity records: the tip under `wrench` minus the tip unloaded,

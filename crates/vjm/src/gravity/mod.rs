@@ -21,6 +21,7 @@ mod equilibrium;
 pub(crate) mod mass;
 mod workspace;
 
+pub(crate) use equilibrium::gravity_sag_from;
 pub use equilibrium::{
     deflection_under_gravity, deflection_under_gravity_with_gears, gravity_sag,
     gravity_sag_with_gears, static_equilibrium, static_equilibrium_with_gears, Equilibrium,

@@ -76,6 +76,18 @@ impl GravityWorkspace {
         &self.model
     }
 
+    /// The gravity it evaluates (base frame, m/s²).
+    pub fn gravity(&self) -> Gravity {
+        Gravity {
+            vector: self.gravity,
+        }
+    }
+
+    /// The payload it carries (a point mass in the tip frame), if any.
+    pub fn payload(&self) -> Option<&PointMass> {
+        self.payload.as_ref()
+    }
+
     /// Evaluates τ_g and K_G at joint positions `q` (rad, checked: n finite values); read them
     /// with [`Self::torques`] and [`Self::stiffness`].
     pub fn evaluate(&mut self, chain: &SerialChain, q: &[f64]) -> Result<(), VjmError> {

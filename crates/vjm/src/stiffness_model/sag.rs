@@ -3,7 +3,7 @@
 
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
-use crate::gravity::{gravity_sag_with_gears, Gravity, GravityWorkspace};
+use crate::gravity::{gravity_sag_from, Gravity, GravityWorkspace};
 use crate::kinematics::Workspace;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
@@ -12,7 +12,7 @@ impl StiffnessModel {
     /// configurations `q` (N×n row-major, rad) under `gravity` (base frame, m/s²), with the
     /// model's springs and the chain's link masses (plus `payload`, a point mass in the tip
     /// frame): `deflection` is `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame) of the exact
-    /// static equilibrium on the deflected chain ([`gravity_sag_with_gears`]: each gear curve
+    /// static equilibrium on the deflected chain ([`gravity_sag_with_gears`](crate::gravity::gravity_sag_with_gears): each gear curve
     /// of the model bends its spring by θ(τ_g)) with what the data determine
     /// ([`StiffnessModel::determined_compliance`]; the minimum-norm member of an aliased family
     /// may have negative entries, which the equilibrium accepts: its members agree on the sag to
@@ -72,8 +72,8 @@ impl StiffnessModel {
                     }
                 }
                 let mut p = self.predict_row(&a, [0.0; 6], &c);
-                let exact =
-                    gravity_sag_with_gears(chain, &model, &c, &gears, qi, gravity, payload)?;
+                // The workspace evaluated at this row gives the equilibrium its start.
+                let exact = gravity_sag_from(chain, &model, &c, &gears, qi, &g)?;
                 p.deflection[..axes].copy_from_slice(&exact[..axes]);
                 *o = p;
             }
