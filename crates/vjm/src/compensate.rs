@@ -343,6 +343,10 @@ fn loaded_tip(
     curved.add_excess(&ws.tau, &mut ws.theta);
     if opts.with_kc {
         let mut converged = false;
+        // The previous change: with their ratio r < ½ the changes still to come sum to at
+        // most change · r / (1 − r) (a linear contraction, r = ‖C K_C‖ ≈ 1e-2 under a tip
+        // load), which ends the iterations a step before the change itself is rounding.
+        let mut previous = f64::NAN;
         for _ in 0..DEFLECTION_MAX_ITERATIONS {
             kc_times(&ws.springs, &wrench, &ws.theta, &mut ws.ktheta);
             let mut change = 0.0f64;
@@ -363,7 +367,14 @@ fn loaded_tip(
             if !scale.is_finite() {
                 break;
             }
-            if change <= 1e-15 * scale || scale == 0.0 {
+            let ratio = change / previous;
+            let left = if ratio < 0.5 {
+                change * ratio / (1.0 - ratio)
+            } else {
+                change
+            };
+            previous = change;
+            if left <= 1e-15 * scale || change <= 1e-15 * scale || scale == 0.0 {
                 converged = true;
                 break;
             }
@@ -413,24 +424,32 @@ trait SmallSymmetric<const D: usize> {
     fn solve_spd(&self, b: &SVector<f64, D>) -> Option<SVector<f64, D>>;
 }
 
-macro_rules! small_symmetric {
-    ($d:literal) => {
-        impl SmallSymmetric<$d> for SMatrix<f64, $d, $d> {
-            /// (0, 0) — reported as singular — when the capped decomposition fails (NaN).
-            fn extreme_eigenvalues(&self) -> (f64, f64) {
-                match stiffness_core::decompose::symmetric_eigen(*self, "task J Jᵀ") {
-                    Ok(e) => (e.eigenvalues.min(), e.eigenvalues.max()),
-                    Err(_) => (0.0, 0.0),
-                }
-            }
-            fn solve_spd(&self, b: &SVector<f64, $d>) -> Option<SVector<f64, $d>> {
-                self.cholesky().map(|c| c.solve(b))
-            }
+impl SmallSymmetric<3> for SMatrix<f64, 3, 3> {
+    /// In closed form (a position task, the common case); (0, 0) — reported as singular —
+    /// for a NaN.
+    fn extreme_eigenvalues(&self) -> (f64, f64) {
+        match stiffness_core::decompose::symmetric_eigenvalues_3(self) {
+            Some([lo, _, hi]) => (lo, hi),
+            None => (0.0, 0.0),
         }
-    };
+    }
+    fn solve_spd(&self, b: &SVector<f64, 3>) -> Option<SVector<f64, 3>> {
+        self.cholesky().map(|c| c.solve(b))
+    }
 }
-small_symmetric!(3);
-small_symmetric!(6);
+
+impl SmallSymmetric<6> for SMatrix<f64, 6, 6> {
+    /// (0, 0) — reported as singular — when the capped decomposition fails (NaN).
+    fn extreme_eigenvalues(&self) -> (f64, f64) {
+        match stiffness_core::decompose::symmetric_eigen(*self, "task J Jᵀ") {
+            Ok(e) => (e.eigenvalues.min(), e.eigenvalues.max()),
+            Err(_) => (0.0, 0.0),
+        }
+    }
+    fn solve_spd(&self, b: &SVector<f64, 6>) -> Option<SVector<f64, 6>> {
+        self.cholesky().map(|c| c.solve(b))
+    }
+}
 
 impl<const D: usize> Task<D>
 where

@@ -51,3 +51,76 @@ fn a_finite_matrix_decomposes_as_with_nalgebra() {
         assert!((a - b).abs() < 1e-12 * theirs[3], "{a} vs {b}");
     }
 }
+
+/// The closed form against nalgebra's iterative decomposition (an independent code path) on
+/// seeded matrices of every kind a Gram matrix takes: full rank, rank 2 and 1, repeated
+/// eigenvalues in a rotated frame, indefinite, and scales from 1e-12 to 1e12.
+#[test]
+fn three_by_three_eigenvalues_match_the_iterative_ones() {
+    use rand::{Rng, SeedableRng};
+    use stiffness_core::decompose::symmetric_eigenvalues_3;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20261206);
+    let random = |rng: &mut rand_chacha::ChaCha8Rng| {
+        nalgebra::Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        )
+    };
+    for case in 0..3000 {
+        let (u, v, w) = (random(&mut rng), random(&mut rng), random(&mut rng));
+        let scale = 10f64.powi(rng.random_range(-12..=12));
+        let m: Matrix3<f64> = scale
+            * match case % 5 {
+                0 => u * u.transpose() + v * v.transpose() + w * w.transpose(),
+                1 => u * u.transpose() + v * v.transpose(),
+                2 => u * u.transpose(),
+                3 => {
+                    // diag(1, 1, 2) in a random orthonormal frame: a repeated eigenvalue.
+                    let r = nalgebra::Rotation3::new(u * 3.0);
+                    r.matrix()
+                        * Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, 2.0))
+                        * r.matrix().transpose()
+                }
+                _ => u * v.transpose() + v * u.transpose() + Matrix3::from_diagonal(&w),
+            };
+        let m = (m + m.transpose()) / 2.0;
+        let closed = symmetric_eigenvalues_3(&m).unwrap();
+        let mut iter: Vec<f64> = symmetric_eigen(m, "3×3")
+            .unwrap()
+            .eigenvalues
+            .iter()
+            .copied()
+            .collect();
+        iter.sort_by(f64::total_cmp);
+        let norm = m.norm();
+        for k in 0..3 {
+            assert!(
+                (closed[k] - iter[k]).abs() <= 1e-14 * norm,
+                "case {case}: eigenvalue {k} {} vs {} (‖m‖ = {norm:e})",
+                closed[k],
+                iter[k]
+            );
+        }
+    }
+    assert_eq!(
+        symmetric_eigenvalues_3(&Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            3.0, -1.0, 2.0
+        ))),
+        Some([-1.0, 2.0, 3.0])
+    );
+    assert_eq!(
+        symmetric_eigenvalues_3(&Matrix3::new(
+            1.0,
+            f64::NAN,
+            0.0,
+            0.0,
+            1.0,
+            0.0,
+            0.0,
+            0.0,
+            1.0
+        )),
+        None
+    );
+}

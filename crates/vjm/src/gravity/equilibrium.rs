@@ -169,14 +169,26 @@ pub(crate) fn equilibrium_from(
     let curved = CurvedSprings::new(gears, &springs);
     let m = model.n_params();
     // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C. Under the
-    // weight alone, the torques at θ = 0 come with it (one deflected evaluation fewer).
+    // weight, the torques at θ = 0 come with it, the wrench's J_kᵀF from its rigid kinematics
+    // (one deflected evaluation fewer).
     let mut tangent = DMatrix::zeros(m, m);
     let mut at_rest: Option<Vec<f64>> = None;
     if let Some(ws) = rest {
         tangent += ws.stiffness();
-        if loading.wrench.is_none() {
-            at_rest = Some(ws.torques().to_vec());
+        let mut tau = ws.torques().to_vec();
+        if let Some(wr) = loading.wrench {
+            let k = ws.kinematics();
+            let (f, mo) = (
+                Vector3::new(wr[0], wr[1], wr[2]),
+                Vector3::new(wr[3], wr[4], wr[5]),
+            );
+            for (i, (s, t)) in model.springs().iter().zip(tau.iter_mut()).enumerate() {
+                let (lin, ang) =
+                    crate::kinematics::column(&k.w[i], &k.c[i], &k.p, s.is_translation());
+                *t += lin.dot(&f) + ang.dot(&mo);
+            }
         }
+        at_rest = Some(tau);
     }
     if let Some(w) = loading.wrench {
         tangent += complementary_stiffness(chain, model, q, &w)?;

@@ -83,6 +83,11 @@ impl GravityWorkspace {
         }
     }
 
+    /// The rigid chain's spring axes, centres and tip point at the last evaluation.
+    pub(crate) fn kinematics(&self) -> &Workspace {
+        &self.ws
+    }
+
     /// The payload it carries (a point mass in the tip frame), if any.
     pub fn payload(&self) -> Option<&PointMass> {
         self.payload.as_ref()
