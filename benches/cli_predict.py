@@ -11,7 +11,11 @@ and saved. Then, each in a fresh interpreter, median of ``--repeat`` runs:
   too, under standard gravity: the model records none) and with ``--no-gravity``;
 * with ``--parquet``, the same from a Parquet POSES file to a Parquet PRED file.
 
-Peak memory is the child's own ``ru_maxrss`` (``os.wait4``), the largest of the runs. Then the
+Peak memory is the child's own high-water mark, ``VmHWM`` of ``/proc/self/status`` read as it
+exits (a launcher runs the CLI module and writes it to a file), the largest of the runs, in MiB.
+Not ``ru_maxrss`` from ``os.wait4``: Linux carries the pre-``exec`` address space's high-water
+mark into it, and a child forked (or vforked) from this process, which holds the campaign,
+reported this process's size (837 MiB for a CLI run that peaks at 594 MiB). Then the
 phases the command runs are timed one by one in this process (reading the table, ``predict``,
 ``predict_sag``, writing PRED.csv), to say where the time goes. A markdown table goes to stdout.
 
@@ -40,16 +44,33 @@ from robot_stiffness.model import StiffnessModel  # noqa: E402
 from robot_stiffness.vjm import Robot  # noqa: E402
 
 
+# Runs the CLI's main with the arguments after `-c CODE`, then writes the process's peak
+# resident memory (KiB, its own address space since exec) to $CLI_PREDICT_PEAK_FILE.
+LAUNCHER = """
+import atexit, os, sys
+def _peak():
+    with open('/proc/self/status') as f:
+        kib = next(int(line.split()[1]) for line in f if line.startswith('VmHWM:'))
+    with open(os.environ['CLI_PREDICT_PEAK_FILE'], 'w') as out:
+        out.write(str(kib))
+atexit.register(_peak)
+from robot_stiffness.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
 def run_child(argv: List[str]) -> Tuple[float, float]:
-    """Wall time (s) and peak resident memory (MB) of one command, run to completion."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, env=os.environ.copy())
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(argv)} failed with exit status {proc.returncode}")
-    return wall, usage.ru_maxrss / 1024  # ru_maxrss is in KiB on Linux
+    """Wall time (s) and peak resident memory (MiB) of one CLI command (its arguments), run to
+    completion in a fresh interpreter."""
+    with tempfile.TemporaryDirectory(prefix="cli-peak-") as tmp:
+        peak_file = Path(tmp) / "peak"
+        env = dict(os.environ, CLI_PREDICT_PEAK_FILE=str(peak_file))
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-c", LAUNCHER, *argv], stdout=subprocess.DEVNULL, env=env)
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            raise SystemExit(f"robot-stiffness {' '.join(argv)} failed with exit status {proc.returncode}")
+        return wall, int(peak_file.read_text()) / 1024
 
 
 def median_child(repeat: int, argv: List[str]) -> Tuple[float, float]:
@@ -96,7 +117,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         model_path = work / "model.json"
         robot.identify(data.q, data.wrench, data.displacement, gravity=None).save(model_path)
 
-        cli = [sys.executable, "-m", "robot_stiffness.cli", "predict", "vjm", str(model_path)]
+        cli = ["predict", "vjm", str(model_path)]
         runs: List[Tuple[str, float, float]] = []
         t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(work / "pred.csv"), "--force"])
         runs.append(("CLI `predict vjm MODEL.json POSES.csv --out PRED.csv` (with the sag)", t, mem))

@@ -412,23 +412,25 @@ fn predictions_dict<'py>(
     pred: &[vjm::Prediction],
 ) -> PyResult<Bound<'py, PyDict>> {
     let rows = pred.len();
-    let flat = |f: &dyn Fn(&vjm::Prediction) -> [f64; 6]| -> Vec<f64> {
-        pred.iter().flat_map(f).collect()
-    };
+    // One pass over the records (≈ 160 B each) fills every column.
+    let (mut deflection, mut stddev, mut wrench) = (
+        Vec::with_capacity(6 * rows),
+        Vec::with_capacity(6 * rows),
+        Vec::with_capacity(6 * rows),
+    );
+    let (mut identified, mut excitation) = (Vec::with_capacity(rows), Vec::with_capacity(rows));
+    for p in pred {
+        deflection.extend_from_slice(&p.deflection);
+        stddev.extend_from_slice(&p.stddev);
+        wrench.extend_from_slice(&p.wrench);
+        identified.push(p.identified);
+        excitation.push(p.excitation);
+    }
     let out = PyDict::new(py);
-    out.set_item(
-        "deflection",
-        to_numpy(py, flat(&|p| p.deflection), &[rows, 6])?,
-    )?;
-    out.set_item("stddev", to_numpy(py, flat(&|p| p.stddev), &[rows, 6])?)?;
-    out.set_item("wrench", to_numpy(py, flat(&|p| p.wrench), &[rows, 6])?)?;
-    out.set_item(
-        "identified",
-        to_numpy_bool(py, pred.iter().map(|p| p.identified).collect(), &[rows])?,
-    )?;
-    out.set_item(
-        "excitation",
-        to_numpy(py, pred.iter().map(|p| p.excitation).collect(), &[rows])?,
-    )?;
+    out.set_item("deflection", to_numpy(py, deflection, &[rows, 6])?)?;
+    out.set_item("stddev", to_numpy(py, stddev, &[rows, 6])?)?;
+    out.set_item("wrench", to_numpy(py, wrench, &[rows, 6])?)?;
+    out.set_item("identified", to_numpy_bool(py, identified, &[rows])?)?;
+    out.set_item("excitation", to_numpy(py, excitation, &[rows])?)?;
     Ok(out)
 }
