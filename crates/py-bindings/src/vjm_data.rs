@@ -77,16 +77,26 @@ pub fn dataset_from_arrays<'a>(
     .py()
 }
 
-/// Reads and validates a VJM measurement file for a chain of `n_joints` joints.
+/// Reads and validates a VJM measurement file for a chain of `n_joints` joints; with `sha256`,
+/// the dict's `sha256` is that of the bytes read (taken in the same pass), else None.
 #[pyfunction]
+#[pyo3(signature = (path, n_joints, sha256 = true))]
 pub fn vjm_read_csv<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     n_joints: usize,
+    sha256: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (data, sha256) = run(py, || Dataset::read_csv_with_sha256(&path, n_joints))?.py()?;
+    let (data, hash) = run(py, || {
+        if sha256 {
+            Dataset::read_csv_with_sha256(&path, n_joints).map(|(d, h)| (d, Some(h)))
+        } else {
+            Dataset::read_csv(&path, n_joints).map(|d| (d, None))
+        }
+    })?
+    .py()?;
     let out = dataset_to_dict(py, data)?;
-    out.set_item("sha256", sha256)?;
+    out.set_item("sha256", hash)?;
     Ok(out)
 }
 

@@ -318,6 +318,7 @@ def test_a_read_file_is_fingerprinted_once_and_its_hash_recorded(saved, panda, t
     m = read_measurements(path, panda.n_joints)
     expected = hashlib.sha256(path.read_bytes()).hexdigest()
     assert m.source == DataFile(str(path), expected)
+    assert read_measurements(path, panda.n_joints, fingerprint=False).source is None
     # Provenance is not content: the same rows from arrays compare equal.
     assert m == type(m)(q=m.q, wrench=m.wrench, displacement=m.displacement, pose=m.pose, set=m.set)
     # The recorded hash is the one the reader took, even if the file changes afterwards.

@@ -458,7 +458,8 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
     save_out = cli_model.claim_save(args, out)
     robot = _robot(args)
     with _data_file(args.data):
-        data = in_worker(read_measurements, args.data, robot.n_joints)
+        # The file's fingerprint goes into a saved model only: without --save, no hash.
+        data = in_worker(read_measurements, args.data, robot.n_joints, fingerprint=save_out is not None)
     with warnings.catch_warnings():
         if args.quiet:  # nothing but errors; the warnings stay in the result (--json "warnings")
             warnings.simplefilter("ignore", SuspiciousDataWarning)
@@ -471,7 +472,9 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
             rotation=data.rotation if args.use_rotations else None,
             nonnegative=args.nonnegative,
             method=args.method,
-            data_file=data.source or args.data,  # the hash the reader took, else the path
+            # The hash the reader took, else the path (a Parquet file, hashed now); no file
+            # when no model is saved.
+            data_file=(data.source or args.data) if save_out is not None else None,
             robust_covariance=save_out is not None,
             allow_outside_limits=args.allow_outside_limits,
             gravity=_gravity(args),
