@@ -21,6 +21,7 @@ use stiffness_core::row_blocks::fill_row_blocks_pair;
 use stiffness_core::so3::{exp, log};
 
 use crate::chain::{check_finite, SerialChain};
+use crate::contraction::Contraction;
 use crate::error::VjmError;
 use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
 use crate::gravity::{static_equilibrium_with_gears, Loading};
@@ -343,10 +344,9 @@ fn loaded_tip(
     curved.add_excess(&ws.tau, &mut ws.theta);
     if opts.with_kc {
         let mut converged = false;
-        // The previous change: with their ratio r < ½ the changes still to come sum to at
-        // most change · r / (1 − r) (a linear contraction, r = ‖C K_C‖ ≈ 1e-2 under a tip
-        // load), which ends the iterations a step before the change itself is rounding.
-        let mut previous = f64::NAN;
+        // A linear contraction, r = ‖C K_C‖ ≈ 1e-2 under a tip load: the bound on the changes
+        // still to come ends the iterations a step before the change itself is rounding.
+        let mut changes = Contraction::new();
         for _ in 0..DEFLECTION_MAX_ITERATIONS {
             kc_times(&ws.springs, &wrench, &ws.theta, &mut ws.ktheta);
             let mut change = 0.0f64;
@@ -367,14 +367,7 @@ fn loaded_tip(
             if !scale.is_finite() {
                 break;
             }
-            let ratio = change / previous;
-            let left = if ratio < 0.5 {
-                change * ratio / (1.0 - ratio)
-            } else {
-                change
-            };
-            previous = change;
-            if left <= 1e-15 * scale || change <= 1e-15 * scale || scale == 0.0 {
+            if changes.remaining(change, true) <= 1e-15 * scale || scale == 0.0 {
                 converged = true;
                 break;
             }

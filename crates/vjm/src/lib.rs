@@ -42,6 +42,7 @@
 pub mod bounded;
 mod chain;
 mod compensate;
+mod contraction;
 pub mod dataset;
 pub mod design;
 pub mod diagnose;

@@ -257,8 +257,14 @@ fn a_hashing_read_fingerprints_every_byte_of_the_file() {
     let (big, _) = big_table(Some(399_999));
     let big = big.replace(",oops", ",1.5");
     let small = "\u{feff}\r\n  x,y\r\n1,2\r\n\r\n3,4".to_string();
-    let dir = std::env::temp_dir().join(format!("table-hash-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    // A fresh folder of this test's own (create_dir fails on one that exists): the files and
+    // the folder removed below are only those it wrote.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos();
+    let dir = std::env::temp_dir().join(format!("table-hash-{}-{nanos}", std::process::id()));
+    std::fs::create_dir(&dir).unwrap();
     for (k, text) in [big, small].iter().enumerate() {
         let path = dir.join(format!("t{k}.csv"));
         std::fs::write(&path, text).unwrap();

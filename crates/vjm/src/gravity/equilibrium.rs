@@ -18,6 +18,7 @@
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use crate::chain::SerialChain;
+use crate::contraction::Contraction;
 use crate::error::VjmError;
 use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
 use crate::kinematics::{complementary_stiffness, deflected_state};
@@ -200,8 +201,8 @@ pub(crate) fn equilibrium_from(
     // The settled sign of each curve's torque and how often it changed (lost motion only).
     let mut signs: Vec<Option<f64>> = vec![None; gears.len()];
     let mut changes = vec![0usize; gears.len()];
-    // The previous step's size: the ratio of two steps bounds the error left (below).
-    let mut previous = f64::NAN;
+    // The ratio of two steps bounds the error left (below).
+    let mut steps = Contraction::new();
     for iteration in 1..=MAX_EQUILIBRIUM_ITERATIONS {
         let tau = match at_rest.take() {
             Some(tau) => tau,
@@ -253,18 +254,11 @@ pub(crate) fn equilibrium_from(
             break; // diverging: more than 0.5 rad of spring deflection is no small deflection
         }
         let scale = theta.iter().fold(1e-300f64, |acc, t| acc.max(t.abs()));
-        // Converging linearly with ratio r = size / previous < ½, the steps still to come sum
-        // to at most size · r / (1 − r): stop once that (or the step itself) is below 1e-13
-        // of the deflection. The ratio is ≈ 1e-5 for an arm's springs, so this saves the
-        // last, rounding-sized step; with lost motion the signs must have settled first.
-        let ratio = size / previous;
-        let left = if iteration > 1 && ratio < 0.5 && (!lost || iteration > 2) {
-            size * ratio / (1.0 - ratio)
-        } else {
-            size
-        };
-        previous = size;
-        if left <= 1e-13 * scale || size <= 1e-13 * scale || size < 1e-300 {
+        // Stop once the steps still to come (or this one) are below 1e-13 of the deflection.
+        // The ratio is ≈ 1e-5 for an arm's springs, so this saves the last, rounding-sized
+        // step; with lost motion the signs must have settled first.
+        let left = steps.remaining(size, !lost || iteration > 2);
+        if left <= 1e-13 * scale || size < 1e-300 {
             let tip = deflected_state(chain, model, q, &theta)?.tip;
             return Ok(Equilibrium {
                 theta,

@@ -4,7 +4,6 @@
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::gravity::{gravity_sag_from, Gravity, GravityWorkspace};
-use crate::kinematics::Workspace;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 impl StiffnessModel {
@@ -56,15 +55,15 @@ impl StiffnessModel {
         GravityWorkspace::new(chain, &model, gravity, payload)?;
         let mut out = vec![Prediction::UNSET; rows];
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
-            let mut ws = Workspace::new(chain, &model)?;
             let mut g = GravityWorkspace::new(chain, &model, gravity, payload)?;
             let mut jac = vec![0.0; 6 * m];
             let mut a = vec![0.0; 6 * m];
             for (i, o) in block.zip(out) {
                 let qi = &q[i * n..(i + 1) * n];
                 check_finite("q", qi, i, 0)?;
-                crate::kinematics::jacobian_in_place(chain, &model, qi, &mut ws, &mut jac)?;
+                // One rigid kinematics per row: the weight's workspace gives the Jacobian too.
                 g.evaluate(chain, qi)?;
+                g.kinematics().write_jacobian(&mut jac);
                 // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
                 for (k, t) in g.torques().iter().enumerate() {
                     for r in 0..6 {
