@@ -32,15 +32,20 @@ pub struct Workspace {
     arch: pulp::Arch,
     /// The chain and model flattened for the lane-wise batch path (built once, here).
     lanes: ChainLanes,
-    spring_joint: Vec<usize>,
+    /// Per spring: its actuated joint.
+    pub(crate) spring_joint: Vec<usize>,
     /// Per spring: true for a translation (column `[w_k; 0]`).
     pub(crate) translation: Vec<bool>,
     offsets: Vec<Vector3<f64>>,
     any_offset: bool,
     /// A copy of the model's springs and offsets, to reject a workspace built for another model.
     model: VirtualJointModel,
+    /// Per actuated joint, its child frame at the last evaluation: rotation (base ← child) and
+    /// origin (base frame, m).
     rot: Vec<Matrix3<f64>>,
     pos: Vec<Vector3<f64>>,
+    /// Per actuated joint, its springs' centre (base frame, m): `pos` unless offset.
+    centre: Vec<Vector3<f64>>,
     /// Base-frame spring axes w_k and centres c_k of the last evaluation.
     pub(crate) w: Vec<Vector3<f64>>,
     pub(crate) c: Vec<Vector3<f64>>,
@@ -76,6 +81,7 @@ impl Workspace {
             model: model.clone(),
             rot: vec![Matrix3::identity(); n],
             pos: vec![Vector3::zeros(); n],
+            centre: vec![Vector3::zeros(); n],
             w: vec![Vector3::zeros(); m],
             c: vec![Vector3::zeros(); m],
             p: Vector3::zeros(),
@@ -120,21 +126,30 @@ impl Workspace {
         }
         let tip = chain.tip_offset().translation.vector;
         self.p = t + r * tip;
-        // Spring centres: once per joint (pos is overwritten by the centre), and no product
-        // at all for the usual zero offsets.
-        if self.any_offset {
+        // Spring centres: once per joint, and no product at all for the usual zero offsets.
+        let centre = if self.any_offset {
             for j in 0..self.n_joints {
-                self.pos[j] += self.rot[j] * self.offsets[j];
+                self.centre[j] = self.pos[j] + self.rot[j] * self.offsets[j];
             }
-        }
+            &self.centre
+        } else {
+            &self.pos
+        };
         for k in 0..self.local_axes.len() {
             let j = self.spring_joint[k];
             self.w[k] = match self.basis_axis[k] {
                 Some(i) => self.rot[j].column(i).into_owned(),
                 None => self.rot[j] * self.local_axes[k],
             };
-            self.c[k] = self.pos[j];
+            self.c[k] = centre[j];
         }
+    }
+
+    /// Actuated joint `j`'s child frame at the last evaluation: rotation (base ← child) and
+    /// origin (base frame, m).
+    #[inline]
+    pub(crate) fn joint_frame(&self, j: usize) -> (&Matrix3<f64>, &Vector3<f64>) {
+        (&self.rot[j], &self.pos[j])
     }
 
     /// The chain and model flattened for the lane-wise batch path.
@@ -425,6 +440,13 @@ pub fn complementary_stiffness_in_place(
         });
     }
     ws.evaluate(chain, q);
+    complementary_stiffness_at(ws, wrench, out);
+    Ok(())
+}
+
+/// [`complementary_stiffness_in_place`] at the pose `ws` was last evaluated at (no checks).
+pub(crate) fn complementary_stiffness_at(ws: &Workspace, wrench: &[f64; 6], out: &mut [f64]) {
+    let m = ws.n_params();
     let f = Vector3::new(wrench[0], wrench[1], wrench[2]);
     let mo = Vector3::new(wrench[3], wrench[4], wrench[5]);
     let tr = &ws.translation;
@@ -451,7 +473,6 @@ pub fn complementary_stiffness_in_place(
             out[i * m + k] = value;
         }
     }
-    Ok(())
 }
 
 /// Moves a chain's kinematics at joint positions q — its 6×m virtual-joint Jacobian `jac`

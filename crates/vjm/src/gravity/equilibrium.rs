@@ -11,22 +11,25 @@
 //! torque's tangent at θ = 0. They converge linearly, the step shrinking each time by a ratio
 //! r that is ≈ 1e-5 for an arm's springs under its weight, and stop when the step, or the
 //! geometric bound `step · r / (1 − r)` on the steps still to come, is below 1e-13 of the
-//! largest deflection (three steps for a Panda); they are capped. Under the weight alone the
-//! first step starts from the torques at θ = 0 of a [`GravityWorkspace`], which also gives the
-//! tangent. Test: `the_equilibrium_solves_theta_equals_c_tau_of_theta` (θ = C τ(θ) to 1e-12).
+//! largest deflection (three steps for a Panda); they are capped. The rigid kinematics, the
+//! bodies and the tangent at θ = 0 come from a [`GravityWorkspace`]; every iterate's torques
+//! from those moved to the deflection ([`DeflectedLoads`](super::deflected::DeflectedLoads),
+//! O(m), no allocation). Test: `the_equilibrium_solves_theta_equals_c_tau_of_theta`
+//! (θ = C τ(θ) to 1e-12, the torques from the deflected chain composed frame by frame).
 
-use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Translation3};
 
 use crate::chain::SerialChain;
 use crate::contraction::Contraction;
 use crate::error::VjmError;
 use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
-use crate::kinematics::{complementary_stiffness, deflected_state};
+use crate::kinematics::{check_wrench, complementary_stiffness_at, Workspace};
 use crate::model::VirtualJointModel;
 use crate::predict::{check_spring_vector, identity_minus_c_times};
 use crate::stiffness_model::PointMass;
 
-use super::{BodySums, Gravity, GravityWorkspace};
+use super::deflected::{deflected_tip_rotation, DeflectedLoads};
+use super::{Gravity, GravityWorkspace};
 
 /// Iteration cap of [`static_equilibrium`].
 pub const MAX_EQUILIBRIUM_ITERATIONS: usize = 100;
@@ -62,18 +65,21 @@ pub struct Equilibrium {
     pub iterations: usize,
 }
 
-/// The torque on every spring at the deflected state `theta`.
-fn torques(
+/// The torque on every spring at the deflected state `theta`, and the tip there, composed frame
+/// by frame along the deflected chain: the slow, independent code path the fast one
+/// ([`DeflectedLoads`]) and the equilibrium are checked against.
+#[cfg(test)]
+pub(crate) fn torques(
     chain: &SerialChain,
     model: &VirtualJointModel,
     q: &[f64],
     theta: &[f64],
     loading: &Loading<'_>,
 ) -> Result<(Vec<f64>, Isometry3<f64>), VjmError> {
-    let state = deflected_state(chain, model, q, theta)?;
+    let state = crate::kinematics::deflected_state(chain, model, q, theta)?;
     let mut out = vec![0.0; model.n_params()];
     if let Some(g) = loading.gravity {
-        let bodies = BodySums::new(
+        let bodies = super::BodySums::new(
             chain.mass_model()?,
             &state.joint_frames,
             &state.tip,
@@ -86,8 +92,8 @@ fn torques(
         }
     }
     if let Some(wr) = loading.wrench {
-        let f = Vector3::new(wr[0], wr[1], wr[2]);
-        let mo = Vector3::new(wr[3], wr[4], wr[5]);
+        let f = nalgebra::Vector3::new(wr[0], wr[1], wr[2]);
+        let mo = nalgebra::Vector3::new(wr[3], wr[4], wr[5]);
         let p = state.tip.translation.vector;
         for (k, ((w, c), s)) in state.springs.iter().zip(model.springs()).enumerate() {
             // J_kᵀF with the spring's column (a translation's is [w; 0]).
@@ -150,12 +156,25 @@ pub fn static_equilibrium_with_gears(
         }
         None => None,
     };
-    equilibrium_from(chain, model, compliance, gears, q, loading, rest.as_ref())
+    Ok(equilibrium_from(chain, model, compliance, gears, q, loading, rest.as_ref())?.equilibrium)
+}
+
+/// An equilibrium with the tip's displacement from the rigid pose at q.
+pub(crate) struct Settled {
+    pub(crate) equilibrium: Equilibrium,
+    /// `[dx, dy, dz, rx, ry, rz]` (m, rad), base frame: the tip at equilibrium less the rigid
+    /// tip (the rotation as the rotation vector of `R_eq · R_rigidᵀ`); exactly 0 when no spring
+    /// deflects.
+    pub(crate) from_rigid: [f64; 6],
 }
 
 /// [`static_equilibrium_with_gears`] given `rest`: a [`GravityWorkspace`] for the loading's
 /// gravity and payload and this `model`, evaluated at `q` (`None` exactly when the loading has
 /// no gravity), so that a batch that evaluates one per row anyway builds none here.
+///
+/// Every iterate's torques come from the rigid kinematics of `rest` (or of a workspace built
+/// here without gravity) moved to the deflection by [`DeflectedLoads`] (O(m), no second pass
+/// through the chain).
 pub(crate) fn equilibrium_from(
     chain: &SerialChain,
     model: &VirtualJointModel,
@@ -164,39 +183,46 @@ pub(crate) fn equilibrium_from(
     q: &[f64],
     loading: &Loading<'_>,
     rest: Option<&GravityWorkspace>,
-) -> Result<Equilibrium, VjmError> {
+) -> Result<Settled, VjmError> {
     check_spring_vector(model, compliance)?;
     let springs = torsion_springs(model, gears)?;
     let curved = CurvedSprings::new(gears, &springs);
     let m = model.n_params();
-    // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C. Under the
-    // weight, the torques at θ = 0 come with it, the wrench's J_kᵀF from its rigid kinematics
-    // (one deflected evaluation fewer).
-    let mut tangent = DMatrix::zeros(m, m);
-    let mut at_rest: Option<Vec<f64>> = None;
-    if let Some(ws) = rest {
-        tangent += ws.stiffness();
-        let mut tau = ws.torques().to_vec();
-        if let Some(wr) = loading.wrench {
-            let k = ws.kinematics();
-            let (f, mo) = (
-                Vector3::new(wr[0], wr[1], wr[2]),
-                Vector3::new(wr[3], wr[4], wr[5]),
-            );
-            for (i, (s, t)) in model.springs().iter().zip(tau.iter_mut()).enumerate() {
-                let (lin, ang) =
-                    crate::kinematics::column(&k.w[i], &k.c[i], &k.p, s.is_translation());
-                *t += lin.dot(&f) + ang.dot(&mo);
-            }
+    // The rigid kinematics at q: the weight's workspace's, or a weightless arm's own.
+    let own;
+    let ws = match rest {
+        Some(r) => r.kinematics(),
+        None => {
+            chain.check_q(q, 0)?;
+            let mut w = Workspace::new(chain, model)?;
+            w.evaluate(chain, q);
+            own = w;
+            &own
         }
-        at_rest = Some(tau);
+    };
+    let bodies = rest.map(GravityWorkspace::bodies);
+    let wrench = match loading.wrench {
+        Some(w) => {
+            check_wrench(&w, 0)?;
+            Some(w)
+        }
+        None => None,
+    };
+    // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C.
+    let mut tangent = DMatrix::zeros(m, m);
+    if let Some(r) = rest {
+        tangent += r.stiffness();
     }
-    if let Some(w) = loading.wrench {
-        tangent += complementary_stiffness(chain, model, q, &w)?;
+    if let Some(w) = &wrench {
+        let mut kc = DMatrix::zeros(m, m);
+        complementary_stiffness_at(ws, w, kc.as_mut_slice());
+        tangent += kc;
     }
     let c = DVector::from_column_slice(compliance);
     let lu = identity_minus_c_times(&c, &tangent).lu();
     let mut theta = vec![0.0; m];
+    let mut tau = vec![0.0; m];
+    let mut loads = DeflectedLoads::default();
     let lost = curved.curves().iter().any(|g| g.lost_motion() != 0.0);
     // The settled sign of each curve's torque and how often it changed (lost motion only).
     let mut signs: Vec<Option<f64>> = vec![None; gears.len()];
@@ -204,10 +230,7 @@ pub(crate) fn equilibrium_from(
     // The ratio of two steps bounds the error left (below).
     let mut steps = Contraction::new();
     for iteration in 1..=MAX_EQUILIBRIUM_ITERATIONS {
-        let tau = match at_rest.take() {
-            Some(tau) => tau,
-            None => torques(chain, model, q, &theta, loading)?.0,
-        };
+        loads.torques(ws, &theta, bodies.as_ref(), wrench.as_ref(), &mut tau);
         let mut r = DVector::from_iterator(m, (0..m).map(|k| c[k] * tau[k] - theta[k]));
         if lost {
             let band = LOST_MOTION_TORQUE_BAND * tau.iter().fold(0.0f64, |a, t| a.max(t.abs()));
@@ -259,11 +282,19 @@ pub(crate) fn equilibrium_from(
         // step; with lost motion the signs must have settled first.
         let left = steps.remaining(size, !lost || iteration > 2);
         if left <= 1e-13 * scale || size < 1e-300 {
-            let tip = deflected_state(chain, model, q, &theta)?.tip;
-            return Ok(Equilibrium {
-                theta,
-                tip,
-                iterations: iteration,
+            // The tip: the sweep's deflected point, turned by the springs' rotations.
+            let point = loads.torques(ws, &theta, None, None, &mut tau);
+            let turn = DeflectedLoads::turn(ws, &theta);
+            let d = point - ws.p;
+            let r = turn.scaled_axis();
+            let rotation = deflected_tip_rotation(&turn, &ws.tip_rotation(chain));
+            return Ok(Settled {
+                equilibrium: Equilibrium {
+                    theta,
+                    tip: Isometry3::from_parts(Translation3::from(point), rotation),
+                    iterations: iteration,
+                },
+                from_rigid: [d.x, d.y, d.z, r.x, r.y, r.z],
             });
         }
     }
@@ -322,14 +353,12 @@ pub(crate) fn gravity_sag_from(
     q: &[f64],
     rest: &GravityWorkspace,
 ) -> Result<[f64; 6], VjmError> {
-    let rigid = chain.forward_kinematics(q)?;
     let loading = Loading {
         gravity: Some(rest.gravity()),
         payload: rest.payload(),
         wrench: None,
     };
-    let at = equilibrium_from(chain, model, compliance, gears, q, &loading, Some(rest))?;
-    Ok(tip_difference(&rigid, &at.tip))
+    Ok(equilibrium_from(chain, model, compliance, gears, q, &loading, Some(rest))?.from_rigid)
 }
 
 /// What a measurement under gravity records: the tip under `wrench` minus the tip unloaded,

@@ -17,6 +17,7 @@
 //! A payload is a [`PointMass`] in the tip frame; it is
 //! one more body on the last joint.
 
+pub(crate) mod deflected;
 mod equilibrium;
 pub(crate) mod mass;
 mod workspace;
@@ -30,7 +31,7 @@ pub use equilibrium::{
 pub use mass::{Body, MassModel};
 pub use workspace::{GravityWorkspace, RowFrame, MAX_COUPLING_ITERATIONS};
 
-use nalgebra::{DMatrix, Isometry3, Point3, Vector3};
+use nalgebra::{DMatrix, Point3, Vector3};
 
 use crate::chain::SerialChain;
 use crate::error::VjmError;
@@ -88,6 +89,7 @@ impl Gravity {
 
 /// Per actuated joint j, the mass and first moment (base frame) of everything joint j carries:
 /// its body and every body after it, with the payload on the last joint.
+#[derive(Debug, Clone, Default)]
 pub(crate) struct BodySums {
     mass: Vec<f64>,
     moment: Vec<Vector3<f64>>,
@@ -95,26 +97,47 @@ pub(crate) struct BodySums {
 
 impl BodySums {
     /// From the bodies' frames (`frames[j]`: joint j's child frame in the base frame) and the
-    /// tip pose, undeflected or deflected alike.
+    /// tip pose, undeflected or deflected alike (the slow path's, in tests).
+    #[cfg(test)]
     pub(crate) fn new(
         masses: &MassModel,
-        frames: &[Isometry3<f64>],
-        tip: &Isometry3<f64>,
+        frames: &[nalgebra::Isometry3<f64>],
+        tip: &nalgebra::Isometry3<f64>,
         payload: Option<&PointMass>,
     ) -> Self {
-        let n = frames.len();
-        let mut mass = vec![0.0; n + 1];
-        let mut moment = vec![Vector3::zeros(); n + 1];
-        if let Some(p) = payload {
-            mass[n] = p.mass();
-            moment[n] = (tip * Point3::from(p.centre())).coords * p.mass();
+        let (mass, point): (Vec<f64>, Vec<Vector3<f64>>) = masses
+            .bodies()
+            .iter()
+            .zip(frames)
+            .map(|(b, f)| (b.mass, (f * Point3::from(b.com)).coords))
+            .unzip();
+        let payload = payload.map(|p| (p.mass(), (tip * Point3::from(p.centre())).coords));
+        let mut sums = Self::default();
+        sums.fill(&mass, &point, payload);
+        sums
+    }
+
+    /// From each joint's body mass (kg) and centre of mass (base frame, m) and the payload's,
+    /// reusing the buffers.
+    pub(crate) fn fill(
+        &mut self,
+        mass: &[f64],
+        point: &[Vector3<f64>],
+        payload: Option<(f64, Vector3<f64>)>,
+    ) {
+        let n = mass.len();
+        self.mass.clear();
+        self.mass.resize(n + 1, 0.0);
+        self.moment.clear();
+        self.moment.resize(n + 1, Vector3::zeros());
+        if let Some((pm, pp)) = payload {
+            self.mass[n] = pm;
+            self.moment[n] = pp * pm;
         }
         for j in (0..n).rev() {
-            let b = masses.bodies()[j];
-            mass[j] = mass[j + 1] + b.mass;
-            moment[j] = moment[j + 1] + (frames[j] * Point3::from(b.com)).coords * b.mass;
+            self.mass[j] = self.mass[j + 1] + mass[j];
+            self.moment[j] = self.moment[j + 1] + point[j] * mass[j];
         }
-        Self { mass, moment }
     }
 
     /// `R = Σ_{b ≥ j} m_b (x_b − c)` (kg·m): the weights' lever about the point `c` for a

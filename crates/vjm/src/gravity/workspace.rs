@@ -4,8 +4,9 @@
 //! allocating [`gravity_torques`](super::gravity_torques) and
 //! [`gravity_stiffness`](super::gravity_stiffness) are this, once.
 
-use nalgebra::{DMatrix, Isometry3, Vector3};
+use nalgebra::{DMatrix, Vector3};
 
+use super::deflected::RigidBodies;
 use super::{BodySums, Gravity};
 use crate::chain::SerialChain;
 use crate::error::VjmError;
@@ -27,7 +28,13 @@ pub struct GravityWorkspace {
     gravity: Vector3<f64>,
     payload: Option<PointMass>,
     ws: Workspace,
-    frames: Vec<Isometry3<f64>>,
+    /// Per actuated joint, its body's mass (kg), fixed.
+    body_mass: Vec<f64>,
+    /// Per actuated joint, its body's centre of mass at the last evaluation, base frame, m.
+    body_point: Vec<Vector3<f64>>,
+    /// The payload's mass (kg) and centre (base frame, m) at the last evaluation.
+    payload_point: Option<(f64, Vector3<f64>)>,
+    sums: BodySums,
     levers: Vec<Vector3<f64>>,
     /// Mass beyond each spring (kg): a translation's lever.
     carried: Vec<f64>,
@@ -50,7 +57,7 @@ impl GravityWorkspace {
         gravity: &Gravity,
         payload: Option<&PointMass>,
     ) -> Result<Self, VjmError> {
-        chain.mass_model()?;
+        let masses = chain.mass_model()?;
         let ws = Workspace::new(chain, model)?;
         let m = model.n_params();
         Ok(Self {
@@ -58,7 +65,10 @@ impl GravityWorkspace {
             gravity: gravity.vector(),
             payload: payload.cloned(),
             ws,
-            frames: Vec::with_capacity(chain.n_joints()),
+            body_mass: masses.bodies().iter().map(|b| b.mass).collect(),
+            body_point: vec![Vector3::zeros(); chain.n_joints()],
+            payload_point: None,
+            sums: BodySums::default(),
             levers: vec![Vector3::zeros(); m],
             carried: vec![0.0; m],
             torques: vec![0.0; m],
@@ -88,6 +98,16 @@ impl GravityWorkspace {
         &self.ws
     }
 
+    /// The weights at the last evaluation's rigid pose (for the deflected torques).
+    pub(crate) fn bodies(&self) -> RigidBodies<'_> {
+        RigidBodies {
+            mass: &self.body_mass,
+            point: &self.body_point,
+            payload: self.payload_point,
+            gravity: self.gravity,
+        }
+    }
+
     /// The payload it carries (a point mass in the tip frame), if any.
     pub fn payload(&self) -> Option<&PointMass> {
         self.payload.as_ref()
@@ -98,15 +118,18 @@ impl GravityWorkspace {
     pub fn evaluate(&mut self, chain: &SerialChain, q: &[f64]) -> Result<(), VjmError> {
         chain.check_q(q, 0)?;
         let masses = chain.mass_model()?;
-        self.frames.clear();
-        let mut t = Isometry3::identity();
-        for (j, &qj) in chain.joints().iter().zip(q) {
-            t = t * j.origin * crate::chain::rotation_about(&j.axis, qj);
-            self.frames.push(t);
-        }
-        let tip = t * chain.tip_offset();
-        let sums = BodySums::new(masses, &self.frames, &tip, self.payload.as_ref());
         self.ws.evaluate(chain, q);
+        for (j, b) in masses.bodies().iter().enumerate() {
+            let (r, o) = self.ws.joint_frame(j);
+            self.body_point[j] = o + r * b.com;
+        }
+        self.payload_point = self.payload.as_ref().map(|p| {
+            let centre = Vector3::from(p.centre());
+            (p.mass(), self.ws.p + self.ws.tip_rotation(chain) * centre)
+        });
+        self.sums
+            .fill(&self.body_mass, &self.body_point, self.payload_point);
+        let sums = &self.sums;
         let g = self.gravity;
         let springs = self.model.springs();
         for (k, s) in springs.iter().enumerate() {
