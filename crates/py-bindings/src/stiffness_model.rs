@@ -349,7 +349,8 @@ pub fn vjm_identify_model<'py>(
 }
 
 /// Reads a pose table (q1..qn, optional fx..mz, optional pose) for `robot`:
-/// `(q (N, n), wrench (N, 6) or None, pose ids or None)`.
+/// `(q (N, n), wrench (N, 6) or None, pose ids (N,) int64 or None)`, each array moved from
+/// the reader, not copied.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 pub fn vjm_read_poses<'py>(
@@ -359,7 +360,7 @@ pub fn vjm_read_poses<'py>(
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Option<Bound<'py, PyArrayDyn<f64>>>,
-    Option<Vec<i64>>,
+    Option<Bound<'py, numpy::PyArray1<i64>>>,
 )> {
     let n = robot.chain.n_joints();
     let table = run(py, || vjm::stiffness_model::PoseTable::read_csv(&path, n))?.py()?;
@@ -369,7 +370,8 @@ pub fn vjm_read_poses<'py>(
         .wrench
         .map(|w| to_numpy(py, w, &[rows, 6]))
         .transpose()?;
-    Ok((q, w, table.pose))
+    let pose = table.pose.map(|ids| numpy::PyArray1::from_vec(py, ids));
+    Ok((q, w, pose))
 }
 
 /// `(urdf, base, tip, found, tried)` of the model file at `path`: the recorded URDF path,

@@ -38,8 +38,8 @@ def read_plan(path: str, robot: Any) -> Tuple[np.ndarray, Optional[np.ndarray], 
     pose (N,) int64 or None)`` — a plan of ``design`` or a measurement file."""
     n = robot.n_joints
     if not is_columnar_path(path):
-        q, wrench, ids_read = in_worker(_core.vjm_read_poses, path, robot._inner)  # Ctrl-C stays prompt
-        return q, wrench, None if ids_read is None else np.asarray(ids_read, dtype=np.int64)
+        read = in_worker(_core.vjm_read_poses, path, robot._inner)  # Ctrl-C stays prompt
+        return read
     table = read_columns(path, joint_columns(n) + WRENCH + ["pose"])
     try:
         q = columns(table, joint_columns(n), "the joint positions")

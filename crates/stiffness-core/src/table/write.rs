@@ -1,8 +1,9 @@
 //! The CSV writer: blocks of rows formatted on every core, written in order.
 //!
-//! Numbers are written in their shortest round-trip form (`ryu`: reading the file back gives
-//! the same bits). Memory is bounded: a window of [`BLOCK_ROWS`]-row blocks per thread is
-//! formatted, written, and dropped before the next.
+//! Numbers are written in their shortest round-trip form (`zmij`, twice as fast as `ryu` with
+//! the same digits; reading the file back gives the same bits; a positive exponent is written
+//! `e+17`). Memory is bounded: a window of [`BLOCK_ROWS`]-row blocks per thread is formatted on
+//! the pool while the calling thread writes the window before it, then dropped.
 
 use std::io::Write;
 
@@ -63,7 +64,7 @@ impl Column<'_> {
         }
     }
 
-    fn write_row(&self, row: usize, out: &mut Vec<u8>, floats: &mut ryu::Buffer) {
+    fn write_row(&self, row: usize, out: &mut Vec<u8>, floats: &mut zmij::Buffer) {
         match *self {
             Column::Floats { data, width } => {
                 for &v in &data[row * width..(row + 1) * width] {
@@ -161,15 +162,12 @@ pub fn write_csv(
     out.write_all(b"\n").map_err(io)?;
     let blocks = rows.div_ceil(BLOCK_ROWS);
     let window = rayon::current_num_threads().max(1) * 2;
-    for first in (0..blocks).step_by(window) {
-        if cancel.is_cancelled() {
-            return Err(TableError::Cancelled);
-        }
-        let texts: Vec<Vec<u8>> = (first..(first + window).min(blocks))
+    let format = |first: usize| -> Vec<Vec<u8>> {
+        (first..(first + window).min(blocks))
             .into_par_iter()
             .map(|b| {
                 let mut text = Vec::with_capacity(BLOCK_ROWS * width * 20);
-                let mut floats = ryu::Buffer::new();
+                let mut floats = zmij::Buffer::new();
                 for row in b * BLOCK_ROWS..((b + 1) * BLOCK_ROWS).min(rows) {
                     for c in columns {
                         c.write_row(row, &mut text, &mut floats);
@@ -179,10 +177,26 @@ pub fn write_csv(
                 }
                 text
             })
-            .collect();
-        for text in texts {
-            out.write_all(&text).map_err(io)?;
+            .collect()
+    };
+    // Window k is formatted on the pool while this thread writes window k − 1 (the kernel's
+    // copy into the page cache costs about half as much as the formatting): two windows in
+    // memory at most.
+    let mut formatted: Vec<Vec<u8>> = Vec::new();
+    for first in (0..blocks).step_by(window) {
+        if cancel.is_cancelled() {
+            return Err(TableError::Cancelled);
         }
+        let mut next = Vec::new();
+        let written = rayon::in_place_scope(|scope| {
+            scope.spawn(|_| next = format(first));
+            formatted.iter().try_for_each(|text| out.write_all(text))
+        });
+        written.map_err(io)?;
+        formatted = next;
+    }
+    for text in &formatted {
+        out.write_all(text).map_err(io)?;
     }
     out.flush().map_err(io)
 }
