@@ -17,7 +17,7 @@
 //! O(m), no allocation). Test: `the_equilibrium_solves_theta_equals_c_tau_of_theta`
 //! (θ = C τ(θ) to 1e-12, the torques from the deflected chain composed frame by frame).
 
-use nalgebra::{DMatrix, DVector, Isometry3, Translation3};
+use nalgebra::{DMatrix, Isometry3, Translation3};
 
 use crate::chain::SerialChain;
 use crate::contraction::Contraction;
@@ -25,9 +25,10 @@ use crate::error::VjmError;
 use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
 use crate::kinematics::{check_wrench, complementary_stiffness_at, Workspace};
 use crate::model::VirtualJointModel;
-use crate::predict::{check_spring_vector, identity_minus_c_times};
+use crate::predict::check_spring_vector;
 use crate::stiffness_model::PointMass;
 
+use super::chord::ChordLu;
 use super::deflected::{deflected_tip_rotation, DeflectedLoads};
 use super::{Gravity, GravityWorkspace};
 
@@ -156,16 +157,64 @@ pub fn static_equilibrium_with_gears(
         }
         None => None,
     };
-    Ok(equilibrium_from(chain, model, compliance, gears, q, loading, rest.as_ref())?.equilibrium)
+    let springs = Compliances {
+        linear: compliance,
+        gears,
+    };
+    let mut scratch = EquilibriumScratch::default();
+    let settled = equilibrium_from(
+        chain,
+        model,
+        &springs,
+        q,
+        loading,
+        rest.as_ref(),
+        &mut scratch,
+    )?;
+    Ok(Equilibrium {
+        theta: std::mem::take(&mut scratch.theta),
+        tip: settled.tip,
+        iterations: settled.iterations,
+    })
 }
 
-/// An equilibrium with the tip's displacement from the rigid pose at q.
+/// How the springs of a model deflect: linearly with compliance `linear` (rad/(N·m), one per
+/// spring; 0 = rigid), and the torsion springs of `gears`' joints by their curves.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Compliances<'a> {
+    /// One per spring, rad/(N·m) (m/N for a translation).
+    pub(crate) linear: &'a [f64],
+    /// Non-linear gears ([`GearCurve`]), at most one per joint.
+    pub(crate) gears: &'a [GearCurve],
+}
+
+/// Reusable buffers of [`equilibrium_from`]: one per thread of a batch, so that a row's
+/// equilibrium allocates nothing once they are sized. `theta` holds the last equilibrium's
+/// deflections.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct EquilibriumScratch {
+    /// The deflections θ of the last equilibrium, rad (m for a translation).
+    pub(crate) theta: Vec<f64>,
+    tau: Vec<f64>,
+    residual: Vec<f64>,
+    tangent: DMatrix<f64>,
+    kc: DMatrix<f64>,
+    loads: DeflectedLoads,
+    chord: ChordLu,
+    signs: Vec<Option<f64>>,
+    changes: Vec<usize>,
+}
+
+/// Where an equilibrium put the tip (its deflections stay in the [`EquilibriumScratch`]).
 pub(crate) struct Settled {
-    pub(crate) equilibrium: Equilibrium,
+    /// The tip pose at equilibrium, base frame.
+    pub(crate) tip: Isometry3<f64>,
     /// `[dx, dy, dz, rx, ry, rz]` (m, rad), base frame: the tip at equilibrium less the rigid
     /// tip (the rotation as the rotation vector of `R_eq · R_rigidᵀ`); exactly 0 when no spring
     /// deflects.
     pub(crate) from_rigid: [f64; 6],
+    /// Chord iterations taken.
+    pub(crate) iterations: usize,
 }
 
 /// [`static_equilibrium_with_gears`] given `rest`: a [`GravityWorkspace`] for the loading's
@@ -178,15 +227,16 @@ pub(crate) struct Settled {
 pub(crate) fn equilibrium_from(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    compliance: &[f64],
-    gears: &[GearCurve],
+    springs: &Compliances<'_>,
     q: &[f64],
     loading: &Loading<'_>,
     rest: Option<&GravityWorkspace>,
+    scratch: &mut EquilibriumScratch,
 ) -> Result<Settled, VjmError> {
+    let (compliance, gears) = (springs.linear, springs.gears);
     check_spring_vector(model, compliance)?;
-    let springs = torsion_springs(model, gears)?;
-    let curved = CurvedSprings::new(gears, &springs);
+    let torsions = torsion_springs(model, gears)?;
+    let curved = CurvedSprings::new(gears, &torsions);
     let m = model.n_params();
     // The rigid kinematics at q: the weight's workspace's, or a weightless arm's own.
     let own;
@@ -208,30 +258,58 @@ pub(crate) fn equilibrium_from(
         }
         None => None,
     };
+    let EquilibriumScratch {
+        theta,
+        tau,
+        residual,
+        tangent,
+        kc,
+        loads,
+        chord,
+        signs,
+        changes,
+    } = scratch;
     // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C.
-    let mut tangent = DMatrix::zeros(m, m);
-    if let Some(r) = rest {
-        tangent += r.stiffness();
+    if tangent.shape() != (m, m) {
+        *tangent = DMatrix::zeros(m, m);
+    }
+    match rest {
+        Some(r) => tangent.copy_from(r.stiffness()),
+        None => tangent.fill(0.0),
     }
     if let Some(w) = &wrench {
-        let mut kc = DMatrix::zeros(m, m);
+        if kc.shape() != (m, m) {
+            *kc = DMatrix::zeros(m, m);
+        }
         complementary_stiffness_at(ws, w, kc.as_mut_slice());
-        tangent += kc;
+        *tangent += &*kc;
     }
-    let c = DVector::from_column_slice(compliance);
-    let lu = identity_minus_c_times(&c, &tangent).lu();
-    let mut theta = vec![0.0; m];
-    let mut tau = vec![0.0; m];
-    let mut loads = DeflectedLoads::default();
+    if !chord.factor(compliance, tangent) {
+        return Err(VjmError::Numerical {
+            message: "the tangent of the static equilibrium is singular (a load at the arm's \
+                      buckling limit?)"
+                .to_string(),
+        });
+    }
+    for v in [&mut *theta, &mut *tau, &mut *residual] {
+        v.clear();
+        v.resize(m, 0.0);
+    }
+    signs.clear();
+    signs.resize(gears.len(), None);
+    changes.clear();
+    changes.resize(gears.len(), 0);
     let lost = curved.curves().iter().any(|g| g.lost_motion() != 0.0);
-    // The settled sign of each curve's torque and how often it changed (lost motion only).
-    let mut signs: Vec<Option<f64>> = vec![None; gears.len()];
-    let mut changes = vec![0usize; gears.len()];
+    // `signs`: the settled sign of each curve's torque, `changes`: how often it changed (lost
+    // motion only).
     // The ratio of two steps bounds the error left (below).
     let mut steps = Contraction::new();
     for iteration in 1..=MAX_EQUILIBRIUM_ITERATIONS {
-        loads.torques(ws, &theta, bodies.as_ref(), wrench.as_ref(), &mut tau);
-        let mut r = DVector::from_iterator(m, (0..m).map(|k| c[k] * tau[k] - theta[k]));
+        loads.torques(ws, theta, bodies.as_ref(), wrench.as_ref(), tau);
+        let r = &mut *residual;
+        for k in 0..m {
+            r[k] = compliance[k] * tau[k] - theta[k];
+        }
         if lost {
             let band = LOST_MOTION_TORQUE_BAND * tau.iter().fold(0.0f64, |a, t| a.max(t.abs()));
             for (i, (k, curve)) in curved.iter().enumerate() {
@@ -262,14 +340,11 @@ pub(crate) fn equilibrium_from(
                 }
             }
         } else {
-            curved.add_excess(&tau, r.as_mut_slice());
+            curved.add_excess(tau, r);
         }
-        let step = lu.solve(&r).ok_or_else(|| VjmError::Numerical {
-            message: "the tangent of the static equilibrium is singular (a load at the arm's \
-                      buckling limit?)"
-                .to_string(),
-        })?;
-        let size = step.amax();
+        chord.solve(r);
+        let step = &*r;
+        let size = step.iter().fold(0.0f64, |a, s| a.max(s.abs()));
         for k in 0..m {
             theta[k] += step[k];
         }
@@ -283,18 +358,15 @@ pub(crate) fn equilibrium_from(
         let left = steps.remaining(size, !lost || iteration > 2);
         if left <= 1e-13 * scale || size < 1e-300 {
             // The tip: the sweep's deflected point, turned by the springs' rotations.
-            let point = loads.torques(ws, &theta, None, None, &mut tau);
-            let turn = DeflectedLoads::turn(ws, &theta);
+            let point = loads.torques(ws, theta, None, None, tau);
+            let turn = DeflectedLoads::turn(ws, theta);
             let d = point - ws.p;
             let r = turn.scaled_axis();
             let rotation = deflected_tip_rotation(&turn, &ws.tip_rotation(chain));
             return Ok(Settled {
-                equilibrium: Equilibrium {
-                    theta,
-                    tip: Isometry3::from_parts(Translation3::from(point), rotation),
-                    iterations: iteration,
-                },
+                tip: Isometry3::from_parts(Translation3::from(point), rotation),
                 from_rigid: [d.x, d.y, d.z, r.x, r.y, r.z],
+                iterations: iteration,
             });
         }
     }
@@ -340,25 +412,37 @@ pub fn gravity_sag_with_gears(
 ) -> Result<[f64; 6], VjmError> {
     let mut ws = GravityWorkspace::new(chain, model, gravity, payload)?;
     ws.evaluate(chain, q)?;
-    gravity_sag_from(chain, model, compliance, gears, q, &ws)
+    let springs = Compliances {
+        linear: compliance,
+        gears,
+    };
+    gravity_sag_from(
+        chain,
+        model,
+        &springs,
+        q,
+        &ws,
+        &mut EquilibriumScratch::default(),
+    )
 }
 
 /// [`gravity_sag_with_gears`] given `rest`, a [`GravityWorkspace`] of this `model` (with the
-/// gravity and payload of the sag) evaluated at `q`.
+/// gravity and payload of the sag) evaluated at `q`, and reusable buffers.
 pub(crate) fn gravity_sag_from(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    compliance: &[f64],
-    gears: &[GearCurve],
+    springs: &Compliances<'_>,
     q: &[f64],
     rest: &GravityWorkspace,
+    scratch: &mut EquilibriumScratch,
 ) -> Result<[f64; 6], VjmError> {
     let loading = Loading {
         gravity: Some(rest.gravity()),
         payload: rest.payload(),
         wrench: None,
     };
-    Ok(equilibrium_from(chain, model, compliance, gears, q, &loading, Some(rest))?.from_rigid)
+    let settled = equilibrium_from(chain, model, springs, q, &loading, Some(rest), scratch)?;
+    Ok(settled.from_rigid)
 }
 
 /// What a measurement under gravity records: the tip under `wrench` minus the tip unloaded,

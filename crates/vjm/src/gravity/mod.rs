@@ -17,17 +17,18 @@
 //! A payload is a [`PointMass`] in the tip frame; it is
 //! one more body on the last joint.
 
+mod chord;
 pub(crate) mod deflected;
 mod equilibrium;
 pub(crate) mod mass;
 mod workspace;
 
-pub(crate) use equilibrium::gravity_sag_from;
 pub use equilibrium::{
     deflection_under_gravity, deflection_under_gravity_with_gears, gravity_sag,
     gravity_sag_with_gears, static_equilibrium, static_equilibrium_with_gears, Equilibrium,
     Loading, LOST_MOTION_TORQUE_BAND, MAX_EQUILIBRIUM_ITERATIONS, MAX_LOST_MOTION_SIGN_CHANGES,
 };
+pub(crate) use equilibrium::{gravity_sag_from, Compliances, EquilibriumScratch};
 pub use mass::{Body, MassModel};
 pub use workspace::{GravityWorkspace, RowFrame, MAX_COUPLING_ITERATIONS};
 

@@ -3,7 +3,9 @@
 
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
-use crate::gravity::{gravity_sag_from, Gravity, GravityWorkspace};
+use crate::gravity::{
+    gravity_sag_from, Compliances, EquilibriumScratch, Gravity, GravityWorkspace,
+};
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 impl StiffnessModel {
@@ -58,6 +60,11 @@ impl StiffnessModel {
             let mut g = GravityWorkspace::new(chain, &model, gravity, payload)?;
             let mut jac = vec![0.0; 6 * m];
             let mut a = vec![0.0; 6 * m];
+            let mut scratch = EquilibriumScratch::default();
+            let springs = Compliances {
+                linear: &c,
+                gears: &gears,
+            };
             for (i, o) in block.zip(out) {
                 let qi = &q[i * n..(i + 1) * n];
                 check_finite("q", qi, i, 0)?;
@@ -72,7 +79,7 @@ impl StiffnessModel {
                 }
                 let mut p = self.predict_row(&a, [0.0; 6], &c);
                 // The workspace evaluated at this row gives the equilibrium its start.
-                let exact = gravity_sag_from(chain, &model, &c, &gears, qi, &g)?;
+                let exact = gravity_sag_from(chain, &model, &springs, qi, &g, &mut scratch)?;
                 p.deflection[..axes].copy_from_slice(&exact[..axes]);
                 *o = p;
             }
