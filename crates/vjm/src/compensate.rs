@@ -24,7 +24,9 @@ use crate::chain::{check_finite, SerialChain};
 use crate::contraction::Contraction;
 use crate::error::VjmError;
 use crate::gear::{torsion_springs, CurvedSprings, GearCurve};
-use crate::gravity::{static_equilibrium_with_gears, Loading};
+use crate::gravity::{
+    equilibrium_from, Compliances, EquilibriumScratch, GravityWorkspace, Loading,
+};
 use crate::kinematics::{jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
 use crate::stiffness_model::Load;
@@ -211,6 +213,10 @@ pub struct CompensationWorkspace {
     /// The load's torque on each spring at θ = 0, N·m (the gear curves' argument).
     tau: Vec<f64>,
     dq: Vec<f64>,
+    /// Under gravity: the weight's workspace (built at the first row that needs it) and the
+    /// equilibrium's buffers, kept from one row to the next.
+    weight: Option<GravityWorkspace>,
+    equilibrium: EquilibriumScratch,
 }
 
 impl CompensationWorkspace {
@@ -230,6 +236,8 @@ impl CompensationWorkspace {
             ktheta: vec![0.0; m],
             tau: vec![0.0; m],
             dq: vec![0.0; n],
+            weight: None,
+            equilibrium: EquilibriumScratch::default(),
         })
     }
 }
@@ -303,20 +311,38 @@ fn loaded_tip(
     let r = ws.springs.tip_rotation(chain);
     if let Some(g) = &opts.gravity {
         // The weight's sag and the load's deflection together, on the deflected chain.
-        let loading = match load {
-            RowLoad::Wrench(w) => Loading {
-                gravity: Some(*g),
-                payload: None,
-                wrench: Some(*w),
-            },
-            RowLoad::Payload(pm) => Loading {
-                gravity: Some(*g),
-                payload: Some(pm),
-                wrench: None,
-            },
+        let (payload, wrench) = match load {
+            RowLoad::Wrench(w) => (None, Some(*w)),
+            RowLoad::Payload(pm) => (Some(pm), None),
         };
-        let gears = curved.curves();
-        return match static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading) {
+        if ws.weight.as_ref().is_none_or(|w| w.gravity() != *g) {
+            ws.weight = Some(GravityWorkspace::new(chain, model, g, None)?);
+        }
+        let weight = ws
+            .weight
+            .as_mut()
+            .expect("the weight's workspace was just built");
+        weight.set_payload(payload);
+        weight.evaluate(chain, q)?;
+        let loading = Loading {
+            gravity: Some(*g),
+            payload,
+            wrench,
+        };
+        let springs = Compliances {
+            linear: compliance,
+            gears: curved.curves(),
+        };
+        let settled = equilibrium_from(
+            chain,
+            model,
+            &springs,
+            q,
+            &loading,
+            Some(&*weight),
+            &mut ws.equilibrium,
+        );
+        return match settled {
             Ok(eq) => {
                 let d = eq.tip.translation.vector - p;
                 let phi = (eq.tip.rotation.to_rotation_matrix()

@@ -28,7 +28,7 @@ pub use equilibrium::{
     gravity_sag_with_gears, static_equilibrium, static_equilibrium_with_gears, Equilibrium,
     Loading, LOST_MOTION_TORQUE_BAND, MAX_EQUILIBRIUM_ITERATIONS, MAX_LOST_MOTION_SIGN_CHANGES,
 };
-pub(crate) use equilibrium::{gravity_sag_from, Compliances, EquilibriumScratch};
+pub(crate) use equilibrium::{equilibrium_from, gravity_sag_from, Compliances, EquilibriumScratch};
 pub use mass::{Body, MassModel};
 pub use workspace::{GravityWorkspace, RowFrame, MAX_COUPLING_ITERATIONS};
 

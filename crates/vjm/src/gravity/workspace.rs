@@ -108,6 +108,11 @@ impl GravityWorkspace {
         }
     }
 
+    /// Carries `payload` (a point mass in the tip frame) from the next evaluation on.
+    pub(crate) fn set_payload(&mut self, payload: Option<&PointMass>) {
+        self.payload = payload.copied();
+    }
+
     /// The payload it carries (a point mass in the tip frame), if any.
     pub fn payload(&self) -> Option<&PointMass> {
         self.payload.as_ref()
