@@ -570,7 +570,7 @@ pub fn compensate(
 /// [`compensate`] with non-linear gears ([`GearCurve`], on the torsion springs of `model`; an
 /// error names a joint without one): the model's loaded tip bends each curved spring by its
 /// curve. Under gravity ([`CompensateOptions::gravity`]) that is the exact equilibrium with the
-/// curves ([`static_equilibrium_with_gears`]); weightless, the curved spring deflects by
+/// curves ([`crate::gravity::static_equilibrium_with_gears`]); weightless, the curved spring deflects by
 /// `c τ + e(τ)` at the load's torque τ (with K_C, `τ = Jᵀ W + (K_C Δθ)_k`), `e(T) = Σ a h(T)`
 /// the curve's excess. Without curves it is [`compensate`], bit for bit.
 pub fn compensate_with_gears(

@@ -109,11 +109,13 @@ impl DeflectedLoads {
                 self.turn[k] = (s, v);
                 lever += rotation_minus_identity(&a, s, v, &lever);
                 reach += rotation_minus_identity(&a, s, v, &reach);
+                // Only a turned spring moves them: `(x − c) + c` need not be x in floating
+                // point, and an undeflected chain's tip must be the rigid one exactly.
+                moment = lever + c * mass;
+                tip = reach + c;
             }
             self.lever[k] = lever;
             self.reach[k] = reach;
-            moment = lever + c * mass;
-            tip = reach + c;
         }
         // Sweep from the base: gravity and the wrench in the frame G_{k−1}ᵀ.
         let mut g = bodies.map(|b| b.gravity);
@@ -268,5 +270,95 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// An undeflected chain's tip is the rigid one bit for bit: a rigid model (all compliances
+    /// 0) and a weightless sag are exactly zero, with spring offsets and a payload.
+    #[test]
+    fn an_undeflected_chain_sags_by_exactly_zero() {
+        let chain = SerialChain::bundled();
+        let payload = PointMass::new(1.5, [0.02, -0.03, 0.12]).unwrap();
+        let offsets: Vec<Vector3<f64>> = (0..7)
+            .map(|j| Vector3::new(0.013 * j as f64, -0.021, 0.037 * (j % 3) as f64))
+            .collect();
+        let model = VirtualJointModel::full(7).with_offsets(offsets).unwrap();
+        let m = model.n_params();
+        for r in 0..20 {
+            let q: Vec<f64> = (0..7)
+                .map(|j| ((7 * r + j) as f64 * 0.91).sin() * 2.0)
+                .collect();
+            let rigid = crate::gravity::gravity_sag(
+                &chain,
+                &model,
+                &vec![0.0; m],
+                &q,
+                &Gravity::default(),
+                Some(&payload),
+            )
+            .unwrap();
+            assert_eq!(rigid, [0.0; 6], "rigid model, row {r}");
+            let weightless = crate::gravity::gravity_sag(
+                &chain,
+                &model,
+                &vec![1e-4; m],
+                &q,
+                &Gravity::new([0.0; 3]).unwrap(),
+                None,
+            )
+            .unwrap();
+            assert_eq!(weightless, [0.0; 6], "weightless, row {r}");
+        }
+    }
+
+    /// A workspace evaluated on a chain with other link masses (same joints) gives that chain's
+    /// torques, as a fresh one does: the masses are read at each evaluation.
+    #[test]
+    fn a_reused_workspace_takes_the_masses_of_the_chain_it_is_given() {
+        let chain = SerialChain::bundled();
+        let heavier = chain
+            .clone()
+            .with_masses(
+                crate::gravity::MassModel::new(
+                    chain
+                        .mass_model()
+                        .unwrap()
+                        .bodies()
+                        .iter()
+                        .map(|b| crate::gravity::Body {
+                            mass: 2.0 * b.mass + 0.5,
+                            com: b.com,
+                        })
+                        .collect(),
+                )
+                .unwrap(),
+            )
+            .unwrap();
+        let model = VirtualJointModel::extended(7);
+        let g = Gravity::default();
+        let q = [0.3, -0.4, 0.2, -1.9, 0.1, 1.5, 0.7];
+        let mut reused = GravityWorkspace::new(&chain, &model, &g, None).unwrap();
+        reused.evaluate(&chain, &q).unwrap();
+        reused.evaluate(&heavier, &q).unwrap();
+        let mut fresh = GravityWorkspace::new(&heavier, &model, &g, None).unwrap();
+        fresh.evaluate(&heavier, &q).unwrap();
+        assert_eq!(reused.torques(), fresh.torques());
+        let (mut a, mut b) = (vec![0.0; 21], vec![0.0; 21]);
+        let theta = vec![1e-3; 21];
+        let mut loads = DeflectedLoads::default();
+        loads.torques(
+            reused.kinematics(),
+            &theta,
+            Some(&reused.bodies()),
+            None,
+            &mut a,
+        );
+        loads.torques(
+            fresh.kinematics(),
+            &theta,
+            Some(&fresh.bodies()),
+            None,
+            &mut b,
+        );
+        assert_eq!(a, b);
     }
 }

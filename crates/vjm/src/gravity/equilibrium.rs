@@ -233,6 +233,11 @@ pub(crate) fn equilibrium_from(
     rest: Option<&GravityWorkspace>,
     scratch: &mut EquilibriumScratch,
 ) -> Result<Settled, VjmError> {
+    // The weight (and its payload) comes from `rest` alone.
+    debug_assert_eq!(rest.is_some(), loading.gravity.is_some());
+    debug_assert!(rest
+        .is_none_or(|r| r.gravity() == loading.gravity.unwrap_or_default()
+            && r.payload() == loading.payload));
     let (compliance, gears) = (springs.linear, springs.gears);
     check_spring_vector(model, compliance)?;
     let torsions = torsion_springs(model, gears)?;

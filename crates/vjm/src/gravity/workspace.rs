@@ -28,7 +28,7 @@ pub struct GravityWorkspace {
     gravity: Vector3<f64>,
     payload: Option<PointMass>,
     ws: Workspace,
-    /// Per actuated joint, its body's mass (kg), fixed.
+    /// Per actuated joint, its body's mass (kg) at the last evaluation.
     body_mass: Vec<f64>,
     /// Per actuated joint, its body's centre of mass at the last evaluation, base frame, m.
     body_point: Vec<Vector3<f64>>,
@@ -124,8 +124,11 @@ impl GravityWorkspace {
         chain.check_q(q, 0)?;
         let masses = chain.mass_model()?;
         self.ws.evaluate(chain, q);
+        // Masses too are the chain's of this call (a chain `with_masses` other ones may come
+        // with the same joints and springs).
         for (j, b) in masses.bodies().iter().enumerate() {
             let (r, o) = self.ws.joint_frame(j);
+            self.body_mass[j] = b.mass;
             self.body_point[j] = o + r * b.com;
         }
         self.payload_point = self.payload.as_ref().map(|p| {
