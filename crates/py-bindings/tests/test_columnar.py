@@ -327,3 +327,29 @@ def test_csjm_columnar_not_a_rotation_names_the_row(tmp_path, csjm_csv):
         csjm.read_measurements(path)
     R, _, _ = csjm.read_measurements(path, project=True)
     assert np.allclose(R[6] @ R[6].T, np.eye(3), atol=1e-12)
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".arrow"])
+@pytest.mark.parametrize("rows", [0, 1, 7, 8, 9, 23])
+def test_a_table_written_in_slices_reads_back_whole(tmp_path, monkeypatch, suffix, rows):
+    """Rows go in slices of ROWS_PER_GROUP (Parquet row groups, Arrow record batches): every
+    slice boundary, strided and masked columns and strings read back cell for cell."""
+    import robot_stiffness._columnar as columnar
+
+    monkeypatch.setattr(columnar, "ROWS_PER_GROUP", 8)
+    rng = np.random.default_rng(7)
+    grid = rng.normal(size=(rows, 3))  # its columns are strided views
+    joint = np.ma.masked_array(np.arange(rows, dtype=np.int64), mask=np.arange(rows) % 3 == 0)
+    names = np.array([f"r{i}" for i in range(rows)], dtype=object)
+    ok = np.arange(rows) % 2 == 0
+    path = tmp_path / f"t{suffix}"
+    write_columns(path, ["a", "b", "joint", "name", "ok"], [grid[:, 0], grid[:, 2], joint, names, ok])
+    table = pa.ipc.open_file(str(path)).read_all() if suffix == ".arrow" else pq.read_table(str(path))
+    assert table.num_rows == rows
+    assert np.array_equal(table.column("a").to_numpy(), grid[:, 0])
+    assert np.array_equal(table.column("b").to_numpy(), grid[:, 2])
+    assert table.column("joint").to_pylist() == [None if i % 3 == 0 else i for i in range(rows)]
+    assert table.column("name").to_pylist() == list(names)
+    assert table.column("ok").to_pylist() == ok.tolist()
+    if suffix == ".parquet":
+        assert pq.ParquetFile(str(path)).num_row_groups == max(1, -(-rows // 8))
