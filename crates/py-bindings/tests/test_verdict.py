@@ -73,12 +73,20 @@ def test_a_gear_whose_stiffness_follows_its_angle_is_unexplained_in_words():
                         n_poses=40, seed=3)
     d = vjm.diagnose(robot, data.measurements)
     assert d.unexplained
-    assert "pose_compliance" in (d.verdict.remaining or ""), d.verdict.remaining
-    # With the noise level given, the angle_compliance block (each torsion column × sin q, cos q)
-    # decides too, and it is the one that sees a smooth dependence on the angle best.
+    # The noise level not given: the angle_compliance block (each torsion column × sin q, cos q)
+    # decides on the p of a wild cluster bootstrap, which the words quote when it is the one.
+    angle = next(b for b in d.verdict.blocks if b.block == "angle_compliance")
+    assert angle.wild_cluster_p_value is not None and angle.wild_cluster_p_value < 1e-6, angle
+    remaining = d.verdict.remaining or ""
+    assert "pose_compliance block" in remaining or "angle_compliance block" in remaining, remaining
+    if "angle_compliance block" in remaining:
+        assert "wild cluster bootstrap" in remaining, remaining
+    in_json = next(b for b in json.loads(d.to_json())["verdict"]["blocks"] if b["block"] == "angle_compliance")
+    assert in_json["wild_cluster_p_value"] == angle.wild_cluster_p_value
+    # With the noise level given, its F test decides, and no bootstrap is drawn.
     given = vjm.diagnose(robot, data.measurements, tracker_sigma=2.1213e-5, force_sigma=0.5, moment_sigma=0.05)
     angle = next(b for b in given.verdict.blocks if b.block == "angle_compliance")
-    assert given.unexplained and angle.f_test.p_value < 1e-6, angle
+    assert given.unexplained and angle.f_test.p_value < 1e-6 and angle.wild_cluster_p_value is None, angle
     assert "compliance block" in (given.verdict.remaining or ""), given.verdict.remaining
     with pytest.raises(ValueError, match="amplitude"):
         vjm.simulate(robot, [{"effect": "joint_torsion_angle_dependent", "joint": 2, "amplitude": 1.0}])

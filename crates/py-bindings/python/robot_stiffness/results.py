@@ -532,11 +532,17 @@ class BlockTest(_Result):
     against the extended model, and what structure in it means. ``pose_compliance`` (per pose,
     its own offsets and its own scale of each joint's torsion response) also decides
     ``unexplained``; ``angle_compliance`` (each joint's torsion compliance varying with sin and
-    cos of its angle) decides too when the noise level was given."""
+    cos of its angle) decides too: on its F test when the noise level was given, else on
+    ``wild_cluster_p_value``, the p of its cluster-robust Wald statistic by a wild cluster
+    bootstrap over the measurements (the F distribution does not hold when the rows are
+    whitened with an assumed noise level)."""
 
     block: str
     f_test: FTest
     meaning: str
+    #: ``angle_compliance`` with the noise level not given: the p-value it decides on; None
+    #: for the other blocks and when the noise level was given.
+    wild_cluster_p_value: Optional[float] = None
 
 
 @dataclass(frozen=True, eq=False)

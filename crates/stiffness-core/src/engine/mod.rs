@@ -23,6 +23,7 @@ mod exchange;
 pub mod fit;
 pub mod select;
 pub mod verdict;
+pub mod wild_cluster;
 
 use std::sync::Arc;
 

@@ -5,3 +5,4 @@ mod decompose;
 mod engine;
 mod table;
 mod weak;
+mod wild_cluster;

@@ -727,6 +727,68 @@ impl<'f> ClusterSums<'f> {
     }
 }
 
+impl VjmProblem<'_> {
+    /// The per-measurement moments of the training rows at `lin` for a wild cluster bootstrap test
+    /// (`test` of the layout columns `model` against `full`, in the orders it was built with):
+    /// each row's whitened `full` columns and its residual from `model` with the test's
+    /// restricted coefficients. One pass over the training rows.
+    pub(super) fn wild_cluster_moments(
+        &self,
+        lin: &Linearisation,
+        test: &stiffness_core::engine::wild_cluster::WildClusterTest,
+        model: &[usize],
+        full: &[usize],
+    ) -> Result<Option<stiffness_core::engine::wild_cluster::ClusterMoments>, Cancelled> {
+        use stiffness_core::engine::wild_cluster::MAX_CLUSTERS;
+        // A cluster is a measurement (a row: its three displacement components share the
+        // force sensor's noise through the row's Jacobian); beyond MAX_CLUSTERS rows,
+        // consecutive rows are grouped into MAX_CLUSTERS clusters. Measurements are
+        // independent of each other (a shared offset per pose is the `pose_offsets` block's
+        // business), and at 4 wrenches per pose rows give the covariance of a 14-column
+        // block ~120 clusters where poses give ~30: on clean data the test's p with poses as
+        // clusters was calibrated too, but it could not reach below ~1e-3 where F's was 1e-20.
+        let n = self.data.len();
+        let n_groups = n.min(MAX_CLUSTERS);
+        let cluster = |i: usize| i * n_groups / n;
+        if test.moments(n_groups).is_none() {
+            return Ok(None);
+        }
+        let mut want = vec![false; self.nraw()];
+        for &c in full.iter().chain(model) {
+            want[c] = true;
+        }
+        let coef = test.restricted_coefficients();
+        self.begin_pass();
+        let parts = in_parts(self.data.len(), |range| {
+            let mut m = test.moments(n_groups).expect("within the cap");
+            let mut x = vec![Vector3::zeros(); full.len()];
+            let mut row = vec![0.0; full.len()];
+            self.for_each_train_row_in(lin, range, Some(&want), |i, _, w, _, cols| {
+                let mut e = whiten(w, &cols[self.y]);
+                for (&c, b) in model.iter().zip(coef) {
+                    e -= whiten(w, &cols[c]) * *b;
+                }
+                for (xk, &c) in x.iter_mut().zip(full) {
+                    *xk = whiten(w, &cols[c]);
+                }
+                for r in 0..3 {
+                    for (dst, xk) in row.iter_mut().zip(&x) {
+                        *dst = xk[r];
+                    }
+                    m.push_row(test, cluster(i), &row, e[r]);
+                }
+            })?;
+            Ok::<_, Cancelled>(m)
+        });
+        let mut it = parts.into_iter();
+        let mut m = it.next().expect("at least one part")?;
+        for part in it {
+            m.merge(&part?);
+        }
+        Ok(Some(m))
+    }
+}
+
 fn whiten(w: &Matrix3<f64>, v: &[f64; 3]) -> Vector3<f64> {
     w * Vector3::new(v[0], v[1], v[2])
 }
