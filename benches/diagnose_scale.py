@@ -15,6 +15,10 @@ of the bundled Panda (``robot_stiffness.vjm.simulate``: nominal torsions plus on
   (all of them: identification has no hold-out);
 * checks that the diagnosis names the hidden tilt first.
 
+``--gravity standard`` (the default) runs all of it under standard gravity with the URDF's link
+masses, as the library does by default; ``--gravity none`` on a weightless arm, the problem the
+numpy peer solves.
+
 It prints a markdown table (time, per-row cost, ratio diagnose/identify, memory) and checks the
 issue-12 targets: at 1e6 rows diagnose ≤ 2 s and ≤ 20 × identify, memory beyond the input
 ≤ 256 MB, time per row at the largest size within 1.25 × that at the next size (linearity).
@@ -112,6 +116,13 @@ def peak_beyond(baseline_kb: int) -> float:
 # ----------------------------------------------------------------------------------------------
 # Campaign files
 # ----------------------------------------------------------------------------------------------
+#: Keyword arguments of ``simulate``, ``diagnose`` and ``identify`` for ``--gravity``: the
+#: library's default (standard gravity along -z of the base, link masses from the URDF) or a
+#: weightless arm (``gravity=None``), which is the problem the numpy peer solves and the one the
+#: figures before gravity became the default (2026-12-02) were measured on.
+GRAVITY_KW: Dict[str, Any] = {}
+
+
 def make_campaign(n_rows: int, path: Path) -> float:
     """Simulate the seeded hidden-tilt campaign of ``n_rows`` rows into ``path`` (.npz)."""
     from robot_stiffness import vjm
@@ -119,7 +130,7 @@ def make_campaign(n_rows: int, path: Path) -> float:
     robot = vjm.Robot.bundled()
     t0 = time.perf_counter()
     c = vjm.simulate(robot, [HIDDEN_TILT], n_poses=n_rows // WRENCHES_PER_POSE,
-                     wrenches_per_pose=WRENCHES_PER_POSE, seed=SEED)
+                     wrenches_per_pose=WRENCHES_PER_POSE, seed=SEED, **GRAVITY_KW)
     elapsed = time.perf_counter() - t0
     m = c.measurements
     assert m.pose is not None and m.set is not None, "the testbed writes pose and set columns"
@@ -154,8 +165,8 @@ def worker_library(path: Path, repeat: int) -> Dict[str, Any]:
 
     data = measurements(slice(None))
     warm = measurements(slice(0, WARMUP_ROWS))
-    vjm.diagnose(robot, warm, per_row=False)
-    robot.identify(warm.q, warm.wrench, warm.displacement, model="traditional")
+    vjm.diagnose(robot, warm, per_row=False, **GRAVITY_KW)
+    robot.identify(warm.q, warm.wrench, warm.displacement, model="traditional", **GRAVITY_KW)
 
     rss = _status_kb("VmRSS")
     reset_peak()
@@ -163,7 +174,7 @@ def worker_library(path: Path, repeat: int) -> Dict[str, Any]:
     d = None
     for _ in range(repeat):
         t0, c0 = time.perf_counter(), time.process_time()
-        d = vjm.diagnose(robot, data, per_row=False)
+        d = vjm.diagnose(robot, data, per_row=False, **GRAVITY_KW)
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
     mem_diag = peak_beyond(rss)
@@ -173,7 +184,7 @@ def worker_library(path: Path, repeat: int) -> Dict[str, Any]:
     id_times, id_cpu = [], []
     for _ in range(max(repeat, 3)):
         t0, c0 = time.perf_counter(), time.process_time()
-        robot.identify(data.q, data.wrench, data.displacement, model="traditional")
+        robot.identify(data.q, data.wrench, data.displacement, model="traditional", **GRAVITY_KW)
         id_times.append(time.perf_counter() - t0)
         id_cpu.append(time.process_time() - c0)
     mem_id = peak_beyond(rss)
@@ -219,7 +230,7 @@ def worker_stages(path: Path) -> Dict[str, Any]:
                            "cpu_s": c - last[1], "peak_mb": peak_beyond(rss)})
         last[:] = [t, c]
 
-    vjm.diagnose(robot, data, per_row=False, progress=progress)
+    vjm.diagnose(robot, data, per_row=False, progress=progress, **GRAVITY_KW)
     stages.append({"stage": "returned to Python", "wall_s": time.perf_counter() - last[0],
                    "cpu_s": time.process_time() - last[1], "peak_mb": peak_beyond(rss)})
     return {"rows": len(data), "stages": stages}
@@ -438,7 +449,7 @@ def worker_peer(path: Path) -> Dict[str, Any]:
 # ----------------------------------------------------------------------------------------------
 def run_worker(kind: str, path: Path, repeat: int) -> Dict[str, Any]:
     cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", kind, "--file", str(path),
-           "--repeat", str(repeat)]
+           "--repeat", str(repeat), "--gravity", "none" if GRAVITY_KW else "standard"]
     out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -456,11 +467,16 @@ def main() -> int:
     ap.add_argument("--out", default=str(RESULTS / "diagnose_scale.md"))
     ap.add_argument("--stages", type=int, metavar="N",
                     help="only: one diagnosis of N rows, time and peak memory per stage")
+    ap.add_argument("--gravity", choices=["standard", "none"], default="standard",
+                    help="standard: the library's default, under standard gravity with the URDF's "
+                    "link masses; none: a weightless arm, the problem the numpy peer solves")
     ap.add_argument("--worker", choices=["library", "peer", "stages"], help=argparse.SUPPRESS)
     ap.add_argument("--file", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
+    if args.gravity == "none":
+        GRAVITY_KW["gravity"] = None
 
     if args.worker:
         workers = {"library": lambda: worker_library(Path(args.file), args.repeat),
@@ -493,7 +509,8 @@ def main() -> int:
         f"load average {os.getloadavg()[0]:.2f} at start; python {platform.python_version()}, "
         f"numpy {np.__version__}")
     say(f"campaign: bundled Panda, nominal torsions + hidden tilt {HIDDEN_TILT}, "
-        f"{WRENCHES_PER_POSE} loads per pose, seed {SEED}; diagnose repeat {args.repeat} (median)")
+        f"{WRENCHES_PER_POSE} loads per pose, seed {SEED}; diagnose repeat {args.repeat} (median); "
+        f"gravity: {'none (weightless arm)' if GRAVITY_KW else 'standard (the default)'}")
     say()
     lib: Dict[int, Dict[str, Any]] = {}
     peer: Dict[int, Dict[str, Any]] = {}

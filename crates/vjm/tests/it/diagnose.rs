@@ -1765,3 +1765,52 @@ fn without_the_noise_level_the_angle_block_decides_on_a_wild_cluster_bootstrap()
     println!("J2 ±10 %, not given: unexplained {found}/20");
     assert!(found >= 16, "J2 ±10 %, not given: unexplained {found}/20");
 }
+
+/// Beyond `MAX_CLUSTERS` rows the bootstrap's clusters are runs of consecutive rows (here 1000
+/// rows, 100 poses × 10 wrenches, ~3 training rows per cluster). The grouping keeps the test
+/// calibrated on clean campaigns (release build, 200 seeds of 400 rows and 100 of 2000 rows:
+/// p below 0.01 in 3 and 2, below 0.05 in 12 and 8, below 0.5 in 110 and 51) and able to see a
+/// gear varying ±5 % with its angle at joint 2, where its λ is ~6 × that of the default
+/// campaign's 160 rows.
+#[test]
+fn beyond_max_clusters_the_bootstrap_groups_consecutive_rows() {
+    use stiffness_core::engine::wild_cluster::MAX_CLUSTERS;
+    let chain = SerialChain::bundled();
+    let big = |seed: u64| CampaignSpec {
+        n_poses: 100,
+        wrenches_per_pose: 10,
+        seed,
+        ..Default::default()
+    };
+    assert!(big(0).n_poses * big(0).wrenches_per_pose > 3 * MAX_CLUSTERS);
+    let (mut w_01, mut w_50) = (0, 0);
+    for seed in 0..40 {
+        let c = simulate(&chain, &TrueModel::nominal(7), &big(40_000 + seed)).unwrap();
+        let d = diagnose(&chain, &c.dataset, &noise_options(false)).unwrap();
+        let w = angle_compliance(&d)
+            .wild_cluster_p_value
+            .expect("not given: the bootstrap decides");
+        w_01 += u64::from(w < 0.01);
+        w_50 += u64::from(w < 0.5);
+    }
+    println!("clean, 1000 rows, not given: bootstrap p < 0.01 {w_01}, < 0.5 {w_50} of 40");
+    assert!(w_01 <= 3, "bootstrap: {w_01} of 40 below 0.01");
+    assert!(
+        (10..=30).contains(&w_50),
+        "bootstrap: {w_50} of 40 below 0.5"
+    );
+
+    let truth = TrueModel::nominal(7).with_effect(Effect::TorsionAngleDependent {
+        joint: 1,
+        amplitude: 0.05,
+    });
+    let mut found = 0;
+    for seed in 0..10 {
+        let c = simulate(&chain, &truth, &big(41_000 + seed)).unwrap();
+        let d = diagnose(&chain, &c.dataset, &noise_options(false)).unwrap();
+        let w = angle_compliance(&d).wild_cluster_p_value.expect("decides");
+        found += u64::from(d.unexplained && w < 1e-3);
+    }
+    println!("J2 ±5 %, 1000 rows, not given: unexplained with bootstrap p < 1e-3 in {found}/10");
+    assert!(found >= 9, "J2 ±5 %, 1000 rows: {found}/10");
+}
