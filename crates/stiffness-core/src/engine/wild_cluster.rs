@@ -238,6 +238,42 @@ impl WildClusterTest {
         batch.walds(1)[0]
     }
 
+    /// The Wald statistics of bootstrap draws with the given weights: per draw, one weight per
+    /// cluster that has rows, in cluster order. `None` for a draw whose covariance is singular
+    /// or whose weights are not one per such cluster, and for every draw where
+    /// [`Self::p_value`] is `None`. [`Self::p_value`] draws its own weights; this is for checks
+    /// of the draws against other code.
+    pub fn draw_statistics(
+        &self,
+        moments: &ClusterMoments,
+        draws: &[Vec<f64>],
+    ) -> Vec<Option<f64>> {
+        let used = moments.used_clusters();
+        if self.q == 0 || used.len() <= self.q {
+            return vec![None; draws.len()];
+        }
+        let mut batch = Batch::new(moments, &used);
+        let mut out = Vec::with_capacity(draws.len());
+        for chunk in draws.chunks(BATCH) {
+            for (k, w) in chunk.iter().enumerate() {
+                let dst = batch.weights_mut(k);
+                if w.len() == dst.len() {
+                    dst.copy_from_slice(w);
+                } else {
+                    dst.fill(0.0);
+                }
+            }
+            let walds = batch.walds(chunk.len());
+            out.extend(
+                chunk
+                    .iter()
+                    .zip(walds)
+                    .map(|(w, s)| s.filter(|_| w.len() == used.len())),
+            );
+        }
+        out
+    }
+
     /// Empty moments for clusters `0..n_clusters`; `None` above [`MAX_CLUSTERS`].
     pub fn moments(&self, n_clusters: usize) -> Option<ClusterMoments> {
         (n_clusters <= MAX_CLUSTERS).then(|| {
@@ -269,7 +305,9 @@ impl WildClusterTest {
         }
         let mut batch = Batch::new(moments, &used);
         batch.weights_mut(0).fill(1.0);
-        let observed = batch.walds(1)[0]?;
+        // A statistic that is not a number (moments that are not) tests nothing: every draw's
+        // comparison with it would be false and p would come out at its smallest.
+        let observed = batch.walds(1)[0].filter(|w| w.is_finite())?;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut draws: Vec<f64> = Vec::with_capacity(ALL_DRAWS);
         let mut at_least = 0usize;

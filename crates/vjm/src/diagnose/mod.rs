@@ -1155,6 +1155,12 @@ fn p_text(p: f64) -> String {
     }
 }
 
+/// The p-value a verdict block decides on: its wild cluster bootstrap's where it has one (the
+/// `angle_compliance` block without the noise level), else its F test's.
+fn deciding_p(b: &BlockTest) -> f64 {
+    b.wild_cluster_p_value.unwrap_or(b.f_test.p_value)
+}
+
 /// What remains, in words: the block of the alternative that carries the most significant
 /// structure; the goodness of fit when only it rejects.
 fn remaining_in_words(v: &VerdictTests) -> String {
@@ -1183,16 +1189,16 @@ fn remaining_in_words(v: &VerdictTests) -> String {
             // Not the own blocks, deciding or not: neither is part of the overall alternative.
             None => b.block != POSE_COMPLIANCE && b.block != Alternative::AngleCompliance.name(),
         })
-        .min_by(|a, b| a.f_test.p_value.total_cmp(&b.f_test.p_value));
+        .min_by(|a, b| deciding_p(a).total_cmp(&deciding_p(b)));
     match best {
-        // A block whose p comes from the wild cluster bootstrap is quoted with that p: it is
-        // the one that decided.
-        Some(b) if b.f_test.p_value < 0.01 => format!(
+        // A block whose p comes from the wild cluster bootstrap is chosen, gated and quoted
+        // with that p: it is the one that decided.
+        Some(b) if deciding_p(b) < 0.01 => format!(
             "structure remains (lack of fit p {}), mostly {} ({} block, p {}{})",
             p_text(lof.p_value),
             b.meaning,
             b.block,
-            p_text(b.wild_cluster_p_value.unwrap_or(b.f_test.p_value)),
+            p_text(deciding_p(b)),
             if b.wild_cluster_p_value.is_some() {
                 " by a wild cluster bootstrap"
             } else {

@@ -281,8 +281,9 @@ pub struct BlockTest {
     pub block: String,
     /// Its nested F test.
     pub f_test: FTest,
-    /// The same nested test's p-value from a wild cluster bootstrap over the poses
-    /// (`stiffness_core::engine::wild_cluster`), where it is computed: the `angle_compliance`
+    /// The same nested test's p-value from a wild cluster bootstrap, the clusters the
+    /// measurements (beyond 256 rows, runs of consecutive rows;
+    /// `stiffness_core::engine::wild_cluster`), where it is computed: the `angle_compliance`
     /// block, which decides on it when the noise level is not given (the F distribution then
     /// does not hold). `None` (null) for the other blocks and when the noise level is given.
     pub wild_cluster_p_value: Option<f64>,
