@@ -33,11 +33,13 @@ pub fn zero_norm<'a>(cols: impl IntoIterator<Item = &'a Vec<f64>>) -> f64 {
     ZERO_COLUMN_RTOL * cols.into_iter().map(|c| norm(c)).fold(0.0, f64::max)
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// The inner product of two columns.
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-fn norm(a: &[f64]) -> f64 {
+/// The Euclidean norm of a column.
+pub(crate) fn norm(a: &[f64]) -> f64 {
     dot(a, a).sqrt()
 }
 

@@ -32,7 +32,7 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::basis::{zero_norm, RANK_TOL};
+use super::basis::{dot, norm, zero_norm, RANK_TOL};
 use crate::lsq::TriangularFactor;
 
 /// Draws in the first round; more are drawn only when the p-value is small.
@@ -64,7 +64,12 @@ const WEBB: [f64; 6] = [
 /// The column-scaled SVD of a set of columns (length P each): `A D = U Σ Vᵀ` with the
 /// singular values above `RANK_TOL·σ_max` kept. `zero`: columns of this norm or less are not
 /// in the data (scale 0).
+///
+/// The same rank rules as [`super::basis::solve_columns`], which keeps only the solution: the
+/// coordinates need the factors.
 struct ScaledSvd {
+    /// Columns.
+    p: usize,
     /// Per kept singular value k: `D V_k / σ_k` (length p).
     w: Vec<Vec<f64>>,
     /// Per kept singular value: `U_k` (length P).
@@ -86,20 +91,24 @@ impl ScaledSvd {
                 }
             })
             .collect();
-        if p == 0 || np == 0 {
-            return ScaledSvd {
-                w: Vec::new(),
-                u: Vec::new(),
-            };
-        }
-        let a = DMatrix::from_fn(np, p, |i, j| columns[j][i] * scale[j]);
-        let svd = a.svd(true, true);
-        let (u, vt) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
-        let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
         let mut out = ScaledSvd {
+            p,
             w: Vec::new(),
             u: Vec::new(),
         };
+        if p == 0 || np == 0 {
+            return out;
+        }
+        let a = DMatrix::from_fn(np, p, |i, j| columns[j][i] * scale[j]);
+        // Only non-finite columns fail to converge (the data are finite-checked on entry):
+        // nothing is in their span.
+        let Ok(svd) =
+            crate::decompose::svd(a, true, true, "SVD of the wild cluster test's columns")
+        else {
+            return out;
+        };
+        let (u, vt) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
+        let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
         for (k, &s) in svd.singular_values.iter().enumerate() {
             if smax > 0.0 && s > RANK_TOL * smax {
                 out.w
@@ -116,8 +125,7 @@ impl ScaledSvd {
 
     /// The least-squares coefficients of a column `b` (length P) on the columns.
     fn solve(&self, b: &[f64]) -> Vec<f64> {
-        let p = self.w.first().map_or(0, Vec::len);
-        let mut x = vec![0.0; p];
+        let mut x = vec![0.0; self.p];
         for (w, u) in self.w.iter().zip(&self.u) {
             let ub = dot(u, b);
             for (xj, wj) in x.iter_mut().zip(w) {
@@ -126,14 +134,6 @@ impl ScaledSvd {
         }
         x
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn norm(a: &[f64]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 /// The wild cluster bootstrap test of a block (see the module's documentation): built from
@@ -229,13 +229,14 @@ impl WildClusterTest {
     /// The observed statistic: the block's cluster-robust (CR0) Wald statistic from the full
     /// model's residuals; `None` as for [`Self::p_value`].
     pub fn statistic(&self, moments: &ClusterMoments) -> Option<f64> {
+        self.batch(moments)?.observed()
+    }
+
+    /// The draws' buffers over the clusters with rows; `None` when the block adds nothing
+    /// outside the model or those clusters are too few for its covariance (at most its rank).
+    fn batch(&self, moments: &ClusterMoments) -> Option<Batch> {
         let used = moments.used_clusters();
-        if self.q == 0 || used.len() <= self.q {
-            return None;
-        }
-        let mut batch = Batch::new(moments, &used);
-        batch.weights_mut(0).fill(1.0);
-        batch.walds(1)[0]
+        (self.q > 0 && used.len() > self.q).then(|| Batch::new(moments, &used))
     }
 
     /// The Wald statistics of bootstrap draws with the given weights: per draw, one weight per
@@ -248,11 +249,10 @@ impl WildClusterTest {
         moments: &ClusterMoments,
         draws: &[Vec<f64>],
     ) -> Vec<Option<f64>> {
-        let used = moments.used_clusters();
-        if self.q == 0 || used.len() <= self.q {
+        let Some(mut batch) = self.batch(moments) else {
             return vec![None; draws.len()];
-        }
-        let mut batch = Batch::new(moments, &used);
+        };
+        let g = batch.w.nrows();
         let mut out = Vec::with_capacity(draws.len());
         for chunk in draws.chunks(BATCH) {
             for (k, w) in chunk.iter().enumerate() {
@@ -268,7 +268,7 @@ impl WildClusterTest {
                 chunk
                     .iter()
                     .zip(walds)
-                    .map(|(w, s)| s.filter(|_| w.len() == used.len())),
+                    .map(|(w, s)| s.filter(|_| w.len() == g)),
             );
         }
         out
@@ -299,15 +299,8 @@ impl WildClusterTest {
     /// are the draws' (ν from the variance-to-mean² ratio; a statistic as light-tailed as χ²_q
     /// gets ν = ∞): the draws calibrate the reference, the reference extends it.
     pub fn p_value(&self, moments: &ClusterMoments, seed: u64) -> Option<f64> {
-        let used = moments.used_clusters();
-        if self.q == 0 || used.len() <= self.q {
-            return None;
-        }
-        let mut batch = Batch::new(moments, &used);
-        batch.weights_mut(0).fill(1.0);
-        // A statistic that is not a number (moments that are not) tests nothing: every draw's
-        // comparison with it would be false and p would come out at its smallest.
-        let observed = batch.walds(1)[0].filter(|w| w.is_finite())?;
+        let mut batch = self.batch(moments)?;
+        let observed = batch.observed()?;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut draws: Vec<f64> = Vec::with_capacity(ALL_DRAWS);
         let mut at_least = 0usize;
@@ -469,6 +462,14 @@ impl Batch {
             v: DMatrix::zeros(q, q),
             x: vec![0.0; q],
         }
+    }
+
+    /// The observed statistic: the draw with every weight 1. A statistic that is not a number
+    /// (moments that are not) tests nothing: every draw's comparison with it would be false
+    /// and p would come out at its smallest.
+    fn observed(&mut self) -> Option<f64> {
+        self.weights_mut(0).fill(1.0);
+        self.walds(1)[0].filter(|w| w.is_finite())
     }
 
     /// The weights of draw `k` of the batch, one per used cluster.

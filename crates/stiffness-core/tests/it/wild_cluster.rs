@@ -75,18 +75,7 @@ fn the_statistic_is_the_dense_cluster_robust_wald_statistic() {
         for (i, r) in rows.iter().enumerate() {
             m.push_row(&test, i / 3, &r[..4], r[4] - b0[0] - b0[1] * r[1]);
         }
-        let xtx_inv = (x.transpose() * &x).try_inverse().unwrap();
-        let beta = &xtx_inv * x.transpose() * &y;
-        let e = &y - &x * &beta;
-        let mut meat = DMatrix::<f64>::zeros(4, 4);
-        for g in 0..30 {
-            let s = x.rows(3 * g, 3).transpose() * e.rows(3 * g, 3);
-            meat += &s * s.transpose();
-        }
-        let v = &xtx_inv * meat * &xtx_inv;
-        let vbb = v.view((2, 2), (2, 2)).into_owned();
-        let bb = beta.rows(2, 2).into_owned();
-        let dense = (bb.transpose() * vbb.try_inverse().unwrap() * &bb)[0];
+        let dense = dense_wald(&x, &y);
         let w = test.statistic(&m).unwrap();
         assert!(
             (w - dense).abs() <= 1e-8 * dense,

@@ -673,12 +673,13 @@ fn verdict_tests(
     // its cluster-robust Wald statistic referred to a wild cluster bootstrap (one more pass
     // over the training rows; `stiffness_core::engine::wild_cluster`): below 0.01 in 4 and
     // below 0.05 in 26 of the same 300 (docs/diagnose.md §3.6).
-    let angle_cols: Vec<usize> = model
+    // The model and the block, in the layout's numbering and in the factor's.
+    let full_layout: Vec<usize> = model
         .iter()
         .copied()
         .chain(problem.columns(Term::Alt(Alternative::AngleCompliance)))
-        .map(at)
         .collect();
+    let angle_cols: Vec<usize> = full_layout.iter().map(|&c| at(c)).collect();
     let angle_compliance = nested_test_with_block(
         &fit.compressed.train,
         &model,
@@ -688,11 +689,6 @@ fn verdict_tests(
         y_w,
         0,
     );
-    let full_layout: Vec<usize> = model
-        .iter()
-        .copied()
-        .chain(problem.columns(Term::Alt(Alternative::AngleCompliance)))
-        .collect();
     let wild_p = if noise_known {
         None
     } else {

@@ -1300,6 +1300,19 @@ fn noise_options(given: bool) -> DiagnoseOptions {
     }
 }
 
+/// The diagnoses, the noise level not given, of `truth` simulated on the bundled Panda with
+/// each of `specs`.
+fn diagnoses_not_given<'a>(
+    truth: &'a TrueModel,
+    specs: impl IntoIterator<Item = CampaignSpec> + 'a,
+) -> impl Iterator<Item = vjm::diagnose::report::Diagnosis> + 'a {
+    let chain = SerialChain::bundled();
+    specs.into_iter().map(move |spec| {
+        let c = simulate(&chain, truth, &spec).unwrap();
+        diagnose(&chain, &c.dataset, &noise_options(false)).unwrap()
+    })
+}
+
 /// Over `seeds` campaigns of a Panda whose torsion at `joint` (0-based) has compliance
 /// c·(1 + amplitude·sin q), with the testbed's default noise, its level `given` or not:
 /// runs `unexplained`, runs with the `pose_compliance` block's p below 0.01, and with the
@@ -1756,12 +1769,9 @@ fn without_the_noise_level_the_angle_block_decides_on_a_wild_cluster_bootstrap()
         joint: 1,
         amplitude: 0.1,
     });
-    let mut found = 0;
-    for seed in 0..20 {
-        let c = simulate(&chain, &truth, &spec(3000 + seed)).unwrap();
-        let d = diagnose(&chain, &c.dataset, &noise_options(false)).unwrap();
-        found += u64::from(d.unexplained);
-    }
+    let found = diagnoses_not_given(&truth, (0..20).map(|seed| spec(3000 + seed)))
+        .filter(|d| d.unexplained)
+        .count();
     println!("J2 ±10 %, not given: unexplained {found}/20");
     assert!(found >= 16, "J2 ±10 %, not given: unexplained {found}/20");
 }
@@ -1775,7 +1785,6 @@ fn without_the_noise_level_the_angle_block_decides_on_a_wild_cluster_bootstrap()
 #[test]
 fn beyond_max_clusters_the_bootstrap_groups_consecutive_rows() {
     use stiffness_core::engine::wild_cluster::MAX_CLUSTERS;
-    let chain = SerialChain::bundled();
     let big = |seed: u64| CampaignSpec {
         n_poses: 100,
         wrenches_per_pose: 10,
@@ -1784,9 +1793,7 @@ fn beyond_max_clusters_the_bootstrap_groups_consecutive_rows() {
     };
     assert!(big(0).n_poses * big(0).wrenches_per_pose > 3 * MAX_CLUSTERS);
     let (mut w_01, mut w_50) = (0, 0);
-    for seed in 0..40 {
-        let c = simulate(&chain, &TrueModel::nominal(7), &big(40_000 + seed)).unwrap();
-        let d = diagnose(&chain, &c.dataset, &noise_options(false)).unwrap();
+    for d in diagnoses_not_given(&TrueModel::nominal(7), (0..40).map(|s| big(40_000 + s))) {
         let w = angle_compliance(&d)
             .wild_cluster_p_value
             .expect("not given: the bootstrap decides");
@@ -1804,13 +1811,12 @@ fn beyond_max_clusters_the_bootstrap_groups_consecutive_rows() {
         joint: 1,
         amplitude: 0.05,
     });
-    let mut found = 0;
-    for seed in 0..10 {
-        let c = simulate(&chain, &truth, &big(41_000 + seed)).unwrap();
-        let d = diagnose(&chain, &c.dataset, &noise_options(false)).unwrap();
-        let w = angle_compliance(&d).wild_cluster_p_value.expect("decides");
-        found += u64::from(d.unexplained && w < 1e-3);
-    }
+    let found = diagnoses_not_given(&truth, (0..10).map(|s| big(41_000 + s)))
+        .filter(|d| {
+            let w = angle_compliance(d).wild_cluster_p_value.expect("decides");
+            d.unexplained && w < 1e-3
+        })
+        .count();
     println!("J2 ±5 %, 1000 rows, not given: unexplained with bootstrap p < 1e-3 in {found}/10");
     assert!(found >= 9, "J2 ±5 %, 1000 rows: {found}/10");
 }
