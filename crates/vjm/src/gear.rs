@@ -152,6 +152,12 @@ impl GearCurve {
         }
     }
 
+    /// True when the curve bends nothing: every coefficient and the lost motion are 0 (its
+    /// spring then deflects as a linear one, bit for bit).
+    pub(crate) fn is_linear(&self) -> bool {
+        self.lost_motion == 0.0 && self.coefficients.iter().all(|a| *a == 0.0)
+    }
+
     /// The deflection of the spring of linear compliance `c` (rad/(N·m)) under a total torque
     /// `t` (N·m): `c·t + Σ_k a_k h_k(t) + ½ b·sign(t)`, rad.
     pub fn deflection(&self, c: f64, t: f64) -> f64 {

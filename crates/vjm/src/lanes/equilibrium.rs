@@ -14,16 +14,13 @@
 
 use pulp::{Simd, WithSimd};
 
-use super::vector::{cross3, dot3, gather, MAX_LANES};
+use super::vector::{
+    add3, cross3, dot3, gather, rotation_minus_identity, sin_versine, MAX_LANES, SERIES_LIMIT,
+};
 use super::V;
 
 /// Steps at most (the scalar code's cap).
 const MAX_STEPS: usize = 100;
-/// Largest deflection the series is used for, rad. With the terms kept (to θ¹⁵ and θ¹⁶), the
-/// first left out is below 1e-24 of `sin θ` and of `1 − cos θ` at 0.25 rad: the series is the
-/// function to rounding there, as the library's sine is (the scalar code switches to the
-/// library at 1e-3 rad, with a shorter series).
-const SERIES_LIMIT: f64 = 0.25;
 
 /// The inputs of a batch of rows for [`deflected_displacements`], K deflecting springs each.
 #[derive(Debug, Clone, Copy)]
@@ -81,25 +78,6 @@ fn deflected_lanes<S: Simd>(
     true
 }
 
-/// `(R − I) y` for rotations about the unit axes `a` with `sin θ` and `1 − cos θ` given
-/// (Rodrigues), lane-wise.
-#[inline(always)]
-fn rotation_minus_identity<S: Simd>(
-    a: &[V<S>; 3],
-    sin: V<S>,
-    versine: V<S>,
-    y: &[V<S>; 3],
-) -> [V<S>; 3] {
-    let ay = cross3(a, y);
-    let aay = cross3(a, &ay);
-    std::array::from_fn(|d| aay[d].mul_add(versine, ay[d] * sin))
-}
-
-#[inline(always)]
-fn add3<S: Simd>(a: &[V<S>; 3], b: &[V<S>; 3]) -> [V<S>; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
 /// Per spring of a batch: compliance, axis, offset across the axis, and the deflections.
 struct SpringLanes<S: Simd> {
     c: V<S>,
@@ -152,19 +130,7 @@ fn equilibrium_lanes<S: Simd>(
             if buf[..count].iter().any(|t| t.abs() >= SERIES_LIMIT) {
                 return false;
             }
-            let t2 = sp.theta * sp.theta;
-            let one = V::splat(s, 1.0);
-            // Nested from the innermost factor: sin θ = θ(1 − θ²/(2·3)(1 − θ²/(4·5)(⋯))) and
-            // 1 − cos θ = ½θ²(1 − θ²/(3·4)(1 − θ²/(5·6)(⋯))).
-            let mut sin = one;
-            let mut versine = one;
-            for k in (1..=7).rev() {
-                let (a, b) = (2.0 * k as f64, 2.0 * k as f64 + 1.0);
-                sin = one - t2 * V::splat(s, 1.0 / (a * b)) * sin;
-                versine = one - t2 * V::splat(s, 1.0 / (b * (b + 1.0))) * versine;
-            }
-            sp.sin = sp.theta * sin;
-            sp.versine = V::splat(s, 0.5) * t2 * versine;
+            (sp.sin, sp.versine) = sin_versine(s, sp.theta);
         }
         d = [zero; 3];
         for sp in springs.iter_mut().rev() {
@@ -236,19 +202,14 @@ mod tests {
         use crate::diagnose::rows::RowBuilder;
         let chain = crate::SerialChain::bundled();
         let n = 13;
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let q = super::super::seeded_configurations(&chain, n, 0x2545_F491_4F6C_DD1D);
+        let mut state = 0x2545_F491_4F6C_DD1Du64 ^ 0x9e37;
         let mut uniform = move || {
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
-        let mut q = Vec::new();
-        for _ in 0..n {
-            for &(lo, hi) in chain.limits() {
-                q.push(lo + (hi - lo) * uniform());
-            }
-        }
         let w: Vec<f64> = (0..6 * n)
             .map(|k| (2.0 * uniform() - 1.0) * if k % 6 < 3 { 80.0 } else { 3.0 })
             .collect();

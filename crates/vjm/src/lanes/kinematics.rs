@@ -96,6 +96,11 @@ impl ChainLanes {
         self.t.len()
     }
 
+    /// True when some spring's centre is offset from its joint's origin.
+    pub(crate) fn has_offsets(&self) -> bool {
+        self.offsets.is_some()
+    }
+
     pub(crate) fn n_springs(&self) -> usize {
         self.spring_joint.len()
     }

@@ -21,6 +21,30 @@
 pub(crate) mod equilibrium;
 pub(crate) mod gram;
 pub(crate) mod kinematics;
+pub(crate) mod sag;
 mod vector;
 
 pub(crate) use vector::{sin_cos, sin_cos_slice, MAX_LANES, V};
+
+/// Seeded configurations within `chain`'s limits, row-major (`rows` × n; the tests' own
+/// generator, so that the lanes' tests need no testbed).
+#[cfg(test)]
+pub(crate) fn seeded_configurations(
+    chain: &crate::SerialChain,
+    rows: usize,
+    mut state: u64,
+) -> Vec<f64> {
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut q = Vec::new();
+    for _ in 0..rows {
+        for &(lo, hi) in chain.limits() {
+            q.push(lo + (hi - lo) * uniform());
+        }
+    }
+    q
+}

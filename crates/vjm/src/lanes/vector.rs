@@ -166,6 +166,51 @@ pub(crate) fn cross3<S: Simd>(a: &[V<S>; 3], b: &[V<S>; 3]) -> [V<S>; 3] {
     ]
 }
 
+/// Largest |θ| (rad) [`sin_versine`]'s series is used for.
+pub(crate) const SERIES_LIMIT: f64 = 0.25;
+
+/// `sin θ` and `1 − cos θ` by their series, exact in double precision for |θ| < [`SERIES_LIMIT`] (the
+/// first term left out, θ¹⁷/17!, is below 1e-24 of `sin θ` there), lane-wise.
+#[inline(always)]
+pub(crate) fn sin_versine<S: Simd>(s: S, theta: V<S>) -> (V<S>, V<S>) {
+    let t2 = theta * theta;
+    let one = V::splat(s, 1.0);
+    // Nested from the innermost factor: sin θ = θ(1 − θ²/(2·3)(1 − θ²/(4·5)(⋯))) and
+    // 1 − cos θ = ½θ²(1 − θ²/(3·4)(1 − θ²/(5·6)(⋯))).
+    let mut sin = one;
+    let mut versine = one;
+    for k in (1..=7).rev() {
+        let (a, b) = (2.0 * k as f64, 2.0 * k as f64 + 1.0);
+        sin = one - t2 * V::splat(s, 1.0 / (a * b)) * sin;
+        versine = one - t2 * V::splat(s, 1.0 / (b * (b + 1.0))) * versine;
+    }
+    (theta * sin, V::splat(s, 0.5) * t2 * versine)
+}
+
+/// `(R − I) y` for rotations about the unit axes `a` with `sin θ` and `1 − cos θ` given
+/// (Rodrigues), lane-wise.
+#[inline(always)]
+pub(crate) fn rotation_minus_identity<S: Simd>(
+    a: &[V<S>; 3],
+    sin: V<S>,
+    versine: V<S>,
+    y: &[V<S>; 3],
+) -> [V<S>; 3] {
+    let ay = cross3(a, y);
+    let aay = cross3(a, &ay);
+    // Written out: a closure (`array::from_fn`) is not inlined into the dispatched function.
+    [
+        aay[0].mul_add(versine, ay[0] * sin),
+        aay[1].mul_add(versine, ay[1] * sin),
+        aay[2].mul_add(versine, ay[2] * sin),
+    ]
+}
+
+#[inline(always)]
+pub(crate) fn add3<S: Simd>(a: &[V<S>; 3], b: &[V<S>; 3]) -> [V<S>; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
 // sin/cos of joint angles: a quadrant reduction with π/2 in three parts (Cody–Waite) and the
 // Cephes minimax polynomials on [−π/4, π/4], within an ulp or two of the platform's at a
 // fraction of the cost (|x| ≤ 1e4; beyond, the platform call). Arranged without branches:

@@ -1,11 +1,19 @@
 //! The tip's static sag under the arm's own weight (and a payload), predicted from a
 //! [`StiffnessModel`]: what arm makers' absolute-accuracy options correct.
 
+use std::ops::Range;
+
+use pulp::{Simd, WithSimd};
+
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::gravity::{
     gravity_sag_from, Compliances, EquilibriumScratch, Gravity, GravityWorkspace,
 };
+use crate::lanes::kinematics::ChainLanes;
+use crate::lanes::sag::{sag_batch, SagBatchOut, SagScratch, SagWeights};
+use crate::lanes::{MAX_LANES, V};
+use crate::model::VirtualJointModel;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 impl StiffnessModel {
@@ -25,6 +33,11 @@ impl StiffnessModel {
     /// [`predict`](Self::predict) flags such a load; `wrench` is zero (the weight is not a
     /// tip wrench). Errors name the row (0-based) of a bad configuration and the link of a
     /// missing inertial.
+    ///
+    /// Rows are solved 8 or 16 at a time where the model's springs are linear and have no
+    /// centre offsets (`lanes::sag`: plain fixed-point steps, the same equilibrium as the
+    /// chord iterations to ~1e-13 of the sag); other rows and models go through the chord
+    /// iterations.
     pub fn predict_sag(
         &self,
         chain: &SerialChain,
@@ -54,37 +67,204 @@ impl StiffnessModel {
         // Rows are independent: fixed-size blocks on every core, each with its own workspaces,
         // give the serial run's values and its first error whatever the number of threads.
         // Built once here too, so that a missing inertial is an error even for no rows.
-        GravityWorkspace::new(chain, &model, gravity, payload)?;
+        let rest = GravityWorkspace::new(chain, &model, gravity, payload)?;
+        let springs = Compliances {
+            linear: &c,
+            gears: &gears,
+        };
+        // Lane-wise where the lanes' equilibrium applies: linear springs (a curve of zero
+        // coefficients is one) without centre offsets (`lanes::sag`); a row it leaves (a
+        // deflection beyond 0.25 rad, steps that do not settle) and every row otherwise go
+        // through the scalar chord iterations.
+        crate::gear::torsion_springs(&model, &gears)?;
+        let lanes = rest.kinematics().lanes();
+        let linear = gears.iter().all(crate::gear::GearCurve::is_linear);
+        let weights = (linear && !lanes.has_offsets())
+            .then(|| sag_weights(chain, &c, gravity, payload))
+            .transpose()?;
+        let rows_of = SagRows {
+            model: self,
+            chain,
+            vjm: &model,
+            springs: &springs,
+            c: &c,
+            q,
+            axes,
+        };
         let mut out = vec![Prediction::UNSET; rows];
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
-            let mut g = GravityWorkspace::new(chain, &model, gravity, payload)?;
-            let mut jac = vec![0.0; 6 * m];
-            let mut a = vec![0.0; 6 * m];
-            let mut scratch = EquilibriumScratch::default();
-            let springs = Compliances {
-                linear: &c,
-                gears: &gears,
-            };
-            for (i, o) in block.zip(out) {
-                let qi = &q[i * n..(i + 1) * n];
-                check_finite("q", qi, i, 0)?;
-                // One rigid kinematics per row: the weight's workspace gives the Jacobian too.
-                g.evaluate(chain, qi)?;
-                g.kinematics().write_jacobian(&mut jac);
-                // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
-                for (k, t) in g.torques().iter().enumerate() {
-                    for r in 0..6 {
-                        a[r * m + k] = jac[6 * k + r] * t;
-                    }
-                }
-                let mut p = self.predict_row(&a, [0.0; 6], &c);
-                // The workspace evaluated at this row gives the equilibrium its start.
-                let exact = gravity_sag_from(chain, &model, &springs, qi, &g, &mut scratch)?;
-                p.deflection[..axes].copy_from_slice(&exact[..axes]);
-                *o = p;
+            let mut scalar = ScalarSag::new(&rest, m);
+            match &weights {
+                Some(weights) => pulp::Arch::new().dispatch(SagBlock {
+                    rows: &rows_of,
+                    chain: lanes,
+                    weights,
+                    block,
+                    out,
+                    scalar: &mut scalar,
+                }),
+                None => block
+                    .zip(out)
+                    .try_for_each(|(i, o)| rows_of.scalar_row(i, &mut scalar).map(|p| *o = p)),
             }
-            Ok::<_, ModelError>(())
         })?;
         Ok(out)
+    }
+}
+
+/// The weights of `chain` (its bodies, the payload, gravity) and the springs' compliance `c`,
+/// flattened for [`sag_batch`].
+fn sag_weights(
+    chain: &SerialChain,
+    c: &[f64],
+    gravity: &Gravity,
+    payload: Option<&PointMass>,
+) -> Result<SagWeights, ModelError> {
+    let bodies = chain
+        .mass_model()?
+        .bodies()
+        .iter()
+        .map(|b| (b.mass, [b.com.x, b.com.y, b.com.z]))
+        .collect();
+    let payload = payload.map(|p| {
+        let v = chain.tip_offset().rotation * nalgebra::Vector3::from(p.centre());
+        (p.mass(), [v.x, v.y, v.z])
+    });
+    let g = gravity.vector();
+    Ok(SagWeights {
+        bodies,
+        payload,
+        gravity: [g.x, g.y, g.z],
+        compliance: c.to_vec(),
+    })
+}
+
+/// What every row of one `predict_sag` call shares.
+struct SagRows<'a> {
+    model: &'a StiffnessModel,
+    chain: &'a SerialChain,
+    vjm: &'a VirtualJointModel,
+    springs: &'a Compliances<'a>,
+    c: &'a [f64],
+    q: &'a [f64],
+    axes: usize,
+}
+
+/// One block's buffers for the scalar path.
+struct ScalarSag {
+    g: GravityWorkspace,
+    jac: Vec<f64>,
+    a: Vec<f64>,
+    scratch: EquilibriumScratch,
+}
+
+impl ScalarSag {
+    fn new(rest: &GravityWorkspace, m: usize) -> Self {
+        Self {
+            g: rest.clone(),
+            jac: vec![0.0; 6 * m],
+            a: vec![0.0; 6 * m],
+            scratch: EquilibriumScratch::default(),
+        }
+    }
+}
+
+impl SagRows<'_> {
+    /// Row `i` through the scalar code: the rigid kinematics of the weight's workspace and
+    /// the chord iterations of the exact equilibrium.
+    fn scalar_row(&self, i: usize, b: &mut ScalarSag) -> Result<Prediction, ModelError> {
+        let n = self.chain.n_joints();
+        let m = self.vjm.n_params();
+        let qi = &self.q[i * n..(i + 1) * n];
+        check_finite("q", qi, i, 0)?;
+        // One rigid kinematics per row: the weight's workspace gives the Jacobian too.
+        b.g.evaluate(self.chain, qi)?;
+        b.g.kinematics().write_jacobian(&mut b.jac);
+        // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
+        for (k, t) in b.g.torques().iter().enumerate() {
+            for r in 0..6 {
+                b.a[r * m + k] = b.jac[6 * k + r] * t;
+            }
+        }
+        let mut p = self.model.predict_row(&b.a, [0.0; 6], self.c);
+        // The workspace evaluated at this row gives the equilibrium its start.
+        let exact = gravity_sag_from(self.chain, self.vjm, self.springs, qi, &b.g, &mut b.scratch)?;
+        p.deflection[..self.axes].copy_from_slice(&exact[..self.axes]);
+        Ok(p)
+    }
+}
+
+/// The rows of one block lane-wise, in the instruction set pulp dispatches to (rows the lanes
+/// leave through the scalar code).
+struct SagBlock<'a, 'b> {
+    rows: &'b SagRows<'a>,
+    chain: &'b ChainLanes,
+    weights: &'b SagWeights,
+    block: Range<usize>,
+    out: &'b mut [Prediction],
+    scalar: &'b mut ScalarSag,
+}
+
+impl WithSimd for SagBlock<'_, '_> {
+    type Output = Result<(), ModelError>;
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, s: S) -> Self::Output {
+        let SagBlock {
+            rows,
+            chain,
+            weights,
+            block,
+            out,
+            scalar,
+        } = self;
+        let n = rows.chain.n_joints();
+        let m = rows.vjm.n_params();
+        let lanes = V::<S>::LANES;
+        let mut sc = SagScratch::new(s, chain, weights);
+        let mut regressor = vec![0.0; lanes * 6 * m];
+        let mut sag = [[0.0; 6]; MAX_LANES];
+        let mut solved = [false; MAX_LANES];
+        let mut i = block.start;
+        while i < block.end {
+            let count = (block.end - i).min(lanes);
+            let q = &rows.q[i * n..(i + count) * n];
+            let outs = &mut out[i - block.start..i - block.start + count];
+            // A row that is not finite is the scalar code's to report (it names the row).
+            if !q.iter().all(|v| v.is_finite()) {
+                for (l, o) in outs.iter_mut().enumerate() {
+                    *o = rows.scalar_row(i + l, scalar)?;
+                }
+                i += count;
+                continue;
+            }
+            sag_batch(
+                s,
+                chain,
+                weights,
+                q,
+                count,
+                &mut sc,
+                SagBatchOut {
+                    regressor: &mut regressor,
+                    sag: &mut sag,
+                    solved: &mut solved,
+                },
+            );
+            for (l, o) in outs.iter_mut().enumerate() {
+                if !solved[l] {
+                    *o = rows.scalar_row(i + l, scalar)?;
+                    continue;
+                }
+                let mut p = rows.model.predict_row(
+                    &regressor[l * 6 * m..(l + 1) * 6 * m],
+                    [0.0; 6],
+                    rows.c,
+                );
+                p.deflection[..rows.axes].copy_from_slice(&sag[l][..rows.axes]);
+                *o = p;
+            }
+            i += count;
+        }
+        Ok(())
     }
 }
