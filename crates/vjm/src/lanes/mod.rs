@@ -24,7 +24,7 @@ pub(crate) mod kinematics;
 pub(crate) mod sag;
 mod vector;
 
-pub(crate) use vector::{sin_cos, sin_cos_slice, MAX_LANES, V};
+pub(crate) use vector::{gather, sin_cos, sin_cos_slice, MAX_LANES, V};
 
 /// Seeded configurations within `chain`'s limits, row-major (`rows` × n; the tests' own
 /// generator, so that the lanes' tests need no testbed).

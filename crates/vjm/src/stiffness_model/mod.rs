@@ -45,6 +45,7 @@ mod pose_table;
 mod predict;
 mod robust;
 mod sag;
+mod uncertainty;
 
 use serde::{Deserialize, Serialize};
 use stiffness_core::num::Short;

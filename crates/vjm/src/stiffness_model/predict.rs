@@ -1,6 +1,7 @@
 //! Predicted tip deflections and their standard deviations from a [`StiffnessModel`].
 
 use super::gear_load::add_gear_load;
+use super::uncertainty::{deflection_of, Uncertainty};
 use super::{ModelError, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::dataset::{MAX_PLAUSIBLE_FORCE, MAX_PLAUSIBLE_MOMENT};
@@ -8,6 +9,7 @@ use crate::error::VjmError;
 use crate::gear::{torsion_springs, CurvedSprings};
 use crate::gravity::{Gravity, GravityWorkspace, RowFrame};
 use crate::kinematics::Workspace;
+use crate::lanes::MAX_LANES;
 use crate::model::VirtualJointModel;
 use crate::regressor::{regressor_rows, Measured};
 use stiffness_core::num::Short;
@@ -244,59 +246,35 @@ impl StiffnessModel {
         let curved = CurvedSprings::new(&gears, &gear_springs);
         let axes = if self.noise.use_rotations { 6 } else { 3 };
         let mut out = vec![Prediction::UNSET; rows];
+        let uncertainty = Uncertainty::new(self);
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
             let mut ws = Workspace::new(chain, &model)?;
-            let mut a = vec![0.0; 6 * m];
+            // The regressors of a batch of rows, whose standard deviations are then taken
+            // lane-wise (`Uncertainty::fill`).
+            let mut regressors = vec![0.0; MAX_LANES * 6 * m];
             let mut weight = gravity
                 .map(|g| SaggedRow::new(chain, &model, g))
                 .transpose()?;
-            for (i, o) in block.zip(out) {
-                let qi = &q[i * n..(i + 1) * n];
-                check_finite("q", qi, i, 0)?;
-                let wrench = match load {
-                    Load::Wrench(w) => {
-                        let wi = &w[6 * i..6 * i + 6];
-                        check_finite("wrench", wi, i, 0)?;
-                        [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
-                    }
-                    Load::Payload(p) => p.wrench(chain, qi)?,
-                };
-                regressor_rows(chain, &model, qi, &wrench, Measured::Full, &mut ws, &mut a)?;
-                *o = self.predict_row(&a, wrench, &c);
-                if let Some(sagged) = weight.as_mut() {
-                    // The identification's row space is the weightless regressor's: `identified`,
-                    // `stddev` and `excitation` stay its; the deflection is the sagged one.
-                    sagged
-                        .regressor(chain, qi, &wrench, &c, &ws, &mut a)
-                        .map_err(|e| at_row(e, i))?;
-                    for (r, d) in o.deflection.iter_mut().enumerate() {
-                        if d.is_finite() {
-                            *d = dot(&a[r * m..(r + 1) * m], &c);
-                        }
-                    }
-                }
-                if gears.is_empty() {
-                    continue;
-                }
-                match weight.as_ref() {
-                    // At the sagged pose: its Jacobian, the preload τ₀ and the load's torque
-                    // with gravity's coupling, as the linear prediction above.
-                    Some(s) => add_gear_load(
-                        &curved,
-                        &s.jac,
-                        |k| (s.preload[k], s.effective[k]),
+            for (rows_of_batch, batch) in block.step_by(MAX_LANES).zip(out.chunks_mut(MAX_LANES)) {
+                for (l, o) in batch.iter_mut().enumerate() {
+                    let i = rows_of_batch + l;
+                    let a = &mut regressors[l * 6 * m..(l + 1) * 6 * m];
+                    self.predict_deflection(PredictRow {
+                        chain,
+                        model: &model,
+                        q: &q[i * n..(i + 1) * n],
+                        i,
+                        load,
+                        c: &c,
+                        curved: &curved,
                         axes,
-                        &mut o.deflection,
-                    ),
-                    // Weightless: no preload, the load's torque J_kᵀ W at q.
-                    None => add_gear_load(
-                        &curved,
-                        &ws.jac,
-                        |k| (0.0, dot(&ws.jac[6 * k..6 * k + 6], &wrench)),
-                        axes,
-                        &mut o.deflection,
-                    ),
+                        ws: &mut ws,
+                        weight: weight.as_mut(),
+                        a,
+                        out: o,
+                    })?;
                 }
+                uncertainty.fill(&regressors, batch);
             }
             Ok::<_, ModelError>(())
         })?;
@@ -317,52 +295,96 @@ impl StiffnessModel {
         s
     }
 
-    /// One row from its 6×m regressor `a` (row-major).
-    /// One row's prediction from its regressor `a` (6×m, row-major) with compliance `c` (what
-    /// the data determine, [`StiffnessModel::determined_compliance`]); the standard deviation,
-    /// `identified` and `excitation` from the identification's covariance and null space.
-    pub(super) fn predict_row(&self, a: &[f64], wrench: [f64; 6], c: &[f64]) -> Prediction {
-        let e = &self.estimate;
-        let m = e.compliance.len();
-        let axes = if self.noise.use_rotations { 6 } else { 3 };
-        let mut deflection = [f64::NAN; 6];
-        let mut stddev = [f64::NAN; 6];
-        let mut excitation: f64 = 0.0;
-        for r in 0..axes {
-            let ar = &a[r * m..(r + 1) * m];
-            deflection[r] = dot(ar, c);
-            if let Some(cov) = &e.covariance {
-                let var: f64 = cov.iter().zip(ar).map(|(row, &ai)| ai * dot(row, ar)).sum();
-                stddev[r] = var.max(0.0).sqrt();
+    /// One row's deflection (its regressor, for the standard deviations, into `row.a`):
+    /// the weightless regressor's, or under gravity the sagged one, plus the gears' excess.
+    fn predict_deflection(&self, row: PredictRow<'_, '_>) -> Result<(), ModelError> {
+        let PredictRow {
+            chain,
+            model,
+            q: qi,
+            i,
+            load,
+            c,
+            curved,
+            axes,
+            ws,
+            weight,
+            a,
+            out: o,
+        } = row;
+        let m = model.n_params();
+        check_finite("q", qi, i, 0)?;
+        let wrench = match load {
+            Load::Wrench(w) => {
+                let wi = &w[6 * i..6 * i + 6];
+                check_finite("wrench", wi, i, 0)?;
+                [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
             }
-            let scaled: f64 = ar
-                .iter()
-                .zip(&e.column_scale)
-                .map(|(x, s)| (x / s) * (x / s))
-                .sum::<f64>()
-                .sqrt();
-            if scaled > 0.0 {
-                let outside: f64 = e
-                    .null_space
-                    .iter()
-                    .map(|nv| dot(ar, nv).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                excitation = excitation.max(outside / scaled);
-            }
-        }
-        let identified = excitation <= e.identified_tol;
-        if !identified {
-            stddev = [f64::NAN; 6];
-        }
-        Prediction {
-            deflection,
-            stddev,
+            Load::Payload(p) => p.wrench(chain, qi)?,
+        };
+        regressor_rows(chain, model, qi, &wrench, Measured::Full, ws, a)?;
+        *o = Prediction {
+            deflection: deflection_of(a, c, axes),
             wrench,
-            identified,
-            excitation,
+            ..Prediction::UNSET
+        };
+        let weight = match weight {
+            Some(sagged) => {
+                // The identification's row space is the weightless regressor's: `identified`,
+                // `stddev` and `excitation` stay its (`a` is kept for them); the deflection is
+                // the sagged one.
+                let b = sagged
+                    .regressor(chain, qi, &wrench, c, ws)
+                    .map_err(|e| at_row(e, i))?;
+                for (r, d) in o.deflection.iter_mut().enumerate() {
+                    if d.is_finite() {
+                        *d = dot(&b[r * m..(r + 1) * m], c);
+                    }
+                }
+                Some(&*sagged)
+            }
+            None => None,
+        };
+        if curved.curves().is_empty() {
+            return Ok(());
         }
+        match weight {
+            // At the sagged pose: its Jacobian, the preload τ₀ and the load's torque
+            // with gravity's coupling, as the linear prediction above.
+            Some(s) => add_gear_load(
+                curved,
+                &s.jac,
+                |k| (s.preload[k], s.effective[k]),
+                axes,
+                &mut o.deflection,
+            ),
+            // Weightless: no preload, the load's torque J_kᵀ W at q.
+            None => add_gear_load(
+                curved,
+                &ws.jac,
+                |k| (0.0, dot(&ws.jac[6 * k..6 * k + 6], &wrench)),
+                axes,
+                &mut o.deflection,
+            ),
+        }
+        Ok(())
     }
+}
+
+/// One row of [`StiffnessModel::predict_rows`] and what it shares with the others.
+struct PredictRow<'a, 'b> {
+    chain: &'a SerialChain,
+    model: &'a VirtualJointModel,
+    q: &'a [f64],
+    i: usize,
+    load: Load<'a>,
+    c: &'a [f64],
+    curved: &'a CurvedSprings<'a>,
+    axes: usize,
+    ws: &'b mut Workspace,
+    weight: Option<&'b mut SaggedRow>,
+    a: &'b mut [f64],
+    out: &'b mut Prediction,
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -387,6 +409,8 @@ struct SaggedRow {
     tau: Vec<f64>,
     effective: Vec<f64>,
     preload: Vec<f64>,
+    /// The last row's sagged regressor (row-major 6×m).
+    regressor: Vec<f64>,
 }
 
 impl SaggedRow {
@@ -402,6 +426,7 @@ impl SaggedRow {
             tau: vec![0.0; m],
             effective: vec![0.0; m],
             preload: vec![0.0; m],
+            regressor: vec![0.0; 6 * m],
         })
     }
 
@@ -415,8 +440,7 @@ impl SaggedRow {
         wrench: &[f64; 6],
         c: &[f64],
         ws: &Workspace,
-        a: &mut [f64],
-    ) -> Result<(), VjmError> {
+    ) -> Result<&[f64], VjmError> {
         let m = self.tau.len();
         self.jac.copy_from_slice(&ws.jac);
         let mut tip = ws.p;
@@ -437,9 +461,9 @@ impl SaggedRow {
         )?;
         for k in 0..m {
             for r in 0..6 {
-                a[r * m + k] = self.jac[6 * k + r] * self.effective[k];
+                self.regressor[r * m + k] = self.jac[6 * k + r] * self.effective[k];
             }
         }
-        Ok(())
+        Ok(&self.regressor)
     }
 }

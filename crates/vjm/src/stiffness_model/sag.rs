@@ -5,6 +5,7 @@ use std::ops::Range;
 
 use pulp::{Simd, WithSimd};
 
+use super::uncertainty::Uncertainty;
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
 use crate::gravity::{
@@ -83,11 +84,10 @@ impl StiffnessModel {
             .then(|| sag_weights(chain, &c, gravity, payload))
             .transpose()?;
         let rows_of = SagRows {
-            model: self,
+            uncertainty: Uncertainty::new(self),
             chain,
             vjm: &model,
             springs: &springs,
-            c: &c,
             q,
             axes,
         };
@@ -103,9 +103,18 @@ impl StiffnessModel {
                     out,
                     scalar: &mut scalar,
                 }),
-                None => block
-                    .zip(out)
-                    .try_for_each(|(i, o)| rows_of.scalar_row(i, &mut scalar).map(|p| *o = p)),
+                None => {
+                    let mut regressors = vec![0.0; MAX_LANES * 6 * m];
+                    for (first, batch) in block.step_by(MAX_LANES).zip(out.chunks_mut(MAX_LANES)) {
+                        for (l, o) in batch.iter_mut().enumerate() {
+                            let a = &mut regressors[l * 6 * m..(l + 1) * 6 * m];
+                            let sag = rows_of.scalar_row(first + l, &mut scalar, a)?;
+                            *o = rows_of.prediction(&sag);
+                        }
+                        rows_of.uncertainty.fill(&regressors, batch);
+                    }
+                    Ok(())
+                }
             }
         })?;
         Ok(out)
@@ -141,11 +150,10 @@ fn sag_weights(
 
 /// What every row of one `predict_sag` call shares.
 struct SagRows<'a> {
-    model: &'a StiffnessModel,
+    uncertainty: Uncertainty,
     chain: &'a SerialChain,
     vjm: &'a VirtualJointModel,
     springs: &'a Compliances<'a>,
-    c: &'a [f64],
     q: &'a [f64],
     axes: usize,
 }
@@ -154,7 +162,6 @@ struct SagRows<'a> {
 struct ScalarSag {
     g: GravityWorkspace,
     jac: Vec<f64>,
-    a: Vec<f64>,
     scratch: EquilibriumScratch,
 }
 
@@ -163,16 +170,20 @@ impl ScalarSag {
         Self {
             g: rest.clone(),
             jac: vec![0.0; 6 * m],
-            a: vec![0.0; 6 * m],
             scratch: EquilibriumScratch::default(),
         }
     }
 }
 
 impl SagRows<'_> {
-    /// Row `i` through the scalar code: the rigid kinematics of the weight's workspace and
-    /// the chord iterations of the exact equilibrium.
-    fn scalar_row(&self, i: usize, b: &mut ScalarSag) -> Result<Prediction, ModelError> {
+    /// Row `i` through the scalar code (the rigid kinematics of the weight's workspace and
+    /// the chord iterations of the exact equilibrium): its sag, and its regressor into `a`.
+    fn scalar_row(
+        &self,
+        i: usize,
+        b: &mut ScalarSag,
+        a: &mut [f64],
+    ) -> Result<[f64; 6], ModelError> {
         let n = self.chain.n_joints();
         let m = self.vjm.n_params();
         let qi = &self.q[i * n..(i + 1) * n];
@@ -183,14 +194,30 @@ impl SagRows<'_> {
         // Row-major 6×m regressor of the weight's torques: a[r][k] = J[r][k]·τ_g,k.
         for (k, t) in b.g.torques().iter().enumerate() {
             for r in 0..6 {
-                b.a[r * m + k] = b.jac[6 * k + r] * t;
+                a[r * m + k] = b.jac[6 * k + r] * t;
             }
         }
-        let mut p = self.model.predict_row(&b.a, [0.0; 6], self.c);
         // The workspace evaluated at this row gives the equilibrium its start.
-        let exact = gravity_sag_from(self.chain, self.vjm, self.springs, qi, &b.g, &mut b.scratch)?;
-        p.deflection[..self.axes].copy_from_slice(&exact[..self.axes]);
-        Ok(p)
+        Ok(gravity_sag_from(
+            self.chain,
+            self.vjm,
+            self.springs,
+            qi,
+            &b.g,
+            &mut b.scratch,
+        )?)
+    }
+
+    /// A row's prediction with deflection `sag` (its standard deviations are
+    /// [`Uncertainty::fill`]'s): the predicted axes, NaN beyond, no wrench.
+    fn prediction(&self, sag: &[f64; 6]) -> Prediction {
+        let mut deflection = [f64::NAN; 6];
+        deflection[..self.axes].copy_from_slice(&sag[..self.axes]);
+        Prediction {
+            deflection,
+            wrench: [0.0; 6],
+            ..Prediction::UNSET
+        }
     }
 }
 
@@ -231,38 +258,30 @@ impl WithSimd for SagBlock<'_, '_> {
             let outs = &mut out[i - block.start..i - block.start + count];
             // A row that is not finite is the scalar code's to report (it names the row).
             if !q.iter().all(|v| v.is_finite()) {
-                for (l, o) in outs.iter_mut().enumerate() {
-                    *o = rows.scalar_row(i + l, scalar)?;
-                }
-                i += count;
-                continue;
+                solved.fill(false);
+            } else {
+                sag_batch(
+                    s,
+                    chain,
+                    weights,
+                    q,
+                    count,
+                    &mut sc,
+                    SagBatchOut {
+                        regressor: &mut regressor,
+                        sag: &mut sag,
+                        solved: &mut solved,
+                    },
+                );
             }
-            sag_batch(
-                s,
-                chain,
-                weights,
-                q,
-                count,
-                &mut sc,
-                SagBatchOut {
-                    regressor: &mut regressor,
-                    sag: &mut sag,
-                    solved: &mut solved,
-                },
-            );
             for (l, o) in outs.iter_mut().enumerate() {
                 if !solved[l] {
-                    *o = rows.scalar_row(i + l, scalar)?;
-                    continue;
+                    let a = &mut regressor[l * 6 * m..(l + 1) * 6 * m];
+                    sag[l] = rows.scalar_row(i + l, scalar, a)?;
                 }
-                let mut p = rows.model.predict_row(
-                    &regressor[l * 6 * m..(l + 1) * 6 * m],
-                    [0.0; 6],
-                    rows.c,
-                );
-                p.deflection[..rows.axes].copy_from_slice(&sag[l][..rows.axes]);
-                *o = p;
+                *o = rows.prediction(&sag[l]);
             }
+            rows.uncertainty.fill(&regressor, outs);
             i += count;
         }
         Ok(())
