@@ -252,27 +252,44 @@ impl StiffnessModel {
             // The regressors of a batch of rows, whose standard deviations are then taken
             // lane-wise (`Uncertainty::fill`).
             let mut regressors = vec![0.0; MAX_LANES * 6 * m];
+            let mut jacobians = vec![0.0; MAX_LANES * 6 * m];
+            let mut scratch = vec![0.0; 6 * m];
             let mut weight = gravity
                 .map(|g| SaggedRow::new(chain, &model, g))
                 .transpose()?;
             for (rows_of_batch, batch) in block.step_by(MAX_LANES).zip(out.chunks_mut(MAX_LANES)) {
-                for (l, o) in batch.iter_mut().enumerate() {
-                    let i = rows_of_batch + l;
-                    let a = &mut regressors[l * 6 * m..(l + 1) * 6 * m];
-                    self.predict_deflection(PredictRow {
-                        chain,
-                        model: &model,
-                        q: &q[i * n..(i + 1) * n],
-                        i,
-                        load,
-                        c: &c,
-                        curved: &curved,
-                        axes,
-                        ws: &mut ws,
-                        weight: weight.as_mut(),
-                        a,
-                        out: o,
-                    })?;
+                // The rows' weightless regressors from their Jacobians, lane-wise: what the
+                // standard deviations are taken from in every case, and the deflection of a
+                // weightless model without gear curves.
+                self.weightless_batch(WeightlessBatch {
+                    chain,
+                    ws: &ws,
+                    q,
+                    first: rows_of_batch,
+                    load,
+                    c: &c,
+                    axes,
+                    jacobians: &mut jacobians,
+                    regressors: &mut regressors,
+                    out: batch,
+                })?;
+                if weight.is_some() || !curved.curves().is_empty() {
+                    for (l, o) in batch.iter_mut().enumerate() {
+                        let i = rows_of_batch + l;
+                        self.adjust_deflection(AdjustRow {
+                            chain,
+                            model: &model,
+                            q: &q[i * n..(i + 1) * n],
+                            i,
+                            c: &c,
+                            curved: &curved,
+                            axes,
+                            ws: &mut ws,
+                            weight: weight.as_mut(),
+                            scratch: &mut scratch,
+                            out: o,
+                        })?;
+                    }
                 }
                 uncertainty.fill(&regressors, batch);
             }
@@ -295,44 +312,30 @@ impl StiffnessModel {
         s
     }
 
-    /// One row's deflection (its regressor, for the standard deviations, into `row.a`):
-    /// the weightless regressor's, or under gravity the sagged one, plus the gears' excess.
-    fn predict_deflection(&self, row: PredictRow<'_, '_>) -> Result<(), ModelError> {
-        let PredictRow {
+    /// Moves a row's weightless deflection (set by [`Self::weightless_batch`]) to what the
+    /// load does under gravity (the sagged regressor's) and adds the gears' excess.
+    fn adjust_deflection(&self, row: AdjustRow<'_, '_>) -> Result<(), ModelError> {
+        let AdjustRow {
             chain,
             model,
             q: qi,
             i,
-            load,
             c,
             curved,
             axes,
             ws,
             weight,
-            a,
+            scratch,
             out: o,
         } = row;
         let m = model.n_params();
-        check_finite("q", qi, i, 0)?;
-        let wrench = match load {
-            Load::Wrench(w) => {
-                let wi = &w[6 * i..6 * i + 6];
-                check_finite("wrench", wi, i, 0)?;
-                [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
-            }
-            Load::Payload(p) => p.wrench(chain, qi)?,
-        };
-        regressor_rows(chain, model, qi, &wrench, Measured::Full, ws, a)?;
-        *o = Prediction {
-            deflection: deflection_of(a, c, axes),
-            wrench,
-            ..Prediction::UNSET
-        };
+        let wrench = o.wrench;
+        // The row's rigid kinematics in `ws`, which the sag and the gears start from.
+        regressor_rows(chain, model, qi, &wrench, Measured::Full, ws, scratch)?;
         let weight = match weight {
             Some(sagged) => {
                 // The identification's row space is the weightless regressor's: `identified`,
-                // `stddev` and `excitation` stay its (`a` is kept for them); the deflection is
-                // the sagged one.
+                // `stddev` and `excitation` stay its; the deflection is the sagged one.
                 let b = sagged
                     .regressor(chain, qi, &wrench, c, ws)
                     .map_err(|e| at_row(e, i))?;
@@ -371,20 +374,83 @@ impl StiffnessModel {
     }
 }
 
-/// One row of [`StiffnessModel::predict_rows`] and what it shares with the others.
-struct PredictRow<'a, 'b> {
+/// A row of [`StiffnessModel::predict_rows`] under gravity or with gear curves, and what it
+/// shares with the others.
+struct AdjustRow<'a, 'b> {
     chain: &'a SerialChain,
     model: &'a VirtualJointModel,
     q: &'a [f64],
     i: usize,
-    load: Load<'a>,
     c: &'a [f64],
     curved: &'a CurvedSprings<'a>,
     axes: usize,
     ws: &'b mut Workspace,
     weight: Option<&'b mut SaggedRow>,
-    a: &'b mut [f64],
+    scratch: &'b mut [f64],
     out: &'b mut Prediction,
+}
+
+/// A batch of weightless rows of [`StiffnessModel::predict_rows`] (no gear curves).
+struct WeightlessBatch<'a, 'b> {
+    chain: &'a SerialChain,
+    ws: &'b Workspace,
+    q: &'a [f64],
+    first: usize,
+    load: Load<'a>,
+    c: &'a [f64],
+    axes: usize,
+    jacobians: &'b mut [f64],
+    regressors: &'b mut [f64],
+    out: &'b mut [Prediction],
+}
+
+impl StiffnessModel {
+    /// The deflections and regressors of a batch of weightless rows from their Jacobians,
+    /// evaluated lane-wise (`lanes::gram::jacobian_batch`); the rows are checked first, in
+    /// order, as the per-row path checks them.
+    fn weightless_batch(&self, b: WeightlessBatch<'_, '_>) -> Result<(), ModelError> {
+        let n = b.chain.n_joints();
+        let m = self.estimate.compliance.len();
+        let count = b.out.len();
+        let rows = &b.q[b.first * n..(b.first + count) * n];
+        for (l, o) in b.out.iter_mut().enumerate() {
+            let i = b.first + l;
+            let qi = &rows[l * n..(l + 1) * n];
+            check_finite("q", qi, i, 0)?;
+            let wrench = match b.load {
+                Load::Wrench(w) => {
+                    let wi = &w[6 * i..6 * i + 6];
+                    check_finite("wrench", wi, i, 0)?;
+                    [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]]
+                }
+                Load::Payload(p) => p.wrench(b.chain, qi)?,
+            };
+            o.wrench = wrench;
+        }
+        let jac = &mut b.jacobians[..count * 6 * m];
+        crate::lanes::gram::jacobian_batch(
+            b.ws.lanes(),
+            rows,
+            jac,
+            crate::kinematics::JacobianLayout::ColumnMajor,
+        );
+        for (l, o) in b.out.iter_mut().enumerate() {
+            let (j, a) = (
+                &jac[l * 6 * m..(l + 1) * 6 * m],
+                &mut b.regressors[l * 6 * m..(l + 1) * 6 * m],
+            );
+            // a[r][k] = J[r][k] · (J_kᵀ W), as `regressor_rows`.
+            for k in 0..m {
+                let col = &j[6 * k..6 * k + 6];
+                let g: f64 = col.iter().zip(&o.wrench).map(|(x, y)| x * y).sum();
+                for r in 0..6 {
+                    a[r * m + k] = col[r] * g;
+                }
+            }
+            o.deflection = deflection_of(a, b.c, b.axes);
+        }
+        Ok(())
+    }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
