@@ -107,6 +107,14 @@ impl Workspace {
         Ok(())
     }
 
+    /// [`evaluate`](Self::evaluate) and the 6×m Jacobian there into `self.jac` (no checks).
+    pub(crate) fn evaluate_jacobian(&mut self, chain: &SerialChain, q: &[f64]) {
+        self.evaluate(chain, q);
+        let mut jac = std::mem::take(&mut self.jac);
+        self.write_jacobian(&mut jac);
+        self.jac = jac;
+    }
+
     /// Evaluates joint frames, spring axes/centres and the tip point at `q` (no checks).
     #[inline]
     pub(crate) fn evaluate(&mut self, chain: &SerialChain, q: &[f64]) {

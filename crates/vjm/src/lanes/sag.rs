@@ -319,8 +319,9 @@ pub(crate) fn sag_batch<S: Simd>(
                 }
             }
         }
+        let reload = failed[..count].iter().any(|f| *f);
         for &k in &active {
-            if (0..count).any(|l| failed[l]) {
+            if reload {
                 sc.theta[k] = V::load(s, &frozen[k]);
             }
             let (sn, vs) = sin_versine(s, sc.theta[k]);

@@ -11,7 +11,6 @@ use crate::gravity::{Gravity, GravityWorkspace, RowFrame};
 use crate::kinematics::Workspace;
 use crate::lanes::MAX_LANES;
 use crate::model::VirtualJointModel;
-use crate::regressor::{regressor_rows, Measured};
 use stiffness_core::num::Short;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
@@ -253,7 +252,6 @@ impl StiffnessModel {
             // lane-wise (`Uncertainty::fill`).
             let mut regressors = vec![0.0; MAX_LANES * 6 * m];
             let mut jacobians = vec![0.0; MAX_LANES * 6 * m];
-            let mut scratch = vec![0.0; 6 * m];
             let mut weight = gravity
                 .map(|g| SaggedRow::new(chain, &model, g))
                 .transpose()?;
@@ -286,7 +284,6 @@ impl StiffnessModel {
                             axes,
                             ws: &mut ws,
                             weight: weight.as_mut(),
-                            scratch: &mut scratch,
                             out: o,
                         })?;
                     }
@@ -325,13 +322,14 @@ impl StiffnessModel {
             axes,
             ws,
             weight,
-            scratch,
             out: o,
         } = row;
         let m = model.n_params();
         let wrench = o.wrench;
-        // The row's rigid kinematics in `ws`, which the sag and the gears start from.
-        regressor_rows(chain, model, qi, &wrench, Measured::Full, ws, scratch)?;
+        // The row's rigid kinematics and Jacobian in `ws` (its q and wrench were checked by
+        // `weightless_batch`), which the sag and the gears start from. The lanes gave the
+        // weightless regressor; this scalar evaluation is what `SaggedRow` and the gears read.
+        ws.evaluate_jacobian(chain, qi);
         let weight = match weight {
             Some(sagged) => {
                 // The identification's row space is the weightless regressor's: `identified`,
@@ -386,7 +384,6 @@ struct AdjustRow<'a, 'b> {
     axes: usize,
     ws: &'b mut Workspace,
     weight: Option<&'b mut SaggedRow>,
-    scratch: &'b mut [f64],
     out: &'b mut Prediction,
 }
 
@@ -410,7 +407,7 @@ impl StiffnessModel {
     /// order, as the per-row path checks them.
     fn weightless_batch(&self, b: WeightlessBatch<'_, '_>) -> Result<(), ModelError> {
         let n = b.chain.n_joints();
-        let m = self.estimate.compliance.len();
+        let m = b.ws.n_params();
         let count = b.out.len();
         let rows = &b.q[b.first * n..(b.first + count) * n];
         for (l, o) in b.out.iter_mut().enumerate() {

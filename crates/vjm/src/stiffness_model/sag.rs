@@ -103,15 +103,20 @@ impl StiffnessModel {
                     out,
                     scalar: &mut scalar,
                 }),
+                // No lanes: every row of every batch through the scalar code.
                 None => {
                     let mut regressors = vec![0.0; MAX_LANES * 6 * m];
+                    let mut sag = [[0.0; 6]; MAX_LANES];
                     for (first, batch) in block.step_by(MAX_LANES).zip(out.chunks_mut(MAX_LANES)) {
-                        for (l, o) in batch.iter_mut().enumerate() {
-                            let a = &mut regressors[l * 6 * m..(l + 1) * 6 * m];
-                            let sag = rows_of.scalar_row(first + l, &mut scalar, a)?;
-                            *o = rows_of.prediction(&sag);
-                        }
-                        rows_of.uncertainty.fill(&regressors, batch);
+                        let solved = [false; MAX_LANES];
+                        rows_of.finish_batch(
+                            first,
+                            batch,
+                            &mut regressors,
+                            &mut sag,
+                            &solved,
+                            &mut scalar,
+                        )?;
                     }
                     Ok(())
                 }
@@ -208,16 +213,35 @@ impl SagRows<'_> {
         )?)
     }
 
-    /// A row's prediction with deflection `sag` (its standard deviations are
-    /// [`Uncertainty::fill`]'s): the predicted axes, NaN beyond, no wrench.
-    fn prediction(&self, sag: &[f64; 6]) -> Prediction {
-        let mut deflection = [f64::NAN; 6];
-        deflection[..self.axes].copy_from_slice(&sag[..self.axes]);
-        Prediction {
-            deflection,
-            wrench: [0.0; 6],
-            ..Prediction::UNSET
+    /// The predictions of the batch of rows from `first` into `out`: a row not `solved` by
+    /// the lanes goes through [`scalar_row`](Self::scalar_row) (its regressor and sag into
+    /// `regressor` and `sag`); then each row's deflection is its sag on the predicted axes (NaN
+    /// beyond, no wrench) and the standard deviations are [`Uncertainty::fill`]'s.
+    fn finish_batch(
+        &self,
+        first: usize,
+        out: &mut [Prediction],
+        regressor: &mut [f64],
+        sag: &mut [[f64; 6]],
+        solved: &[bool],
+        scalar: &mut ScalarSag,
+    ) -> Result<(), ModelError> {
+        let m = self.vjm.n_params();
+        for (l, o) in out.iter_mut().enumerate() {
+            if !solved[l] {
+                let a = &mut regressor[l * 6 * m..(l + 1) * 6 * m];
+                sag[l] = self.scalar_row(first + l, scalar, a)?;
+            }
+            let mut deflection = [f64::NAN; 6];
+            deflection[..self.axes].copy_from_slice(&sag[l][..self.axes]);
+            *o = Prediction {
+                deflection,
+                wrench: [0.0; 6],
+                ..Prediction::UNSET
+            };
         }
+        self.uncertainty.fill(regressor, out);
+        Ok(())
     }
 }
 
@@ -274,14 +298,7 @@ impl WithSimd for SagBlock<'_, '_> {
                     },
                 );
             }
-            for (l, o) in outs.iter_mut().enumerate() {
-                if !solved[l] {
-                    let a = &mut regressor[l * 6 * m..(l + 1) * 6 * m];
-                    sag[l] = rows.scalar_row(i + l, scalar, a)?;
-                }
-                *o = rows.prediction(&sag[l]);
-            }
-            rows.uncertainty.fill(&regressor, outs);
+            rows.finish_batch(i, outs, &mut regressor, &mut sag, &solved, scalar)?;
             i += count;
         }
         Ok(())
