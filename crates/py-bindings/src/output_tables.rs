@@ -60,8 +60,9 @@ fn same_rows(name: &str, rows: usize, expected: usize) -> PyResult<()> {
 }
 
 /// Writes `PRED.csv` to `path`: q (N, n) rad, wrench (N, 6), deflection (N, 6), stddev
-/// (N, 6), identified (N,) bool, and optionally the sag as (deflection (N, 3) m, stddev
-/// (N, 3) m, identified (N,) bool).
+/// (N, 6), identified (N,) bool, and optionally the sag as `predict_sag` returns it
+/// (deflection (N, 6) m and rad, stddev (N, 6), identified (N,) bool), of which dx..dz and
+/// their standard deviations are written.
 #[pyfunction]
 #[pyo3(signature = (path, q, wrench, deflection, stddev, identified, sag=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
@@ -96,8 +97,8 @@ pub fn vjm_write_predictions(
     let sag = match &sag {
         None => None,
         Some((d, sd, id)) => {
-            let d = batch(d, "sag deflection", &[3])?;
-            let sd = batch(sd, "sag stddev", &[3])?;
+            let d = batch(d, "sag deflection", &[6])?;
+            let sd = batch(sd, "sag stddev", &[6])?;
             same_rows("sag deflection", d.rows, rows)?;
             same_rows("sag stddev", sd.rows, rows)?;
             Some((d.data, sd.data, column(id, "sag identified", rows)?))

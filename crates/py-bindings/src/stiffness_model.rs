@@ -234,12 +234,11 @@ impl PyStiffnessModel {
         crate::use_model::check_inputs(py, &self.chain, &q, load, allow_outside_limits)?;
         let (model, chain) = (&self.model, &self.chain);
         let gravity = gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
-        let pred = run(py, || match &gravity {
-            Some(g) => model.predict_under_gravity(chain, &q.data, load, g),
-            None => model.predict(chain, &q.data, load),
+        let pred = run(py, || {
+            model.predict_columns(chain, &q.data, load, gravity.as_ref())
         })?
         .py()?;
-        predictions_dict(py, &pred)
+        predictions_dict(py, pred)
     }
 
     /// The tip's static sag under the arm's weight at q (N, n) under `gravity` (m/s², base
@@ -271,10 +270,10 @@ impl PyStiffnessModel {
         )?;
         let (model, chain) = (&self.model, &self.chain);
         let pred = run(py, || {
-            model.predict_sag(chain, &q.data, &g, payload.as_ref())
+            model.predict_sag_columns(chain, &q.data, &g, payload.as_ref())
         })?
         .py()?;
-        predictions_dict(py, &pred)
+        predictions_dict(py, pred)
     }
 
     fn __repr__(&self) -> String {
@@ -407,32 +406,18 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// Predictions as a dict of numpy arrays: deflection (N, 6), stddev (N, 6), wrench (N, 6),
-/// identified (N,), excitation (N,).
+/// Predictions as a dict of numpy arrays, which take over the columns' memory: deflection
+/// (N, 6), stddev (N, 6), wrench (N, 6), identified (N,), excitation (N,).
 fn predictions_dict<'py>(
     py: Python<'py>,
-    pred: &[vjm::Prediction],
+    pred: vjm::stiffness_model::PredictionColumns,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let rows = pred.len();
-    // One pass over the records (≈ 160 B each) fills every column.
-    let (mut deflection, mut stddev, mut wrench) = (
-        Vec::with_capacity(6 * rows),
-        Vec::with_capacity(6 * rows),
-        Vec::with_capacity(6 * rows),
-    );
-    let (mut identified, mut excitation) = (Vec::with_capacity(rows), Vec::with_capacity(rows));
-    for p in pred {
-        deflection.extend_from_slice(&p.deflection);
-        stddev.extend_from_slice(&p.stddev);
-        wrench.extend_from_slice(&p.wrench);
-        identified.push(p.identified);
-        excitation.push(p.excitation);
-    }
+    let rows = pred.rows();
     let out = PyDict::new(py);
-    out.set_item("deflection", to_numpy(py, deflection, &[rows, 6])?)?;
-    out.set_item("stddev", to_numpy(py, stddev, &[rows, 6])?)?;
-    out.set_item("wrench", to_numpy(py, wrench, &[rows, 6])?)?;
-    out.set_item("identified", to_numpy_bool(py, identified, &[rows])?)?;
-    out.set_item("excitation", to_numpy(py, excitation, &[rows])?)?;
+    out.set_item("deflection", to_numpy(py, pred.deflection, &[rows, 6])?)?;
+    out.set_item("stddev", to_numpy(py, pred.stddev, &[rows, 6])?)?;
+    out.set_item("wrench", to_numpy(py, pred.wrench, &[rows, 6])?)?;
+    out.set_item("identified", to_numpy_bool(py, pred.identified, &[rows])?)?;
+    out.set_item("excitation", to_numpy(py, pred.excitation, &[rows])?)?;
     Ok(out)
 }

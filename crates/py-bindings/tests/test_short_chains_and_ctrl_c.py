@@ -190,3 +190,27 @@ def test_ctrl_c_at_any_moment_exits_130_at_once(big_inputs, tmp_path, verb):
         assert (tmp_path / "prev.csv").read_bytes() == previous, f"{verb}: the previous output changed"
         assert not [p for p in tmp_path.iterdir() if ".tmp-" in p.name], "temporaries left behind"
     print(f"{verb}: worst exit {worst:.3f} s after SIGINT")
+
+
+def test_workers_side_by_side_report_the_first_calls_error():
+    """``in_workers`` (predict and the sag side by side in ``predict vjm``): results in the
+    order of the calls, and the error of the first call that raised in that order, even when
+    a later call raised first, so the error a command reports does not depend on timing."""
+    from robot_stiffness._interrupt import in_workers, worker_running
+
+    assert in_workers(lambda: 1, lambda: "two", lambda: [3]) == [1, "two", [3]]
+
+    def slow_failure() -> None:
+        time.sleep(0.3)
+        raise ValueError("the first call's")
+
+    def fast_failure() -> None:
+        raise KeyError("the second call's")
+
+    started = time.monotonic()
+    with pytest.raises(ValueError, match="the first call's"):
+        in_workers(slow_failure, fast_failure)
+    assert time.monotonic() - started >= 0.3, "the error came before the first call finished"
+    with pytest.raises(KeyError, match="the second call's"):
+        in_workers(lambda: None, fast_failure)
+    assert not worker_running()

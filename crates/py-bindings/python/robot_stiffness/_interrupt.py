@@ -139,34 +139,48 @@ def signals_deferred() -> Iterator[None]:
 def in_worker(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     """``fn(*args, **kwargs)`` in a worker thread; the calling (main) thread stays responsive
     to signals. Exceptions of ``fn`` are re-raised here."""
+    value: T = in_workers(lambda: fn(*args, **kwargs))[0]
+    return value
+
+
+def in_workers(*calls: Callable[[], Any]) -> List[Any]:
+    """Each of ``calls`` in its own worker thread, all at once (long Rust calls release the GIL
+    and share the core's thread pool, which fills the gaps one leaves); their results in
+    order. The calling (main) thread stays responsive to signals. Once all have finished, the
+    exception of the first call that raised, in the order given, is re-raised: which error a
+    command reports does not depend on which worker finished first."""
     if not _in_main_thread():
-        return fn(*args, **kwargs)
-    box: Dict[str, Any] = {"finished": False}
-    done = threading.Lock()  # a C-level lock: held until the worker has finished
-    done.acquire()
+        return [call() for call in calls]
+    boxes: List[Dict[str, Any]] = []
+    for call in calls:
+        box: Dict[str, Any] = {"finished": False, "done": threading.Lock()}
+        box["done"].acquire()  # a C-level lock: held until the worker has finished
 
-    def target() -> None:
-        try:
-            box["value"] = fn(*args, **kwargs)
-        except BaseException as e:  # re-raised in the main thread
-            box["error"] = e
-        finally:
-            box["finished"] = True
-            done.release()
+        def target(call: Callable[[], Any] = call, box: Dict[str, Any] = box) -> None:
+            try:
+                box["value"] = call()
+            except BaseException as e:  # re-raised in the main thread
+                box["error"] = e
+            finally:
+                box["finished"] = True
+                box["done"].release()
 
-    worker = threading.Thread(target=target, name="robot-stiffness-worker", daemon=True)
-    _unfinished.append(box)
-    worker.start()
+        boxes.append(box)
+        _unfinished.append(box)
+        threading.Thread(target=target, name="robot-stiffness-worker", daemon=True).start()
     try:
-        while not done.acquire(timeout=0.2):
-            pass
+        for box in boxes:
+            while not box["done"].acquire(timeout=0.2):
+                pass
     except BaseException:
         cancel.set()
         raise
-    _unfinished.remove(box)
-    if "error" in box:
-        raise box["error"]
-    return box["value"]  # type: ignore[no-any-return]
+    for box in boxes:
+        _unfinished.remove(box)
+    for box in boxes:
+        if "error" in box:
+            raise box["error"]
+    return [box["value"] for box in boxes]
 
 
 def worker_running() -> bool:

@@ -189,6 +189,102 @@ fn the_writer_refuses_columns_that_do_not_fit() {
     assert!(out.is_empty(), "nothing is written before the check");
 }
 
+/// Cells of every length a number can take (3 to 24 bytes for an f64, 1 to 20 for an i64),
+/// empty cells, booleans and labels side by side come out as the formatters wrote them: the
+/// writer copies a cell with overlapping fixed-length moves, and a wrong offset would cut or
+/// smear one.
+#[test]
+fn cells_of_every_length_are_written_whole() {
+    let mut floats: Vec<f64> = vec![
+        0.0,
+        -0.0,
+        1.0,
+        12.5,
+        123.25,
+        12345.25,
+        0.123456789,
+        5e-324,
+        -2.2250738585072014e-308,
+        f64::MAX,
+        f64::NAN,
+    ];
+    // 0.1, -0.12, 0.123, …: every length from 3 to 20 bytes.
+    for d in 1..=16 {
+        let digits = &"1234567891234567"[..d];
+        floats.push(format!("0.{digits}").parse().unwrap());
+        floats.push(format!("-0.{digits}").parse().unwrap());
+    }
+    let mut x = -1.0f64;
+    for k in 0..40 {
+        floats.push(x);
+        x = x * -3.7 + 1e-3 * k as f64;
+        floats.push(1.0 / x);
+    }
+    let rows = floats.len();
+    let int_cells: Vec<i64> = (0..19)
+        .map(|k| 10i64.pow(k) - 1)
+        .chain([i64::MIN, i64::MAX, -1, 0, 7])
+        .collect();
+    let ints: Vec<i64> = (0..rows).map(|i| int_cells[i % int_cells.len()]).collect();
+    let (floats, ints) = (&floats[..], &ints[..]);
+    let flags: Vec<bool> = (0..rows).map(|i| i % 3 == 0).collect();
+    let codes: Vec<u8> = (0..rows).map(|i| (i % 2) as u8).collect();
+    let names = ["a", "longer_label"];
+    let mut out = Vec::new();
+    write_csv(
+        &mut out,
+        &["f", "i", "ok", "label"],
+        &[
+            Column::Floats {
+                data: floats,
+                width: 1,
+            },
+            Column::Integers {
+                data: ints,
+                width: 1,
+                empty: Some(-1),
+            },
+            Column::Bools(&flags),
+            Column::Labels {
+                codes: &codes,
+                names: &names,
+            },
+        ],
+        &Cancel::new(),
+    )
+    .unwrap();
+    let mut expected = String::from("f,i,ok,label\n");
+    let (mut float_lengths, mut int_lengths) = (Vec::new(), Vec::new());
+    for i in 0..rows {
+        let f = if floats[i].is_finite() {
+            zmij::Buffer::new().format_finite(floats[i]).to_string()
+        } else {
+            String::new()
+        };
+        let n = if ints[i] == -1 {
+            String::new()
+        } else {
+            ints[i].to_string()
+        };
+        float_lengths.push(f.len());
+        int_lengths.push(n.len());
+        expected += &format!("{f},{n},{},{}\n", flags[i], names[codes[i] as usize]);
+    }
+    assert_eq!(String::from_utf8(out).unwrap(), expected);
+    for len in [3, 4, 6, 8, 9, 15, 16, 17, 23, 24] {
+        assert!(
+            float_lengths.contains(&len),
+            "no float cell of {len} bytes in {float_lengths:?}"
+        );
+    }
+    for len in [0, 1, 2, 4, 8, 15, 16, 19, 20] {
+        assert!(
+            int_lengths.contains(&len),
+            "no integer cell of {len} bytes in {int_lengths:?}"
+        );
+    }
+}
+
 proptest! {
     /// Whatever the bits (subnormals, extremes, negative zero), a written number reads back
     /// exactly; non-finite values become empty cells.

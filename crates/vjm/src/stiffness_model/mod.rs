@@ -37,6 +37,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod columns;
 mod error;
 mod file;
 mod gear_load;
@@ -50,6 +51,7 @@ mod uncertainty;
 use serde::{Deserialize, Serialize};
 use stiffness_core::num::Short;
 
+pub use columns::PredictionColumns;
 pub use error::ModelError;
 pub use file::{RecordedRobot, MODEL_SCHEMA};
 pub use output_table::{

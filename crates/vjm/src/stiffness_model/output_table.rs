@@ -110,13 +110,13 @@ fn joint_names(n_joints: usize, suffix: &str) -> impl Iterator<Item = String> + 
     (1..=n_joints).map(move |j| format!("q{j}{suffix}"))
 }
 
-/// The sag under the arm's own weight of every row of a [`PredictionTable`] (the position
-/// part of `StiffnessModel::predict_sag`), N rows, row-major.
+/// The sag under the arm's own weight of every row of a [`PredictionTable`]: the arrays of
+/// `StiffnessModel::predict_sag`, N rows, row-major, of which the position part is written.
 #[derive(Debug, Clone, Copy)]
 pub struct SagColumns<'a> {
-    /// N×3 sag `[dx, dy, dz]`, m, base frame.
+    /// N×6 sag `[dx, dy, dz, rx, ry, rz]`, m and rad, base frame; `dx..dz` are written.
     pub deflection: &'a [f64],
-    /// N×3 standard deviations of the sag, m.
+    /// N×6 standard deviations of the sag; those of `dx..dz` are written.
     pub stddev: &'a [f64],
     /// Whether the load the weight puts on the springs is identified, per row.
     pub identified: &'a [bool],
@@ -176,13 +176,15 @@ impl PredictionTable<'_> {
         ];
         if let Some(sag) = &self.sag {
             columns.extend([
-                Column::Floats {
+                Column::FloatsStrided {
                     data: sag.deflection,
                     width: 3,
+                    stride: 6,
                 },
-                Column::Floats {
+                Column::FloatsStrided {
                     data: sag.stddev,
                     width: 3,
+                    stride: 6,
                 },
                 Column::Bools(sag.identified),
             ]);

@@ -1,5 +1,6 @@
 //! Predicted tip deflections and their standard deviations from a [`StiffnessModel`].
 
+use super::columns::{Collect, PredictionColumns};
 use super::gear_load::add_gear_load;
 use super::uncertainty::{deflection_of, Uncertainty};
 use super::{ModelError, StiffnessModel};
@@ -12,7 +13,6 @@ use crate::kinematics::Workspace;
 use crate::lanes::MAX_LANES;
 use crate::model::VirtualJointModel;
 use stiffness_core::num::Short;
-use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 /// Standard gravity, m/s² (acts along −z of the base frame for a [`PointMass`]).
 pub const GRAVITY: f64 = 9.80665;
@@ -202,13 +202,26 @@ impl StiffnessModel {
         self.predict_rows(chain, q, load, Some(gravity))
     }
 
-    fn predict_rows(
+    /// [`predict`](Self::predict) (`gravity` None) or
+    /// [`predict_under_gravity`](Self::predict_under_gravity) as columns: the same values and
+    /// errors, in the memory of the columns alone (no record per row in between).
+    pub fn predict_columns(
         &self,
         chain: &SerialChain,
         q: &[f64],
         load: Load<'_>,
         gravity: Option<&Gravity>,
-    ) -> Result<Vec<Prediction>, ModelError> {
+    ) -> Result<PredictionColumns, ModelError> {
+        self.predict_rows(chain, q, load, gravity)
+    }
+
+    fn predict_rows<R: Collect>(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        load: Load<'_>,
+        gravity: Option<&Gravity>,
+    ) -> Result<R, ModelError> {
         self.check_robot(chain, "<model>")?;
         let n = chain.n_joints();
         let rows = q.len() / n;
@@ -244,9 +257,8 @@ impl StiffnessModel {
         let gear_springs = torsion_springs(&model, &gears)?;
         let curved = CurvedSprings::new(&gears, &gear_springs);
         let axes = if self.noise.use_rotations { 6 } else { 3 };
-        let mut out = vec![Prediction::UNSET; rows];
         let uncertainty = Uncertainty::new(self);
-        fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
+        R::collect(rows, &|block, out| {
             let mut ws = Workspace::new(chain, &model)?;
             // The regressors of a batch of rows, whose standard deviations are then taken
             // lane-wise (`Uncertainty::fill`).
@@ -290,9 +302,8 @@ impl StiffnessModel {
                 }
                 uncertainty.fill(&regressors, batch);
             }
-            Ok::<_, ModelError>(())
-        })?;
-        Ok(out)
+            Ok(())
+        })
     }
 
     /// Standard deviations `[dx..rz]` of a new measurement's noise under the model's noise

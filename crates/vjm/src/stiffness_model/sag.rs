@@ -5,6 +5,7 @@ use std::ops::Range;
 
 use pulp::{Simd, WithSimd};
 
+use super::columns::{Collect, PredictionColumns};
 use super::uncertainty::Uncertainty;
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
@@ -15,7 +16,6 @@ use crate::lanes::kinematics::ChainLanes;
 use crate::lanes::sag::{sag_batch, SagBatchOut, SagScratch, SagWeights};
 use crate::lanes::{MAX_LANES, V};
 use crate::model::VirtualJointModel;
-use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 impl StiffnessModel {
     /// The tip's static sag relative to the rigid forward kinematics at each of N
@@ -46,6 +46,28 @@ impl StiffnessModel {
         gravity: &Gravity,
         payload: Option<&PointMass>,
     ) -> Result<Vec<Prediction>, ModelError> {
+        self.sag_rows(chain, q, gravity, payload)
+    }
+
+    /// [`predict_sag`](Self::predict_sag) as columns: the same values and errors, in the
+    /// memory of the columns alone (no record per row in between).
+    pub fn predict_sag_columns(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        gravity: &Gravity,
+        payload: Option<&PointMass>,
+    ) -> Result<PredictionColumns, ModelError> {
+        self.sag_rows(chain, q, gravity, payload)
+    }
+
+    fn sag_rows<R: Collect>(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        gravity: &Gravity,
+        payload: Option<&PointMass>,
+    ) -> Result<R, ModelError> {
         self.check_robot(chain, "<model>")?;
         let n = chain.n_joints();
         let rows = q.len() / n;
@@ -91,8 +113,7 @@ impl StiffnessModel {
             q,
             axes,
         };
-        let mut out = vec![Prediction::UNSET; rows];
-        fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, |block, out| {
+        R::collect(rows, &|block, out| {
             let mut scalar = ScalarSag::new(&rest, m);
             match &weights {
                 Some(weights) => pulp::Arch::new().dispatch(SagBlock {
@@ -121,8 +142,7 @@ impl StiffnessModel {
                     Ok(())
                 }
             }
-        })?;
-        Ok(out)
+        })
     }
 }
 

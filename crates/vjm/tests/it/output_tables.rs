@@ -68,8 +68,8 @@ fn prediction_table_round_trips_every_value_and_names_its_columns() {
     let deflection = values(n_rows * 6, 3);
     let stddev = values(n_rows * 6, 4);
     let identified = bools(n_rows, 5);
-    let sag_d = values(n_rows * 3, 6);
-    let sag_sd = values(n_rows * 3, 7);
+    let sag_d = values(n_rows * 6, 6);
+    let sag_sd = values(n_rows * 6, 7);
     let sag_id = bools(n_rows, 8);
     for with_sag in [false, true] {
         let table = PredictionTable {
@@ -109,9 +109,10 @@ fn prediction_table_round_trips_every_value_and_names_its_columns() {
             assert_eq!(row[c], identified[i].to_string(), "row {i} identified");
             c += 1;
             if with_sag {
-                for (data, w) in [(&sag_d, 3), (&sag_sd, 3)] {
-                    for k in 0..w {
-                        assert_cell(&row[c], data[i * w + k], &format!("row {i}, {}", header[c]));
+                // dx..dz of each 6-long row.
+                for data in [&sag_d, &sag_sd] {
+                    for k in 0..3 {
+                        assert_cell(&row[c], data[i * 6 + k], &format!("row {i}, {}", header[c]));
                         c += 1;
                     }
                 }

@@ -559,7 +559,8 @@ fn robust(sm: StiffnessModel, chain: &SerialChain, data: &Dataset<'_>) -> Stiffn
 
 /// `predict` and `predict_sag` run in fixed-size row blocks on every core: on 2 500 rows
 /// (three blocks) the values are bit for bit those of a one-thread pool, of a four-thread
-/// pool and of each row predicted alone, and a bad row in the last block is the error
+/// pool and of each row predicted alone, the columns' (`predict_columns`,
+/// `predict_sag_columns`) those of the records, and a bad row in the last block is the error
 /// reported, also when a later row is bad too.
 #[test]
 fn batched_predictions_do_not_depend_on_threads_or_blocks() {
@@ -631,6 +632,54 @@ fn batched_model_check(chain: &SerialChain, sm: &StiffnessModel) {
             "predict_sag row {i} alone"
         );
     }
+    // The columns (`predict_columns`, `predict_sag_columns`) hold the records' values bit for
+    // bit, weightless, under gravity and with a payload, on one thread and on four.
+    let payload = vjm::PointMass::new(1.5, [0.01, -0.02, 0.05]).unwrap();
+    let under_gravity = sm
+        .predict_under_gravity(&chain, &q, Load::Wrench(&w), &g)
+        .unwrap();
+    let with_payload = sm.predict_sag(&chain, &q, &g, Some(&payload)).unwrap();
+    for threads in [1, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let cases = [
+                (
+                    "predict",
+                    &one,
+                    sm.predict_columns(&chain, &q, Load::Wrench(&w), None),
+                ),
+                (
+                    "predict under gravity",
+                    &under_gravity,
+                    sm.predict_columns(&chain, &q, Load::Wrench(&w), Some(&g)),
+                ),
+                (
+                    "predict_sag",
+                    &one_sag,
+                    sm.predict_sag_columns(&chain, &q, &g, None),
+                ),
+                (
+                    "predict_sag with a payload",
+                    &with_payload,
+                    sm.predict_sag_columns(&chain, &q, &g, Some(&payload)),
+                ),
+            ];
+            for (what, records, columns) in cases {
+                let columns = columns.unwrap();
+                assert_eq!(columns.rows(), rows, "{what}");
+                for (i, record) in records.iter().enumerate() {
+                    assert_eq!(
+                        bits(&columns.row(i)),
+                        bits(record),
+                        "{what} row {i}, {threads} threads"
+                    );
+                }
+            }
+        });
+    }
     let mut bad = q.clone();
     bad[7 * 2100 + 3] = f64::NAN;
     bad[7 * 2400] = f64::INFINITY;
@@ -639,13 +688,16 @@ fn batched_model_check(chain: &SerialChain, sm: &StiffnessModel) {
             .num_threads(threads)
             .build()
             .unwrap();
-        let (e1, e2) = pool.install(|| {
-            (
+        let errors = pool.install(|| {
+            [
                 sm.predict(&chain, &bad, Load::Wrench(&w)).unwrap_err(),
                 sm.predict_sag(&chain, &bad, &g, None).unwrap_err(),
-            )
+                sm.predict_columns(&chain, &bad, Load::Wrench(&w), None)
+                    .unwrap_err(),
+                sm.predict_sag_columns(&chain, &bad, &g, None).unwrap_err(),
+            ]
         });
-        for e in [e1, e2] {
+        for e in errors {
             assert!(e.to_string().contains("row 2100"), "{threads} threads: {e}");
         }
     }
