@@ -63,6 +63,13 @@ def _pyarrow() -> Any:
     return pyarrow
 
 
+def release_arrow_memory() -> None:
+    """Hand the memory Arrow's pool keeps after freed tables back to the system: once a file's
+    columns are numpy arrays, its decoded table is garbage, but mimalloc (pyarrow's default
+    pool) kept it: 188 of the 426 MiB a `predict vjm` held after reading 10^6 Parquet rows."""
+    _pyarrow().default_memory_pool().release_unused()
+
+
 def _format(path: PathLike, fmt: Optional[str]) -> str:
     if fmt is None:
         found = columnar_format(path)
@@ -170,13 +177,12 @@ def read_columns(
     return out
 
 
-# Rows converted and written at a time: a row group of a Parquet file (pyarrow's default row
-# group size), a record batch of an Arrow IPC file. Only one slice's Arrow copies exist at once,
-# so a table of 10^7 rows costs the memory of 10^6. Writing 33 strided columns of 10^6 rows
-# alone takes +185 MiB at 2^17 rows a slice, +393 MiB at 2^20; but in the CLI's Parquet →
-# Parquet predict of 10^6 rows 2^17 cost 0.5 s (3.8–4.1 s against 3.1–3.6 s) and moved its
-# peak (reached during this write) by under 20 MiB (872 against 886 MiB): not understood yet.
-ROWS_PER_GROUP = 1 << 20
+# Rows converted and written at a time: a row group of a Parquet file, a record batch of an
+# Arrow IPC file. Only one slice's Arrow copies exist at once, so a table of 10^7 rows costs the
+# memory of 2^17 rows. (At 2^20, pyarrow's default row group, writing 33 strided columns of 10^6
+# rows took +393 MiB against +185 MiB; smaller groups had looked slow only because of the
+# dictionary encoding of floats, now off: see `write_columns`.)
+ROWS_PER_GROUP = 1 << 17
 
 
 def _checked_column(name: str, values: Any) -> Any:
@@ -249,7 +255,12 @@ def write_columns(
     if kind == "parquet":
         import pyarrow.parquet as pq  # type: ignore[import-untyped,import-not-found,unused-ignore]
 
-        with pq.ParquetWriter(p, schema) as writer:
+        # Dictionary pages only for text (a status, a label): on computed floats, nearly all
+        # distinct, pyarrow's default dictionary attempt made 33 columns of 10^6 rows slower
+        # and the file larger (`python benches/parquet_dictionary.py`: 7.09 s and 332 MB
+        # against 0.57 s and 264 MB in groups of 2^17; 1.67 s against 0.73 s in one group).
+        text = [f.name for f in schema if pa.types.is_string(f.type) or pa.types.is_large_string(f.type)]
+        with pq.ParquetWriter(p, schema, use_dictionary=text) as writer:
             for start in starts:
                 writer.write_table(piece(start))
         return

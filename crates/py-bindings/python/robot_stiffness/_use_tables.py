@@ -18,7 +18,7 @@ from typing import Any, Iterator, List, Optional, Tuple
 import numpy as np
 
 from . import _core
-from ._columnar import columnar_format, is_columnar_path, read_columns, write_columns
+from ._columnar import columnar_format, is_columnar_path, read_columns, release_arrow_memory, write_columns
 from ._errors import DataFileError, StiffnessError
 from ._interrupt import in_worker
 from ._tables import WRENCH, blame_rows, columns, joint_columns, optional_columns
@@ -47,6 +47,8 @@ def read_plan(path: str, robot: Any) -> Tuple[np.ndarray, Optional[np.ndarray], 
         ids = optional_columns(table, ["pose"], "the pose ids")
     except DataFileError as e:
         raise DataFileError(f"{os.fspath(path)}: {e}") from None
+    del table
+    release_arrow_memory()
     pose: Optional[np.ndarray] = None
     if ids is not None:
         flat = ids[:, 0]

@@ -17,7 +17,7 @@ from ._arguments import DEFAULT_GRAVITY, check_path, checked, gravity_vector
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
 from .results import Diagnosis
-from ._columnar import is_columnar_path, read_columns
+from ._columnar import is_columnar_path, read_columns, release_arrow_memory
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column, column_names, columns, is_table, joint_columns, optional_columns
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
@@ -138,9 +138,12 @@ def read_measurements(path: PathLike, n_joints: int, *, fingerprint: bool = True
         wanted = joint_columns(n_joints) + WRENCH + DISPLACEMENT + ROTATION + ["pose", "set"]
         table = read_columns(path, wanted)
         try:
-            return as_measurements(table, n_joints)
+            measurements = as_measurements(table, n_joints)
         except DataFileError as e:
             raise DataFileError(f"{os.fspath(path)}: {e}") from None
+        del table
+        release_arrow_memory()  # the decoded table, now garbage, back to the system
+        return measurements
     return Measurements._from_core(_core.vjm_read_csv(path, n_joints, sha256=bool(fingerprint)), path)
 
 

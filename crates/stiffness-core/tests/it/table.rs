@@ -25,6 +25,33 @@ fn quoted_trimmed_crlf_and_bom_cells_read_as_their_numbers() {
     assert_eq!(lines, [2, 3]);
 }
 
+/// Lines without quotes take the reader's fast split: spaces and tabs around a cell are
+/// trimmed, an empty cell is a field of its own (an empty number cell is an error naming it),
+/// and a line with a quoted cell among bare ones reads the same.
+#[test]
+fn unquoted_lines_split_as_quoted_ones() {
+    let text = "a,b,c\n 1.5,\t-2 ,3e2\n\"4\", 5 ,6\n7,8,9\t\n";
+    let (v, lines) = floats(text, 3).unwrap();
+    assert_eq!(v, [1.5, -2.0, 300.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+    assert_eq!(lines, [2, 3, 4]);
+    match floats("a,b,c\n1,,3\n", 3) {
+        Err(TableError::Parse {
+            line: 2,
+            column,
+            text,
+            ..
+        }) => assert_eq!((column.as_str(), text.as_str()), ("c1", "")),
+        other => panic!("expected the empty cell c1 on line 2, got {other:?}"),
+    }
+    // One field too many or too few, quoted or not, is the same error.
+    for bad in ["a,b\n1,2,3\n", "a,b\n\"1\",2,3\n", "a,b\n1\n"] {
+        assert!(
+            matches!(floats(bad, 2), Err(TableError::Malformed { line: 2, .. })),
+            "{bad:?}"
+        );
+    }
+}
+
 #[test]
 fn blank_lines_are_skipped_and_rows_keep_their_file_lines() {
     let (v, lines) = floats("x\n\n1\n2\n\n \n3\n\n", 1).unwrap();
