@@ -260,14 +260,7 @@ impl PyStiffnessModel {
             .map(|(mass, cx, cy, cz)| vjm::PointMass::new(mass, [cx, cy, cz]))
             .transpose()
             .py()?;
-        let zeros = vec![0.0; 6 * q.rows];
-        crate::use_model::check_inputs(
-            py,
-            &self.chain,
-            &q,
-            vjm::Load::Wrench(&zeros),
-            allow_outside_limits,
-        )?;
+        crate::use_model::check_arrays(py, &self.chain, &q, None, allow_outside_limits)?;
         let (model, chain) = (&self.model, &self.chain);
         let pred = run(py, || {
             model.predict_sag_columns(chain, &q.data, &g, payload.as_ref())

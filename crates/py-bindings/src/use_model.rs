@@ -135,6 +135,18 @@ pub(crate) fn check_inputs(
         Load::Wrench(w) => Some(w),
         _ => None,
     };
+    check_arrays(py, chain, q, wrench, allow_outside_limits)
+}
+
+/// [`check_inputs`] of the poses and, when given, an (N, 6) wrench: the sag's poses are
+/// checked without a wrench (no N×6 zeros made for the purpose).
+pub(crate) fn check_arrays(
+    py: Python<'_>,
+    chain: &vjm::SerialChain,
+    q: &Rows<'_>,
+    wrench: Option<&[f64]>,
+    allow_outside_limits: bool,
+) -> PyResult<()> {
     let limits = (!allow_outside_limits).then_some(chain);
     let found = run(py, || {
         vjm::dataset::check_poses(chain.n_joints(), &q.data, wrench, limits)

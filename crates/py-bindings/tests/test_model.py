@@ -332,3 +332,20 @@ def test_a_read_file_is_fingerprinted_once_and_its_hash_recorded(saved, panda, t
     assert (data["file"], data["sha256"]) == (str(copy), expected)
     with pytest.raises(ValueError, match="64 lowercase hex digits"):
         panda.identify(mc.q, mc.wrench, mc.displacement, data_file=DataFile(str(copy), "XYZ"), gravity=None)
+
+
+def test_predict_sag_names_a_bad_pose_by_row_and_column(fitted, panda):
+    """The sag's poses get identify's checks without a wrench: a NaN is named by array, row
+    (from 0) and column; a pose outside the URDF limits is refused unless allowed."""
+    _, ident = fitted
+    q = np.tile([0.3, -0.2, 0.1, -1.9, 0.4, 1.5, 0.7], (5, 1))
+    assert np.isfinite(ident.stiffness_model.predict_sag(q, gravity=(0.0, 0.0, -9.81)).deflection[:, :3]).all()
+    bad = q.copy()
+    bad[3, 2] = np.nan
+    with pytest.raises(InvalidValueError, match=r"q.*row 3.*column 2"):
+        ident.stiffness_model.predict_sag(bad, gravity=(0.0, 0.0, -9.81))
+    outside = q.copy()
+    outside[1, 3] = 0.5  # the Panda's joint 4 stops at -0.0698 rad
+    with pytest.raises(StiffnessError):
+        ident.stiffness_model.predict_sag(outside, gravity=(0.0, 0.0, -9.81))
+    ident.stiffness_model.predict_sag(outside, gravity=(0.0, 0.0, -9.81), allow_outside_limits=True)

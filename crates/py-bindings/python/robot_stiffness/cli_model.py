@@ -219,8 +219,9 @@ def _robot_for(args: argparse.Namespace) -> Any:
 
 def _largest_mm(values: Any) -> str:
     """The largest finite value in mm, or words when there is none (never "nan")."""
-    finite = values[np.isfinite(values)]
-    return f"{float(np.max(finite)) * 1e3:.3f} mm" if finite.size else "not available"
+    # A masked reduction: no copy of the finite values (10^6 of them twice per predict).
+    largest = float(np.fmax.reduce(values, where=np.isfinite(values), initial=-np.inf))
+    return f"{largest * 1e3:.3f} mm" if largest > -np.inf else "not available"
 
 
 def _position_norms(deflection: Any) -> Any:
