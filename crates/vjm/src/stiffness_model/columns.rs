@@ -3,7 +3,6 @@
 
 use std::ops::Range;
 
-use rayon::prelude::*;
 use stiffness_core::row_blocks::{fill_row_blocks, PREDICTION_BLOCK_ROWS};
 
 use super::{ModelError, Prediction};
@@ -65,10 +64,20 @@ impl PredictionColumns {
     }
 }
 
+/// One block's part of every column of a [`PredictionColumns`].
+struct BlockColumns<'a> {
+    deflection: &'a mut [f64],
+    stddev: &'a mut [f64],
+    wrench: &'a mut [f64],
+    identified: &'a mut [bool],
+    excitation: &'a mut [f64],
+}
+
 impl Collect for PredictionColumns {
     /// Each block computes into a block-sized scratch of records, then scatters it into its
     /// part of every column: the memory of the columns alone (the records of all rows were as
-    /// large again, and touched once more), the same values and first error as the records'.
+    /// large again, and touched once more), the same values and first error as the records'
+    /// (the blocks run through `fill_row_blocks`, one block a unit).
     fn collect(rows: usize, block: &BlockFn<'_>) -> Result<Self, ModelError> {
         let b = PREDICTION_BLOCK_ROWS;
         let mut out = PredictionColumns {
@@ -78,32 +87,37 @@ impl Collect for PredictionColumns {
             identified: vec![false; rows],
             excitation: vec![0.0; rows],
         };
-        let outcomes: Vec<Result<(), ModelError>> = out
+        let mut blocks: Vec<BlockColumns<'_>> = out
             .deflection
-            .par_chunks_mut(6 * b)
-            .zip(out.stddev.par_chunks_mut(6 * b))
-            .zip(out.wrench.par_chunks_mut(6 * b))
-            .zip(out.identified.par_chunks_mut(b))
-            .zip(out.excitation.par_chunks_mut(b))
-            .enumerate()
+            .chunks_mut(6 * b)
+            .zip(out.stddev.chunks_mut(6 * b))
+            .zip(out.wrench.chunks_mut(6 * b))
+            .zip(out.identified.chunks_mut(b))
+            .zip(out.excitation.chunks_mut(b))
             .map(
-                |(k, ((((deflection, stddev), wrench), identified), excitation))| {
-                    let first = k * b;
-                    let mut scratch = vec![Prediction::UNSET; identified.len()];
-                    block(first..first + scratch.len(), &mut scratch)?;
-                    for (i, p) in scratch.iter().enumerate() {
-                        deflection[6 * i..6 * i + 6].copy_from_slice(&p.deflection);
-                        stddev[6 * i..6 * i + 6].copy_from_slice(&p.stddev);
-                        wrench[6 * i..6 * i + 6].copy_from_slice(&p.wrench);
-                        identified[i] = p.identified;
-                        excitation[i] = p.excitation;
-                    }
-                    Ok(())
+                |((((deflection, stddev), wrench), identified), excitation)| BlockColumns {
+                    deflection,
+                    stddev,
+                    wrench,
+                    identified,
+                    excitation,
                 },
             )
             .collect();
-        // The earliest block's error: the first bad row's, as fill_row_blocks reports it.
-        outcomes.into_iter().collect::<Result<(), _>>()?;
+        fill_row_blocks(&mut blocks, 1, |k, part| {
+            let part = &mut part[0];
+            let first = k.start * b;
+            let mut scratch = vec![Prediction::UNSET; part.identified.len()];
+            block(first..first + scratch.len(), &mut scratch)?;
+            for (i, p) in scratch.iter().enumerate() {
+                part.deflection[6 * i..6 * i + 6].copy_from_slice(&p.deflection);
+                part.stddev[6 * i..6 * i + 6].copy_from_slice(&p.stddev);
+                part.wrench[6 * i..6 * i + 6].copy_from_slice(&p.wrench);
+                part.identified[i] = p.identified;
+                part.excitation[i] = p.excitation;
+            }
+            Ok::<_, ModelError>(())
+        })?;
         Ok(out)
     }
 }
