@@ -210,6 +210,15 @@ pub struct CompensationWorkspace {
     theta0: Vec<f64>,
     theta: Vec<f64>,
     ktheta: Vec<f64>,
+    /// K_C's share `Δθ − θ0` of the row's last converged deflection: the next evaluation of
+    /// the same row starts from it (a Gauss–Newton step moves q by about 1e-3 rad, then
+    /// 1e-6, so the share hardly changes and the fixed point is a few steps away instead of
+    /// seven). Reset at each row, so that a row's result does not depend on the rows before it.
+    kc_share: Vec<f64>,
+    kc_share_valid: bool,
+    /// The springs are the actuated joints (a traditional model): the springs' Jacobian that
+    /// [`loaded_tip`] leaves in `jac` is then the actuated Jacobian at the same q, bit for bit.
+    springs_are_actuated: bool,
     /// The load's torque on each spring at θ = 0, N·m (the gear curves' argument).
     tau: Vec<f64>,
     dq: Vec<f64>,
@@ -225,6 +234,8 @@ impl CompensationWorkspace {
         let n = chain.n_joints();
         let m = model.n_params();
         let actuated_model = VirtualJointModel::traditional(n);
+        let springs_are_actuated = model.springs() == actuated_model.springs()
+            && model.offsets() == actuated_model.offsets();
         Ok(Self {
             springs: Workspace::new(chain, model)?,
             actuated: Workspace::new(chain, &actuated_model)?,
@@ -234,11 +245,39 @@ impl CompensationWorkspace {
             theta0: vec![0.0; m],
             theta: vec![0.0; m],
             ktheta: vec![0.0; m],
+            kc_share: vec![0.0; m],
+            kc_share_valid: false,
+            springs_are_actuated,
             tau: vec![0.0; m],
             dq: vec![0.0; n],
             weight: None,
             equilibrium: EquilibriumScratch::default(),
         })
+    }
+
+    /// The actuated Jacobian at `q` (6×n, column-major), computed into `jac_a` unless the
+    /// springs are the actuated joints, whose Jacobian [`loaded_tip`] left in `jac` — the
+    /// caller's precondition is then that its last evaluation was at this `q`.
+    fn evaluate_actuated(&mut self, chain: &SerialChain, q: &[f64]) -> Result<(), VjmError> {
+        if self.springs_are_actuated {
+            return Ok(());
+        }
+        jacobian_in_place(
+            chain,
+            &self.actuated_model,
+            q,
+            &mut self.actuated,
+            &mut self.jac_a,
+        )
+    }
+
+    /// The Jacobian [`Self::evaluate_actuated`] last gave.
+    fn actuated_jacobian(&self) -> &[f64] {
+        if self.springs_are_actuated {
+            &self.jac
+        } else {
+            &self.jac_a
+        }
     }
 }
 
@@ -375,8 +414,15 @@ fn loaded_tip(
         ws.theta0[k] = compliance[k] * tau;
         ws.theta[k] = ws.theta0[k];
     }
-    // A curved spring deflects by c τ + e(τ) (`crate::gear`).
-    curved.add_excess(&ws.tau, &mut ws.theta);
+    let warm = opts.with_kc && ws.kc_share_valid;
+    if warm {
+        for ((t, t0), s) in ws.theta.iter_mut().zip(&ws.theta0).zip(&ws.kc_share) {
+            *t = t0 + s;
+        }
+    } else {
+        // A curved spring deflects by c τ + e(τ) (`crate::gear`).
+        curved.add_excess(&ws.tau, &mut ws.theta);
+    }
     if opts.with_kc {
         let mut converged = false;
         // A linear contraction, r = ‖C K_C‖ ≈ 1e-2 under a tip load: the bound on the changes
@@ -408,8 +454,13 @@ fn loaded_tip(
             }
         }
         if !converged {
+            ws.kc_share_valid = false;
             return Ok(None);
         }
+        for ((s, t), t0) in ws.kc_share.iter_mut().zip(&ws.theta).zip(&ws.theta0) {
+            *s = t - t0;
+        }
+        ws.kc_share_valid = true;
     }
     let mut d = [0.0; 6];
     for k in 0..m {
@@ -788,22 +839,19 @@ fn compensate_row(
         inverse_condition: f64::NAN,
         limit_joint: None,
     };
+    ws.kc_share_valid = false; // each row from its own start
     let Some(nominal) = loaded_tip(chain, springs, q, load, opts, ws)? else {
         return Ok(report);
     };
     // Conditioning at the nominal targets (a row can start at a singularity and leave it).
-    jacobian_in_place(
-        chain,
-        &ws.actuated_model,
-        q,
-        &mut ws.actuated,
-        &mut ws.jac_a,
-    )?;
+    ws.evaluate_actuated(chain, q)?;
     let nominal_inverse_condition = if opts.match_orientation {
-        pose_task(opts.length).gram(&ws.jac_a, n).1
+        pose_task(opts.length).gram(ws.actuated_jacobian(), n).1
     } else {
-        POSITION_TASK.gram(&ws.jac_a, n).1
+        POSITION_TASK.gram(ws.actuated_jacobian(), n).1
     };
+    // The actuated Jacobian is at the current q until the first step moves it.
+    let mut actuated_current = true;
     report.deflection = nominal.d.norm();
     report.rotation_deflection = nominal.phi.norm();
     let (target_p, target_r) = (nominal.p, nominal.r);
@@ -824,19 +872,26 @@ fn compensate_row(
             converged = done;
             break;
         }
-        jacobian_in_place(
-            chain,
-            &ws.actuated_model,
-            q,
-            &mut ws.actuated,
-            &mut ws.jac_a,
-        )?;
+        if !actuated_current {
+            ws.evaluate_actuated(chain, q)?;
+        }
         report.inverse_condition = if opts.match_orientation {
             let r = SVector::<f64, 6>::new(rp.x, rp.y, rp.z, l * rr.x, l * rr.y, l * rr.z);
-            pose.step(&ws.jac_a, r, opts.min_inverse_condition, &mut dq)
+            pose.step(
+                ws.actuated_jacobian(),
+                r,
+                opts.min_inverse_condition,
+                &mut dq,
+            )
         } else {
-            POSITION_TASK.step(&ws.jac_a, rp, opts.min_inverse_condition, &mut dq)
+            POSITION_TASK.step(
+                ws.actuated_jacobian(),
+                rp,
+                opts.min_inverse_condition,
+                &mut dq,
+            )
         };
+        actuated_current = false;
         let mut norm_dq = 0.0;
         let mut norm_q = 0.0;
         for (x, d) in q.iter_mut().zip(dq.iter()) {
@@ -864,17 +919,13 @@ fn compensate_row(
     }
     ws.dq = dq;
     // Conditioning at the final targets (also when the first residual was already small).
-    jacobian_in_place(
-        chain,
-        &ws.actuated_model,
-        q,
-        &mut ws.actuated,
-        &mut ws.jac_a,
-    )?;
+    if !actuated_current {
+        ws.evaluate_actuated(chain, q)?;
+    }
     report.inverse_condition = if opts.match_orientation {
-        pose.gram(&ws.jac_a, n).1
+        pose.gram(ws.actuated_jacobian(), n).1
     } else {
-        POSITION_TASK.gram(&ws.jac_a, n).1
+        POSITION_TASK.gram(ws.actuated_jacobian(), n).1
     };
     if opts.check_limits {
         report.limit_joint = chain

@@ -621,3 +621,108 @@ fn blocked_compensation_is_the_serial_one_on_any_number_of_threads() {
         assert!(err.to_string().contains("row 550"), "{err}");
     }
 }
+
+/// A row's corrected targets do not depend on the rows compensated before it with the same
+/// workspace (the K_C deflection starts warm only within a row): the rows in reverse order
+/// give the forward order's bits, with and without the complementary stiffness.
+#[test]
+fn a_row_does_not_depend_on_the_rows_before_it() {
+    use vjm::{compensate_in_place, CompensationWorkspace};
+    let chain = SerialChain::bundled();
+    let truth = extended_truth();
+    let model = VirtualJointModel::extended(7);
+    let rows = 200;
+    let q = crate::strategies::random_configurations(&chain, rows, 21);
+    let w = crate::strategies::random_wrenches(rows, 22);
+    for with_kc in [true, false] {
+        let opts = with_opts(|o| {
+            o.with_kc = with_kc;
+            o.check_limits = false;
+        });
+        let mut ws = CompensationWorkspace::new(&chain, &model).unwrap();
+        let mut run = |order: Vec<usize>| {
+            let mut out = vec![Vec::new(); rows];
+            let mut qo = vec![0.0; 7];
+            let first = compensate(
+                &chain,
+                &model,
+                &truth.compliance,
+                &q[..7],
+                Load::Wrench(&w[..6]),
+                &opts,
+            )
+            .unwrap();
+            let mut ro = first.rows.clone();
+            for i in order {
+                compensate_in_place(
+                    &chain,
+                    &model,
+                    &truth.compliance,
+                    &q[7 * i..7 * i + 7],
+                    Load::Wrench(&w[6 * i..6 * i + 6]),
+                    &opts,
+                    &mut ws,
+                    &mut qo,
+                    &mut ro,
+                )
+                .unwrap();
+                let mut bits: Vec<u64> = qo.iter().map(|x| x.to_bits()).collect();
+                let r = &ro[0];
+                for x in [r.position_error, r.deflection, r.rotation_deflection] {
+                    bits.push(x.to_bits());
+                }
+                bits.push(r.iterations as u64);
+                out[i] = bits;
+            }
+            out
+        };
+        let forward = run((0..rows).collect());
+        let backward = run((0..rows).rev().collect());
+        for i in 0..rows {
+            assert_eq!(forward[i], backward[i], "row {i}, with_kc {with_kc}");
+        }
+    }
+}
+
+/// The reported `inverse_condition` is σ_min/σ_max of the rigid actuated Jacobian's task rows
+/// at the corrected targets, as nalgebra's SVD of `jacobian(traditional)` gives it: for a
+/// traditional model (whose springs' Jacobian the compensation reuses as the actuated one) and
+/// an extended one, for the position and the pose task.
+#[test]
+fn reported_conditioning_is_that_of_the_corrected_targets() {
+    let chain = SerialChain::bundled();
+    let rows = 30;
+    let q = crate::strategies::random_configurations(&chain, rows, 31);
+    let w = crate::strategies::random_wrenches(rows, 32);
+    let actuated = VirtualJointModel::traditional(7);
+    for (model, c) in [
+        (VirtualJointModel::traditional(7), vec![3e-4; 7]),
+        (VirtualJointModel::extended(7), extended_truth().compliance),
+    ] {
+        for pose in [false, true] {
+            let opts = with_opts(|o| {
+                o.match_orientation = pose;
+                o.check_limits = false;
+            });
+            let out = compensate(&chain, &model, &c, &q, Load::Wrench(&w), &opts).unwrap();
+            for i in 0..rows {
+                let j = vjm::jacobian(&chain, &actuated, &out.q[7 * i..7 * i + 7]).unwrap();
+                let mut task = j.rows(0, if pose { 6 } else { 3 }).into_owned();
+                if pose {
+                    task.rows_mut(3, 3).scale_mut(opts.length);
+                }
+                let s = task.singular_values();
+                let expected = s.min() / s.max();
+                let got = out.rows[i].inverse_condition;
+                // The Gram matrix J Jᵀ squares the condition number: its eigenvalues give
+                // σ_min/σ_max to about ε/(σ_min/σ_max)² relative.
+                let tol = 1e-10 + 20.0 * f64::EPSILON / (expected * expected);
+                assert!(
+                    (got - expected).abs() <= tol * expected,
+                    "{} row {i} pose {pose}: {got} vs {expected}",
+                    model.name()
+                );
+            }
+        }
+    }
+}
