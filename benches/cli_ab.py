@@ -11,8 +11,8 @@ older commit::
         predict vjm MODEL.json POSES.csv --out /tmp/ab/PRED.csv
 
 Each round runs the baseline (``PYTHONPATH`` set to it), then the installed package, in fresh
-interpreters; the file after ``--out`` is removed before each run (it must not exist before the
-first: the command refuses to overwrite). Prints the wall time of every run and the median per
+interpreters; the file after ``--out`` (or ``--json``) is removed before each run (it must not
+exist before the first: the command refuses to overwrite). Prints the wall time of every run and the median per
 build, and checks that both builds wrote the same bytes.
 """
 from __future__ import annotations
@@ -37,11 +37,13 @@ def main() -> int:
     parser.add_argument("command", nargs=argparse.REMAINDER, help="-- then the CLI arguments")
     args = parser.parse_args()
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
-    if "--out" not in command:
-        parser.error("the command needs --out FILE (removed before each run)")
-    out = Path(command[command.index("--out") + 1])
+    # The command's output file: `--out` (predict, compensate) or `--json` (identify, diagnose).
+    flag = next((f for f in ("--out", "--json") if f in command), None)
+    if flag is None or command.index(flag) + 1 >= len(command):
+        parser.error("the command needs --out FILE or --json FILE (removed before each run)")
+    out = Path(command[command.index(flag) + 1])
     if out.exists():
-        parser.error(f"{out} exists: give an --out file this script may remove")
+        parser.error(f"{out} exists: give an {flag} file this script may remove")
     times: Dict[str, List[float]] = {"baseline": [], "installed": []}
     digests: Dict[str, str] = {}
     for _ in range(max(args.repeat, 1)):

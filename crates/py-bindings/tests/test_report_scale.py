@@ -11,7 +11,7 @@ import pytest
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from robot_stiffness import _core, cli, csjm, report, vjm
+from robot_stiffness import _cli_context, _core, cli, csjm, report, vjm
 from robot_stiffness._interrupt import Cancelled, cancel
 
 
@@ -129,7 +129,7 @@ def test_progress_runs_to_the_end_of_the_report(diagnosis, tmp_path):
 def test_cancel_stops_the_report_between_plots(diagnosis, tmp_path):
     # The CLI's progress callback raises Cancelled once Ctrl-C was seen: the report stops before
     # its next plot, and nothing is written (plots are drawn in memory, written at the end).
-    progress = cli._progress(False, "report")
+    progress = _cli_context.progress_reporter(False, "report")
     calls = []
 
     def cancel_after_first(stage, done, total):

@@ -203,7 +203,8 @@ def test_csjm_fit_is_typed_and_pickles(csjm_path):
 
 
 def test_identification_is_typed_and_covers_the_core(panda, campaign):
-    from robot_stiffness.vjm import IdentifiedParameter, _CoreIdentification
+    from robot_stiffness._identification import _CoreIdentification
+    from robot_stiffness.vjm import IdentifiedParameter
 
     m = campaign.measurements
     core, _ = panda._identify(m.q, m.wrench, m.displacement, "extended", None, None, False, False, False,

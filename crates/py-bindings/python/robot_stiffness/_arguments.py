@@ -34,8 +34,9 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, TypeVar
 import numpy as np
 
 from ._errors import ArgumentTypeError, InvalidValueError, ShapeError, StiffnessError, arrays_are_file_rows, rows_of_arrays
+from ._robot_handle import RobotHandle
 
-__all__ = ["checked", "check_path", "integer", "real", "flag", "quote"]
+__all__ = ["checked", "check_path", "integer", "real", "flag", "quote", "ModelSpec", "model_spec"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -159,9 +160,7 @@ def _check_str(value: Any, name: str) -> str:
 
 
 def _robot(value: Any, name: str) -> Any:
-    from .vjm import Robot
-
-    if not isinstance(value, Robot):
+    if not isinstance(value, RobotHandle):
         raise ArgumentTypeError(
             f"{name} must be a robot_stiffness.vjm.Robot (Robot.bundled(), Robot.from_urdf(...)), "
             f"got {_type_name(value)} {quote(value)}"
@@ -279,3 +278,25 @@ def checked(fn: F) -> F:
             raise InvalidValueError(f"{where}: {e}") from None
 
     return cast(F, wrapper)
+
+
+#: The one model vocabulary: ``"traditional"``, ``"extended"``, ``"J1z,J2x"``, what diagnose prints
+#: (``"traditional + joint_tilt(J3x)"``), or a sequence of spring labels like ``["J1z", "J2x"]``.
+ModelSpec = Union[str, Sequence[str]]
+
+
+def model_spec(model: Any) -> Union[str, List[str]]:
+    """A :data:`ModelSpec` as the core takes it: the text itself, or the labels as a list of
+    ``str``; anything else is an :class:`~robot_stiffness.ArgumentTypeError`."""
+    if isinstance(model, str):
+        return model
+    try:
+        labels = list(model)
+    except TypeError:
+        labels = None
+    if labels is not None and all(isinstance(s, str) for s in labels):
+        return [str(s) for s in labels]
+    raise ArgumentTypeError(
+        "model must be 'traditional', 'extended', a spec like 'traditional + joint_tilt(J3x)' or a "
+        f"sequence of spring labels like ['J1z', 'J2x'], got {type(model).__name__} {repr(model)[:40]}"
+    )

@@ -6,17 +6,17 @@ streaming QR factor of the part's whitened rows); this module wraps it for Pytho
 from __future__ import annotations
 
 from functools import reduce
-from typing import TYPE_CHECKING, Any, Iterable, List, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Iterable, List, Tuple
 
 from . import _core
-from ._arguments import checked
+from ._arguments import ModelSpec, checked, model_spec
 from ._arrays import f64
 from ._errors import ArgumentTypeError, InvalidValueError
+from ._identification import Identification
 
-if TYPE_CHECKING:  # a runtime import would be circular (vjm imports this module)
-    from .vjm import Identification, Robot
+if TYPE_CHECKING:  # pragma: no cover
+    from .vjm import Robot
 
-ModelSpec = Union[str, Sequence[str]]
 
 
 class IdentificationPartial:
@@ -54,11 +54,9 @@ class IdentificationPartial:
     ) -> "IdentificationPartial":
         """The statistics of no measurement: merging it changes nothing (a start value for a
         reduction over parts that may be empty)."""
-        from .vjm import _model
-
         inner = _core.IdentificationPartial.empty(
             robot._inner,
-            _model(model),
+            model_spec(model),
             noise_sigma=None if noise_sigma is None else f64(noise_sigma, "noise_sigma"),
             noise_scale_known=bool(noise_scale_known),
             nonnegative=bool(nonnegative),
@@ -91,7 +89,6 @@ class IdentificationPartial:
     def finish(self) -> "Identification":
         """The identification of every measurement merged in, with its stiffness model."""
         from .model import StiffnessModel
-        from .vjm import Identification
 
         core, core_model = self._inner.finish()
         return Identification._from_core(core, StiffnessModel(core_model, self._robot))

@@ -9,19 +9,28 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
 
 from ._equality import FieldEq
 from . import _core
-from ._arguments import DEFAULT_GRAVITY, RECORDED_GRAVITY, ModelGravity, checked, gravity_vector, model_gravity
+from ._arguments import (
+    DEFAULT_GRAVITY,
+    RECORDED_GRAVITY,
+    ModelGravity,
+    ModelSpec,
+    checked,
+    gravity_vector,
+    model_gravity,
+    model_spec,
+)
 from ._arrays import f64
 from ._errors import ArgumentTypeError, ShapeError
+from ._robot_handle import RobotHandle
 
 Array = npt.NDArray[np.float64]
-ModelSpec = Union[str, Sequence[str]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,18 +105,6 @@ class Compensation(FieldEq):
     status: Tuple[str, ...]
 
 
-def _model(model: ModelSpec) -> Union[str, List[str]]:
-    if isinstance(model, str):
-        return model
-    labels = list(model) if isinstance(model, (list, tuple)) else None
-    if labels is not None and all(isinstance(s, str) for s in labels):
-        return [str(s) for s in labels]
-    raise ArgumentTypeError(
-        "model must be \"traditional\", \"extended\", a spec like \"traditional + joint_tilt(J3x)\" or a "
-        "sequence of spring labels like [\"J1z\", \"J2x\"]"
-    )
-
-
 def _model_of(model: Optional[ModelSpec], compliance: Array, n_joints: int) -> ModelSpec:
     """``model``, or (None) the model the number of compliances names: n traditional, 3n extended."""
     if model is not None:
@@ -121,9 +118,7 @@ def _model_of(model: Optional[ModelSpec], compliance: Array, n_joints: int) -> M
 
 
 def _robot_inner(robot: Any) -> Any:
-    from .vjm import Robot
-
-    if not isinstance(robot, Robot):
+    if not isinstance(robot, RobotHandle):
         raise ArgumentTypeError(f"robot must be a robot_stiffness.vjm.Robot, got {type(robot).__name__}")
     return robot._inner
 
@@ -205,7 +200,7 @@ def compensate(
     g = None if load_only or gravity is None else gravity_vector(gravity)
     c = f64(compliance, "compliance")
     out = _core.vjm_compensate(
-        inner, _model(_model_of(model, c, robot.n_joints)), c, arr, w, _payload(payload),
+        inner, model_spec(_model_of(model, c, robot.n_joints)), c, arr, w, _payload(payload),
         bool(match_orientation), bool(with_kc), allow_outside_limits=bool(allow_outside_limits),
         gravity=g,
     )
@@ -271,7 +266,7 @@ def design(
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     inner = _robot_inner(robot)
-    text = _core.vjm_design(inner, _model(model), int(poses), int(wrenches_per_pose), int(seed), float(margin),
+    text = _core.vjm_design(inner, model_spec(model), int(poses), int(wrenches_per_pose), int(seed), float(margin),
                             int(pool_size), progress=progress,
                             gravity=None if gravity is None else gravity_vector(gravity))
     doc = json.loads(text)

@@ -31,7 +31,7 @@ import time
 import traceback
 import warnings
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, List, NoReturn, Optional, Sequence, Tuple
+from typing import Any, Dict, Iterator, List, NoReturn, Optional, Sequence, Tuple
 
 from . import __version__, cli_model
 from . import _cli_types as T
@@ -47,12 +47,23 @@ from ._interrupt import (
     worker_running,
 )
 from ._outputs import Outputs
+from ._cli_context import (
+    CLI_NAMES,
+    FORCE_HELP,
+    CliError,
+    add_gravity_args,
+    add_robot_args,
+    bundled_hint,
+    check_input,
+    clear_progress,
+    data_file,
+    gravity_of,
+    gravity_words,
+    progress_reporter,
+    robot_of,
+    show_progress,
+)
 
-if __name__ == "__main__":
-    # `python -m robot_stiffness.cli`: the subcommand modules' `from .cli import …` must find
-    # this module, not import a second copy whose CliError the handler here does not know
-    # (it would be reported as an internal error).
-    sys.modules.setdefault("robot_stiffness.cli", sys.modules[__name__])
 
 PROG = "robot-stiffness"
 
@@ -93,10 +104,6 @@ ROBOT_STIFFNESS_DEBUG=1 shows the traceback of an internal error.
 """
 
 
-class CliError(Exception):
-    """A usage problem found after parsing (reported like a data error)."""
-
-
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors: ``robot-stiffness: error: argument --poses: …``."""
 
@@ -118,142 +125,6 @@ def _json_text(obj: Any) -> str:
         return x
 
     return json.dumps(clean(obj), indent=2, allow_nan=False) + "\n"
-
-
-# ----------------------------------------------------------------------------- robot
-
-
-def _add_robot_args(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("robot (default: the bundled 7-DoF Franka Emika Panda, panda_link0 → panda_link8)")
-    g.add_argument("--urdf", metavar="FILE", help="URDF file of the robot")
-    g.add_argument("--base", metavar="LINK", help="base link (required with --urdf)")
-    g.add_argument("--tip", metavar="LINK", help="tip link; the tip point is its origin (required with --urdf)")
-
-
-GRAVITY_HELP = (
-    "the gravity the arm was measured or is used under, m/s² in the base frame (default {default}; "
-    "0,0,-9.80665 is a floor-mounted arm whose base z points up, 0,0,9.80665 a ceiling mount); the "
-    "links' masses come from the URDF's <inertial> elements"
-)
-GRAVITY_DEFAULT = "0,0,-9.80665"
-#: The default of the commands that read a model file (predict, compensate).
-GRAVITY_DEFAULT_MODEL = "the gravity the model was identified under, 0,0,-9.80665 when it records none"
-
-
-def _add_gravity_args(p: argparse.ArgumentParser, default: str = GRAVITY_DEFAULT) -> None:
-    """``--gravity GX,GY,GZ`` / ``--no-gravity``: one pair of flags for every command that models
-    the arm's weight (simulate, design, identify, diagnose, predict, compensate, demo)."""
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--gravity", type=T.gravity, default=None, metavar="GX,GY,GZ",
-                   help=GRAVITY_HELP.format(default=default))
-    g.add_argument("--no-gravity", action="store_true",
-                   help="a weightless arm (no inertials needed): the arm's own weight is left out")
-
-
-def _gravity(args: argparse.Namespace) -> Optional[Tuple[float, float, float]]:
-    """The gravity of a command's flags: ``--gravity``, None for ``--no-gravity``, else the default."""
-    from ._arguments import DEFAULT_GRAVITY
-
-    if not hasattr(args, "no_gravity") or args.no_gravity:
-        return None
-    given = getattr(args, "gravity", None)
-    return DEFAULT_GRAVITY if given is None else given
-
-
-def _model_gravity(args: argparse.Namespace) -> Any:
-    """The gravity of a command that reads a model file: ``--gravity``, None for
-    ``--no-gravity``, else the model's own (``RECORDED_GRAVITY``)."""
-    from ._arguments import RECORDED_GRAVITY
-
-    if args.no_gravity:
-        return None
-    return RECORDED_GRAVITY if args.gravity is None else args.gravity
-
-
-def _gravity_words(g: Optional[Tuple[float, float, float]]) -> str:
-    """``under gravity 0,0,-9.80665 m/s²`` or ``weightless``: what a command's output says."""
-    return "weightless" if g is None else f"under gravity {','.join(f'{v:g}' for v in g)} m/s²"
-
-
-def _robot(args: argparse.Namespace) -> Any:
-    from .vjm import Robot
-
-    if args.urdf is None:
-        if args.base is not None and args.base != "panda_link0":
-            raise CliError("--base needs --urdf (the bundled arm's base is panda_link0)")
-        return Robot.bundled(args.tip)
-    if not args.base or not args.tip:
-        raise CliError("--urdf needs both --base LINK and --tip LINK (only predict and compensate take them "
-                       "from the model file)")
-    _check_input(args.urdf, "--urdf")
-    return Robot.from_urdf(args.urdf, args.base, args.tip)
-
-
-_NOT_THE_PANDA = re.compile(r"joint columns but the chain has (\d+) actuated joints|outside the joint's limits")
-
-
-@contextlib.contextmanager
-def _bundled_hint(args: argparse.Namespace) -> Iterator[None]:
-    """Data that do not fit the bundled Panda, which a command without ``--urdf`` (and without a
-    model file naming its robot) falls back to: the error says so and how to name another arm,
-    besides the advice about the data themselves (``--allow-outside-limits``)."""
-    try:
-        yield
-    except (StiffnessError, CliError) as e:
-        text = str(e)
-        m = _NOT_THE_PANDA.search(text)
-        if m is None or getattr(args, "urdf", "") is not None or getattr(args, "model_file", None):
-            raise
-        tip = getattr(args, "tip", None)
-        joints = f"{m.group(1)} joints" if m.group(1) else ("7 joints" if tip is None else f"tip {tip}")
-        raise type(e)(f"{text}; this is the bundled Panda ({joints}, no --urdf given): pass --urdf ROBOT.urdf "
-                      "--base LINK --tip LINK for another arm") from None
-
-
-#: The Python spelling of an option in a message (the Python API's errors name its arguments,
-#: ``crates/py-bindings/src/errors.rs`` words the core's advice so) → the command line's flag.
-CLI_NAMES = {
-    "project=True": "--project",
-    "RotationPolicy::Project": "--project",
-    # A link without <inertial> while gravity is on (every command that models the weight).
-    "(or turn gravity off)": "(or pass --no-gravity for a weightless arm)",
-    "or turn gravity off": "or pass --no-gravity for a weightless arm",
-    "gravity=None": "--no-gravity",
-    "(load_only=True)": "(--load-only)",
-    # Joint angles outside the URDF limits.
-    "allow_outside_limits=True": "--allow-outside-limits",
-    # A model file of another schema, or edited.
-    "identify again and save the model (Identification.save)": "identify again with --save",
-}
-
-
-def _check_input(path: str, what: str) -> None:
-    """An input file must be a readable regular file (checked before anything is computed)."""
-    p = Path(path)
-    if not path:
-        raise CliError(f"{what}: empty file name")
-    if not p.exists():
-        raise CliError(f"{what} {path}: no such file")
-    if p.is_dir():
-        raise CliError(f"{what} {path} is a folder, expected a file")
-    if not os.access(p, os.R_OK):
-        raise CliError(f"{what} {path}: permission denied")
-    if p.is_file() and p.stat().st_size == 0:
-        raise CliError(f"{what} {path} is empty")
-
-
-@contextlib.contextmanager
-def _data_file(path: str) -> Iterator[None]:
-    """Name the measurement file in its errors (the core names only line and column)."""
-    _check_input(path, "DATA.csv")
-    try:
-        with reworded(CLI_NAMES):
-            yield
-    except DataFileError as e:
-        text = " ".join(str(e).split())
-        if path in text:
-            raise
-        raise CliError(f"{path}: {text}") from None
 
 
 def _model_spec(text: str) -> Any:
@@ -374,8 +245,8 @@ def _plan_rows(path: str, robot: Any) -> Tuple[Any, Any, Any]:
 
     from ._use_tables import read_plan
 
-    _check_input(path, "--plan")
-    with _data_file(path):
+    check_input(path, "--plan")
+    with data_file(path):
         q, wrench, pose = read_plan(path, robot)
     if wrench is None:
         raise CliError(f"--plan {path}: missing columns fx,fy,fz,mx,my,mz (a plan gives the wrench of every row)")
@@ -391,7 +262,7 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
     from .vjm import simulate
 
     path = _table_out(args)
-    robot = _robot(args)
+    robot = robot_of(args)
     plan = None
     if args.plan is not None:
         given = [flag for name, flag in _DRAW_FLAGS if getattr(args, name) is not None]
@@ -415,14 +286,14 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
                                         "force_max": args.force_max, "moment_max": args.moment_max}
     with _effect_errors(specs):
         c = in_worker(simulate, robot, effects, seed=args.seed, noise=not args.no_noise,
-                      gravity=_gravity(args), plan=plan, **draw)
+                      gravity=gravity_of(args), plan=plan, **draw)
     csv_out.write_text(c.csv)
     if truth_out is not None:
         truth_out.write_text(_json_text({"truth": c.truth, "spec": c.spec}))
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none (torsional springs only)"
     print(f"wrote {path}: {len(c.measurements)} rows ({size}), "
-          f"seed {args.seed}, {_gravity_words(_gravity(args))}, hidden effects: {names}")
+          f"seed {args.seed}, {gravity_words(gravity_of(args))}, hidden effects: {names}")
     _warn_positional_out(args)
     return 0
 
@@ -456,8 +327,8 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
 
     json_out = out.file(args.json, "--json") if args.json is not None else None
     save_out = cli_model.claim_save(args, out)
-    robot = _robot(args)
-    with _data_file(args.data):
+    robot = robot_of(args)
+    with data_file(args.data):
         # The file's fingerprint goes into a saved model only: without --save, no hash.
         data = in_worker(read_measurements, args.data, robot.n_joints, fingerprint=save_out is not None)
     with warnings.catch_warnings():
@@ -477,7 +348,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
             data_file=(data.source or args.data) if save_out is not None else None,
             robust_covariance=save_out is not None,
             allow_outside_limits=args.allow_outside_limits,
-            gravity=_gravity(args),
+            gravity=gravity_of(args),
         )
     doc = res.to_dict()
     if json_out is not None:
@@ -487,7 +358,7 @@ def cmd_identify_vjm(args: argparse.Namespace, out: Outputs) -> int:
     if args.quiet:
         return 0
     print(f"{res.model} model: {res.n_params} parameters, rank {res.rank} from {len(data)} measurements "
-          f"({_gravity_words(_gravity(args))})")
+          f"({gravity_words(gravity_of(args))})")
     for label, c, s, ok, weak in zip(res.labels, res.compliance, res.stderr, res.identifiable, res.weak):
         if ok:
             print(f"  {label:>5}  {c: .4e} ± {s:.1e} rad/(N·m)" + ("  weak" if weak else ""))
@@ -508,7 +379,7 @@ def cmd_identify_csjm(args: argparse.Namespace, out: Outputs) -> int:
     from .csjm import identify_csv
 
     json_out = out.file(args.json, "--json") if args.json is not None else None
-    with _data_file(args.data):
+    with data_file(args.data):
         fit = in_worker(identify_csv, args.data, order=args.order, project=args.project)
     doc = fit.to_dict()
     if json_out is not None:
@@ -523,32 +394,6 @@ def cmd_identify_csjm(args: argparse.Namespace, out: Outputs) -> int:
 # ----------------------------------------------------------------------------- diagnose
 
 
-def _progress(enabled: bool, what: str = "diagnose") -> Callable[[str, int, int], None]:
-    """The progress callback of the core (and of the report): shows progress on a terminal when
-    ``enabled`` and stops the computation (raises :class:`Cancelled`) once the command was
-    interrupted."""
-    start = time.monotonic()
-
-    def report(stage: str, done: int, total: int) -> None:
-        if cancel.is_set():
-            raise Cancelled("interrupted")
-        if enabled:
-            sys.stderr.write(f"\r  {what}: {stage} {done}/{total} ({time.monotonic() - start:.1f} s)\x1b[K")
-            sys.stderr.flush()
-
-    return report
-
-
-def _show_progress(args: argparse.Namespace) -> bool:
-    return sys.stderr.isatty() and not getattr(args, "quiet", False)
-
-
-def _clear_progress(show: bool) -> None:
-    if show:
-        sys.stderr.write("\r\x1b[K")
-        sys.stderr.flush()
-
-
 def _diagnose(robot: Any, data: Any, args: argparse.Namespace, per_row: Optional[bool] = None) -> Any:
     """``vjm.diagnose`` with the command's options; ``per_row`` (default: when ``--rows`` or
     ``--report`` will use them) keeps the per-row predictions the residual plot draws."""
@@ -557,7 +402,7 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace, per_row: Optional
     if per_row is None:
         per_row = getattr(args, "rows", None) is not None or getattr(args, "report", None) is not None
 
-    show = _show_progress(args)
+    show = show_progress(args)
     try:
         return in_worker(
             diagnose,
@@ -566,16 +411,16 @@ def _diagnose(robot: Any, data: Any, args: argparse.Namespace, per_row: Optional
             baseline=None if args.baseline is None else _model_spec(args.baseline),
             fdr=args.fdr,
             split_seed=args.split_seed,
-            progress=_progress(show),
+            progress=progress_reporter(show),
             allow_outside_limits=getattr(args, "allow_outside_limits", False),
             tracker_sigma=getattr(args, "tracker_sigma", None),
             force_sigma=getattr(args, "force_sigma", None),
             moment_sigma=getattr(args, "moment_sigma", None),
-            gravity=_gravity(args),
+            gravity=gravity_of(args),
             per_row=per_row,  # per-row predictions only when something will use them
         )
     finally:
-        _clear_progress(show)
+        clear_progress(show)
 
 
 def _render(diagnosis: Any, directory: Path, args: argparse.Namespace, **kwargs: Any) -> None:
@@ -583,11 +428,11 @@ def _render(diagnosis: Any, directory: Path, args: argparse.Namespace, **kwargs:
     stops it before its next plot), written here (only the main thread touches the outputs)."""
     from .report import render_files, save_files
 
-    show = _show_progress(args)
+    show = show_progress(args)
     try:
-        files = in_worker(render_files, diagnosis, progress=_progress(show, "report"), **kwargs)
+        files = in_worker(render_files, diagnosis, progress=progress_reporter(show, "report"), **kwargs)
     finally:
-        _clear_progress(show)
+        clear_progress(show)
     save_files(files, directory)
 
 
@@ -613,16 +458,16 @@ def cmd_diagnose_vjm(args: argparse.Namespace, out: Outputs) -> int:
     rows_out = out.file(args.rows, "--rows") if args.rows is not None else None
     save_out = cli_model.claim_save(args, out)
     report_dir = _report_dir(out, args, REPORT_FILES)
-    robot = _robot(args)
-    with _data_file(args.data):
+    robot = robot_of(args)
+    with data_file(args.data):
         data = in_worker(read_measurements, args.data, robot.n_joints)
     result = _diagnose(robot, data, args)
     saved = None
     if save_out is not None:
         from .vjm import diagnosed_model
 
-        with _data_file(args.data):
-            saved = in_worker(diagnosed_model, robot, data, result, gravity=_gravity(args),
+        with data_file(args.data):
+            saved = in_worker(diagnosed_model, robot, data, result, gravity=gravity_of(args),
                               data_file=data.source or args.data,
                               allow_outside_limits=args.allow_outside_limits)
         cli_model.write_model(save_out, saved.identification)
@@ -657,7 +502,7 @@ def cmd_diagnose_csjm(args: argparse.Namespace, out: Outputs) -> int:
     json_out = out.file(args.json, "--json") if args.json is not None else None
     rows_out = out.file(args.rows, "--rows") if args.rows is not None else None
     report_dir = _report_dir(out, args, CSJM_REPORT_FILES)
-    with _data_file(args.data):
+    with data_file(args.data):
         result = in_worker(
             diagnose_csjm, args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project
         )
@@ -723,7 +568,7 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     files = ["campaign.csv", "truth.json", "diagnosis.json"] + [f"report/{f}" for f in REPORT_FILES]
     staged = out.directory(directory, force=args.force, flag="--out", expected=files).path
     robot = Robot.bundled()
-    gravity = _gravity(args)
+    gravity = gravity_of(args)
     campaign = in_worker(simulate, robot, DEMO_EFFECTS, n_poses=40, wrenches_per_pose=4, seed=args.seed,
                          gravity=gravity)
     # The report's residual plot draws the per-row predictions: keep them.
@@ -742,7 +587,7 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
         f"{e['effect']} at joint {e['joint']} about {e['axis']} ({e['compliance']:.0e} rad/(N·m))" for e in DEMO_EFFECTS
     )
     print(f"Simulated {len(campaign.measurements)} measurements (40 poses × 4 wrenches, laser-tracker and F/T noise, "
-          f"{_gravity_words(gravity)}) on the bundled Franka Panda; hidden in the truth: {hidden}.")
+          f"{gravity_words(gravity)}) on the bundled Franka Panda; hidden in the truth: {hidden}.")
     for line in story(result):
         print(line)
     for line in _seed_study_lines(study) + _structural_study_lines(structural):
@@ -759,13 +604,6 @@ REPORT_HELP = (
     "folder needs --force)"
 )
 ROWS_HELP = "also write the per-row data (measured, baseline and extended values) as CSV"
-FORCE_HELP = (
-    "replace existing output files; in a non-empty output folder replace only the files "
-    "robot-stiffness wrote there earlier (listed in its signed .robot-stiffness-manifest.json), "
-    "every other file is left alone"
-)
-
-
 def _add_table_out(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="OUT.csv", help="measurement file to write (required)")
     parser.add_argument("out_positional", nargs="?", metavar="OUT.csv", help=argparse.SUPPRESS)
@@ -814,7 +652,7 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
 """,
     )
     _add_table_out(sv)
-    _add_robot_args(sv)
+    add_robot_args(sv)
     sv.add_argument("--effect", action="append", metavar="SPEC", help="hidden effect in the truth (repeatable)")
     sv.add_argument("--plan", metavar="PLAN.csv",
                     help="measure at the poses and wrenches of this plan (design vjm --out PLAN.csv; any table "
@@ -832,7 +670,7 @@ effects outside diagnose's catalogue (diagnose must say `unexplained`):
                     help="random seed, 0..2**64-1; same seed, same file (default 0)")
     sv.add_argument("--no-noise", action="store_true", help="no instrument noise")
     sv.add_argument("--truth", metavar="TRUTH.json", help="also write the hidden true model as JSON")
-    _add_gravity_args(sv)
+    add_gravity_args(sv)
     sv.add_argument("--force", action="store_true", help=FORCE_HELP)
     sv.set_defaults(func=cmd_simulate)
     sc = sim_sub.add_parser(
@@ -873,7 +711,7 @@ effects (--effect NAME:key=value,...):
         "fit); --save records the gravity in the model file.",
     )
     iv.add_argument("data", metavar="DATA.csv", help="VJM measurement file")
-    _add_robot_args(iv)
+    add_robot_args(iv)
     iv.add_argument("--model", default="traditional", help=T.MODEL_HELP)
     iv.add_argument("--use-rotations", action="store_true", help="also use the rx,ry,rz columns")
     iv.add_argument("--allow-outside-limits", action="store_true",
@@ -883,7 +721,7 @@ effects (--effect NAME:key=value,...):
     iv.add_argument("--method", choices=("auto", "normal_equations", "qr"), default="auto",
                     help="streaming reduction (default auto: normal equations, QR when κ > 1e4)")
     iv.add_argument("--json", metavar="OUT.json", help="write the result as JSON")
-    _add_gravity_args(iv)
+    add_gravity_args(iv)
     cli_model.add_save_option(iv)
     iv.add_argument("--force", action="store_true", help=FORCE_HELP)
     iv.add_argument("--quiet", action="store_true",
@@ -917,7 +755,7 @@ effects (--effect NAME:key=value,...):
         "model and measure the gain on held-out poses.",
     )
     dv.add_argument("data", metavar="DATA.csv", help="VJM measurement file")
-    _add_robot_args(dv)
+    add_robot_args(dv)
     dv.add_argument("--baseline", default=None, help="baseline " + T.MODEL_HELP)
     dv.add_argument("--fdr", type=T.probability, default=None,
                     help="false discovery rate, between 0 and 1 (default 0.01)")
@@ -942,7 +780,7 @@ effects (--effect NAME:key=value,...):
                     help="the force sensor's per-axis noise, N, at most 1000")
     dv.add_argument("--moment-sigma", type=T.nonnegative_float(1e2, "N·m"), default=None, metavar="NM",
                     help="the force sensor's per-axis moment noise, N·m, at most 100")
-    _add_gravity_args(dv)
+    add_gravity_args(dv)
     dv.set_defaults(func=cmd_diagnose_vjm)
     dc = dia_sub.add_parser(
         "csjm",
@@ -962,7 +800,7 @@ effects (--effect NAME:key=value,...):
     dc.add_argument("--force", action="store_true", help=FORCE_HELP)
     dc.set_defaults(func=cmd_diagnose_csjm)
 
-    cli_model.add_commands(sub, sys.modules[__name__], FORCE_HELP)  # predict
+    cli_model.add_commands(sub)  # predict
 
     # demo
     demo = sub.add_parser(
@@ -977,11 +815,11 @@ effects (--effect NAME:key=value,...):
     demo.add_argument("--force", action="store_true", help=FORCE_HELP)
     demo.add_argument("--seed", type=T.seed, default=1, help="campaign seed (default 1)")
     demo.add_argument("--quiet", action="store_true", help="no progress display")
-    _add_gravity_args(demo)
+    add_gravity_args(demo)
     demo.set_defaults(func=cmd_demo, baseline=None, fdr=None, split_seed=None)
     from .cli_use import register as register_use_commands  # design, compensate
 
-    register_use_commands(sub, _add_robot_args, FORCE_HELP)
+    register_use_commands(sub)
     return p
 
 
@@ -1045,7 +883,7 @@ def _run(args: argparse.Namespace) -> int:
                 out.add_input(path, what)
             # The core's Python terms as the command line's flags; the arrays a command passes
             # on are a CSV file's rows, named by file line.
-            with _bundled_hint(args), reworded(CLI_NAMES), rows_are_file_lines():
+            with bundled_hint(args), reworded(CLI_NAMES), rows_are_file_lines():
                 return int(args.func(args, out))
         except (Exception, KeyboardInterrupt, Terminated) as e:
             with signals_deferred():

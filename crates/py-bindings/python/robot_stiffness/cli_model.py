@@ -2,7 +2,8 @@
 ``predict vjm MODEL.json POSES.csv --out PRED.csv``.
 
 Hooked into :func:`robot_stiffness.cli.build_parser` by :func:`add_commands` (the ``predict``
-command) and :func:`add_save_option` (``--save`` on ``identify vjm``).
+command) and :func:`add_save_option` (``--save`` on ``identify vjm``). The helpers every command
+shares come from :mod:`robot_stiffness._cli_context`.
 """
 
 from __future__ import annotations
@@ -14,6 +15,18 @@ from pathlib import Path
 from typing import Any, List, Optional, Tuple
 
 import numpy as np
+
+from ._cli_context import (
+    FORCE_HELP,
+    GRAVITY_DEFAULT_MODEL,
+    CliError,
+    add_gravity_args,
+    add_robot_args,
+    check_input,
+    data_file,
+    model_gravity_of,
+    robot_of,
+)
 from ._errors import reworded
 from ._interrupt import in_workers
 from .model import BUNDLED_URDF_PATH, recorded_urdf
@@ -78,17 +91,8 @@ def write_model(staged: Any, result: Any) -> None:
         staged.write_text(result.stiffness_model._text_at(staged.final))
 
 
-# The running CLI module (robot_stiffness.cli, or __main__ under `python -m`): its helpers and
-# its CliError, which its main loop reports as one line.
-_CLI: Any = None
-
-
-def add_commands(sub: Any, cli: Any, force_help: str) -> None:
-    """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser;
-    ``cli`` is the calling CLI module (for its robot options, input checks and CliError)."""
-    global _CLI
-    _CLI = cli
-    _add_robot_args = cli._add_robot_args
+def add_commands(sub: Any) -> None:
+    """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser."""
 
     pre = sub.add_parser(
         "predict",
@@ -109,7 +113,7 @@ def add_commands(sub: Any, cli: Any, force_help: str) -> None:
     pv.add_argument("model_file", metavar="MODEL.json", help="stiffness model file (identify vjm --save)")
     pv.add_argument("data", metavar="POSES.csv", help="poses (q1..qn) and optionally fx..mz")
     pv.add_argument("--out", required=True, metavar="PRED.csv", help="predictions to write")
-    pv.add_argument("--force", action="store_true", help=force_help)
+    pv.add_argument("--force", action="store_true", help=FORCE_HELP)
     pv.add_argument(
         "--payload",
         metavar="MASS[,cx,cy,cz]",
@@ -119,19 +123,19 @@ def add_commands(sub: Any, cli: Any, force_help: str) -> None:
     pv.add_argument("--allow-outside-limits", action="store_true",
                     help="accept joint angles outside the URDF limits (refused by default, as by identify: "
                     "degrees or a wrong joint order?)")
-    _add_robot_args(pv)
-    cli._add_gravity_args(pv, cli.GRAVITY_DEFAULT_MODEL)
+    add_robot_args(pv)
+    add_gravity_args(pv, GRAVITY_DEFAULT_MODEL)
     pv.set_defaults(func=cmd_predict_vjm)
 
 
 def _parse_payload(text: str) -> List[float]:
     parts = [p.strip() for p in text.split(",")]
     if len(parts) not in (1, 4):
-        raise _CLI.CliError(f"--payload {text!r}: expected MASS or MASS,cx,cy,cz (kg, m in the tip frame)")
+        raise CliError(f"--payload {text!r}: expected MASS or MASS,cx,cy,cz (kg, m in the tip frame)")
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise _CLI.CliError(f"--payload {text!r}: expected numbers, MASS or MASS,cx,cy,cz (kg, m)") from None
+        raise CliError(f"--payload {text!r}: expected numbers, MASS or MASS,cx,cy,cz (kg, m)") from None
     return values + [0.0] * (4 - len(values))
 
 
@@ -191,15 +195,15 @@ def _robot_for(args: argparse.Namespace) -> Any:
     from .vjm import Robot
 
     if args.base is not None or args.tip is not None:
-        return _CLI._robot(args)
+        return robot_of(args)
     rec = _recorded_robot(args.model_file)
     if args.urdf is not None:
         if rec is None:
-            raise _CLI.CliError(
+            raise CliError(
                 f"--urdf needs --base LINK and --tip LINK here: {args.model_file} has no readable robot record "
                 "to take them from"
             )
-        _CLI._check_input(args.urdf, "--urdf")
+        check_input(args.urdf, "--urdf")
         return Robot.from_urdf(args.urdf, str(rec["base"]), str(rec["tip"]))
     if rec is None:
         return Robot.bundled()
@@ -208,10 +212,10 @@ def _robot_for(args: argparse.Namespace) -> Any:
         return Robot.bundled(tip)
     give = f"give --urdf ROBOT.urdf (base {base} and tip {tip} are taken from {args.model_file})"
     if not urdf:
-        raise _CLI.CliError(f"{args.model_file} records no URDF path: {give}")
+        raise CliError(f"{args.model_file} records no URDF path: {give}")
     if rec.get("found") is None:
         tried = ", ".join(rec.get("tried") or [urdf])
-        raise _CLI.CliError(
+        raise CliError(
             f"{args.model_file} was identified on {urdf}, which does not exist here (looked for {tried}): {give}"
         )
     return Robot.from_urdf(rec["found"], str(base), str(tip))
@@ -236,20 +240,20 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
     from .model import StiffnessModel
 
     staged = out.file(args.out, "--out")
-    _CLI._check_input(args.model_file, "MODEL.json")
-    _CLI._check_input(args.data, "POSES.csv")
+    check_input(args.model_file, "MODEL.json")
+    check_input(args.data, "POSES.csv")
     payload = None if args.payload is None else _parse_payload(args.payload)
     robot = _robot_for(args)
     model = StiffnessModel.load(args.model_file, robot)
     # The long Rust calls run in a worker so that Ctrl-C ends the command at once (in_worker).
     q, wrench = read_poses(args.data, robot)
     if payload is not None and wrench is not None:
-        raise _CLI.CliError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
+        raise CliError(f"{args.data} has fx..mz columns and --payload was given: use one of them")
     if payload is None and wrench is None:
-        raise _CLI.CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
+        raise CliError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
-    with _CLI._data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
-        gravity = _CLI._model_gravity(args)
+    with data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
+        gravity = model_gravity_of(args)
         calls = [lambda: model.predict(q, wrench=wrench, payload=payload,
                                        allow_outside_limits=args.allow_outside_limits, gravity=gravity)]
         if gravity is not None:

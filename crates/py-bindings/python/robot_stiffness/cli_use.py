@@ -1,6 +1,7 @@
 """Subcommands that use a VJM model: ``design vjm`` (plan a campaign) and ``compensate vjm``
 (corrected joint targets for a trajectory under load). Registered on the main parser by
-:func:`register`; see ``docs/use-the-model.md``.
+:func:`register`; see ``docs/use-the-model.md``. The helpers every command shares come from
+:mod:`robot_stiffness._cli_context`.
 """
 
 from __future__ import annotations
@@ -11,6 +12,22 @@ from typing import Any
 import numpy as np
 
 from . import _cli_types as T
+from ._cli_context import (
+    FORCE_HELP,
+    CliError,
+    data_file,
+    model_gravity_of,
+    GRAVITY_DEFAULT_MODEL,
+    add_gravity_args,
+    add_robot_args,
+    check_input,
+    clear_progress,
+    gravity_of,
+    gravity_words,
+    progress_reporter,
+    robot_of,
+    show_progress,
+)
 from ._errors import DataFileError
 from ._interrupt import in_worker
 from ._outputs import Outputs
@@ -22,7 +39,7 @@ NOISE_LINE = (
 )
 
 
-def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
+def register(sub: Any) -> None:
     """Adds ``design`` and ``compensate`` to the subcommand set ``sub``."""
     des = sub.add_parser("design", help="plan a measurement campaign (poses and wrenches)",
                          description="Plan where and how to measure for a VJM identification.")
@@ -45,10 +62,8 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     dv.add_argument("--pool", type=T.count(1, 100000), default=300, help="candidate poses drawn (default 300)")
     dv.add_argument("--seed", type=T.seed, default=0, help="seed of the candidate poses (default 0)")
     dv.add_argument("--out", required=True, metavar="PLAN.csv", help="the planned rows (dx,dy,dz empty)")
-    from .cli import _add_gravity_args as add_gravity_args
-
     add_gravity_args(dv)
-    dv.add_argument("--force", action="store_true", help=force_help)
+    dv.add_argument("--force", action="store_true", help=FORCE_HELP)
     dv.set_defaults(func=cmd_design_vjm)
 
     com = sub.add_parser("compensate", help="corrected joint targets for a trajectory under load",
@@ -75,9 +90,7 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     cv.add_argument("--position-only", action="store_true",
                     help="match the position only (default: also the orientation when the model has rotations)")
     cv.add_argument("--no-kc", action="store_true", help="leave out the complementary stiffness K_C")
-    from .cli import GRAVITY_DEFAULT_MODEL, _add_gravity_args
-
-    _add_gravity_args(cv, GRAVITY_DEFAULT_MODEL)
+    add_gravity_args(cv, GRAVITY_DEFAULT_MODEL)
     cv.add_argument("--load-only", action="store_true",
                     help="correct the load's deflection only (weightless, the nominal tip is the unloaded tip), "
                     "not the arm's own sag: for a controller that already corrects the sag")
@@ -89,29 +102,28 @@ def register(sub: Any, add_robot_args: Any, force_help: str) -> None:
     cv.add_argument("--keep-going", action="store_true",
                     help="exit 0 even when some rows do not converge (by default the file is written and the exit "
                     "status is 1)")
-    cv.add_argument("--force", action="store_true", help=force_help)
+    cv.add_argument("--force", action="store_true", help=FORCE_HELP)
     cv.set_defaults(func=cmd_compensate_vjm)
 
 
 def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
-    from .cli import _clear_progress, _gravity, _gravity_words, _progress, _robot, _show_progress
     from .vjm import design
 
     plan_out = out.file(args.out, "--out")
-    robot = _robot(args)
+    robot = robot_of(args)
     model: Any = args.model  # the one model vocabulary, read by the core
-    show = _show_progress(args)
+    show = show_progress(args)
     try:
         # The callback shows progress on a terminal and stops the core once Ctrl-C was seen.
         plan = in_worker(design, robot, model=model, poses=args.poses, wrenches_per_pose=args.wrenches_per_pose,
                          seed=args.seed, margin=args.margin, pool_size=max(args.pool, args.poses),
-                         progress=_progress(show, "design"), gravity=_gravity(args))
+                         progress=progress_reporter(show, "design"), gravity=gravity_of(args))
     finally:
-        _clear_progress(show)
+        clear_progress(show)
     plan_out.write_text(plan.csv_text())
     out.commit()
     print(f"Planned {len(plan.pose)} measurements ({args.poses} poses × {args.wrenches_per_pose} wrenches) "
-          f"for the {args.model} model, {_gravity_words(_gravity(args))}: rank {plan.rank}.")
+          f"for the {args.model} model, {gravity_words(gravity_of(args))}: rank {plan.rank}.")
     print(NOISE_LINE + ".")
     print("Predicted standard error of every identifiable combination (rad/(N·m)):")
     for c in plan.combinations:
@@ -156,14 +168,12 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     from pathlib import Path
 
     from ._errors import InvalidValueError, MissingFileError, reworded
-    from . import cli_model  # its _CLI: the running CLI module (__main__ under python -m)
-    from .cli import _check_input
     from .cli_model import PAYLOAD_NAMES, _parse_payload, _robot_for
     from ._use_tables import read_poses, rows_of, write_compensation
     from .vjm import compensate_with_model_file
 
     for path, what in ((args.model_file, "MODEL.json"), (args.data, "TRAJ.csv")):
-        _check_input(path, what)
+        check_input(path, what)
         if not Path(path).exists():
             raise MissingFileError(f"{what} {path}: file not found")
     # --out/--plot onto MODEL.json, TRAJ.csv, --urdf or the URDF the model names: refused by
@@ -178,11 +188,11 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     if payload is None and wrench is None:
         raise DataFileError(f"{args.data}: missing columns fx,fy,fz,mx,my,mz (or give --payload MASS[,cx,cy,cz])")
     # identify's checks, with the file named in a bad cell's message and the flag in a bad payload's.
-    with cli_model._CLI._data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
+    with data_file(args.data), reworded(PAYLOAD_NAMES), rows_of(args.data):
         comp = in_worker(
             compensate_with_model_file, robot, args.model_file, q, wrench=wrench, payload=payload,
             match_orientation=False if args.position_only else None, with_kc=not args.no_kc,
-            allow_outside_limits=args.allow_outside_limits, gravity=cli_model._CLI._model_gravity(args),
+            allow_outside_limits=args.allow_outside_limits, gravity=model_gravity_of(args),
             load_only=args.load_only,
         )
     comp_out.write_with(lambda path: write_compensation(path, args.out, q, comp))
@@ -207,7 +217,7 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
     if bad and not args.keep_going:
         # The file is written (every row with its status); the exit status tells a script.
         statuses = ", ".join(sorted({comp.status[i] for i in bad}))
-        raise cli_model._CLI.CliError(
+        raise CliError(
             f"{len(bad)} of {len(comp.status)} rows are not converged within the limits ({statuses}); "
             f"{args.out} has every row with its status: pass --keep-going to accept that (exit 0)"
         )
