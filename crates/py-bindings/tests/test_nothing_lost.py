@@ -459,12 +459,12 @@ def test_broken_pipe_is_not_an_error(csjm_csv, tmp_path):
 
 
 def test_an_unexpected_exception_is_one_line_asking_for_a_report(tmp_path, monkeypatch, capsys):
-    from robot_stiffness import cli
+    from robot_stiffness import cli, cli_identify
 
     def boom(args, out):
         raise ZeroDivisionError("deliberate")
 
-    monkeypatch.setattr(cli, "cmd_identify_csjm", boom)
+    monkeypatch.setattr(cli_identify, "cmd_identify_csjm", boom)
     monkeypatch.delenv("ROBOT_STIFFNESS_DEBUG", raising=False)
     assert cli.main(["identify", "csjm", "x.csv"]) == 1
     err = capsys.readouterr().err

@@ -226,7 +226,7 @@ def test_clean_campaigns_do_not_warn(setup):
     """The project's own simulated campaigns (seeds, effects, noise or not, both models) and
     the demo's do not warn (0 warnings were measured in 11 200 fits on four arms, docs/vjm.md);
     a sample of them here."""
-    from robot_stiffness.cli import DEMO_EFFECTS
+    from robot_stiffness.cli_demo import DEMO_EFFECTS
 
     robot = setup["robot"]
     with warnings.catch_warnings():

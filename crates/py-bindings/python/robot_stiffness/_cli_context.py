@@ -1,7 +1,7 @@
 """What every command of the CLI shares: the usage error, the robot and gravity options, the
 checks of input files, the progress display.
 
-The verbs' modules (``cli``, ``cli_model``, ``cli_use``) import it; it imports none of them, so
+The command modules (``cli`` and its verbs ``cli_<verb>``) import it; it imports none of them, so
 that there is one :class:`CliError` whatever module runs as ``__main__``.
 """
 
@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
+import math
 import os
 import re
 import sys
@@ -196,3 +198,28 @@ def clear_progress(show: bool) -> None:
     if show:
         sys.stderr.write("\r\x1b[K")
         sys.stderr.flush()
+
+
+# ----------------------------------------------------------------------------- outputs and flags
+
+
+def json_text(obj: Any) -> str:
+    def clean(x: Any) -> Any:
+        if isinstance(x, float) and not math.isfinite(x):
+            return None
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [clean(v) for v in x]
+        if hasattr(x, "tolist"):
+            return clean(x.tolist())
+        return x
+
+    return json.dumps(clean(obj), indent=2, allow_nan=False) + "\n"
+
+
+def model_arg(text: str) -> Any:
+    """A ``--model``/``--baseline`` value: the one model vocabulary, read by the core
+    (``traditional``, ``extended``, ``J1z,J2x``, ``traditional + joint_tilt(J3x)`` as diagnose
+    prints it)."""
+    return text
