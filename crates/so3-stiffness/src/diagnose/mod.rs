@@ -45,8 +45,10 @@ pub mod connection;
 mod problem;
 pub mod report;
 pub use crate::stats;
+mod run;
 pub mod structure;
 pub mod testbed;
+use run::run_diagnosis;
 
 use std::path::Path;
 
@@ -57,15 +59,14 @@ use rand::SeedableRng;
 use thiserror::Error;
 
 pub use candidates::Effect;
-use candidates::{labels, Samples, Term, BASELINE_COLUMNS};
+use candidates::{labels, Term, BASELINE_COLUMNS};
 pub use connection::ConnectionTest;
 use problem::{CsjmFit, CsjmProblem};
 pub use report::{
     Alias, CandidateScore, CsjmDiagnosis, Evidence, Finding, ModelSummary, Parameter,
     ResidualReport, RowResult, SelectionEvidence,
 };
-use stiffness_core::engine::fit::fit;
-use stiffness_core::engine::{select, Compressed, SelectOptions, Selected};
+use stiffness_core::engine::{Compressed, Selected};
 use stiffness_core::{Cancel, Monitor};
 pub use testbed::{simulate_campaign, CsjmCampaign, CsjmCampaignSpec, CsjmEffects};
 
@@ -468,193 +469,4 @@ fn effect_of(term: Term) -> Effect {
         Term::Effect(e) => e,
         Term::Baseline => unreachable!("the pool holds catalogue effects only"),
     }
-}
-
-/// The diagnosis proper: `progress` after each stage and selection step, `cancel` polled in
-/// every pass, per scored candidate and per step.
-fn run_diagnosis(
-    data: &CsjmDataset,
-    options: &DiagnoseOptions,
-    cancel: &Cancel,
-    progress: &mut dyn FnMut(Progress),
-) -> Result<CsjmDiagnosis, DiagnoseError> {
-    options.validate()?;
-    let samples = Samples::new(data, options.weight);
-    let loaded = samples.len() - 1;
-    let (train, test) = split(loaded, options)?;
-    let problem =
-        CsjmProblem::new(&samples, train, test, cancel.clone()).with_noise_from_baseline()?;
-    let q = options.fdr;
-
-    let baseline_fit = fit(&problem, &[Term::Baseline], &())?;
-    if baseline_fit.rank < BASELINE_COLUMNS {
-        return Err(DiagnoseError::Unexcited {
-            rank: baseline_fit.rank,
-        });
-    }
-    progress(Progress {
-        stage: "baseline",
-        done: 1,
-        total: 1,
-    });
-    cancel.check()?;
-
-    let gravity_note = {
-        let w = options.weight;
-        let k_g = w.moment_derivative(&samples.r0);
-        let k_g_sym = 0.5 * (k_g + k_g.transpose());
-        format!(
-            "to first order the omitted weight moment changes linearly with Δζ and is absorbed \
-             into K_D (biasing K by the gravity stiffness, ‖sym ∂τ_G/∂ζ‖_F = {:.3} N·m/rad for \
-             the assumed weight); only its curvature is testable on these data",
-            k_g_sym.norm()
-        )
-    };
-
-    // Forward selection on the shared engine: nested F tests, Benjamini–Hochberg per step,
-    // held-out confirmation, aliases.
-    let pool: Vec<Term> = Effect::ALL.iter().map(|e| Term::Effect(*e)).collect();
-    let select_opts = SelectOptions {
-        fdr: q,
-        max_findings: Effect::ALL.len(),
-        alias_cosine: options.alias_cosine,
-        alias_alpha: options.alias_alpha,
-        defer_cluster_robust: false,
-    };
-    let selection = select(
-        &problem,
-        baseline_fit.clone(),
-        pool,
-        &[],
-        &select_opts,
-        progress,
-    )?;
-    // The model is linear in its parameters: every fit shares the baseline's compressed design.
-    let comp = baseline_fit.compressed.clone();
-    let fraction_of = |t: Term| problem.fraction_outside(&comp, &[Term::Baseline], t);
-    let scores: Vec<CandidateScore> = selection
-        .first_scores
-        .iter()
-        .map(|s| {
-            let e = effect_of(s.cand);
-            let fraction = fraction_of(s.cand);
-            CandidateScore {
-                effect: e.name(),
-                n_columns: e.n_columns(),
-                fraction_outside_baseline: fraction,
-                f_test: s.f_test,
-                note: (fraction < LINEAR_ALIAS_FRACTION).then(|| {
-                    if e == Effect::PlatformGravity {
-                        gravity_note.clone()
-                    } else {
-                        "almost collinear with the first-order model on these data".into()
-                    }
-                }),
-            }
-        })
-        .collect();
-
-    let extended_fit = selection.last;
-    let extended_cov = problem.covariance(&extended_fit);
-    let baseline_cov = problem.covariance(&baseline_fit);
-    let mut findings: Vec<Finding> = Vec::new();
-    for f in &selection.findings {
-        cancel.check()?;
-        let effect = effect_of(f.cand);
-        let fraction = fraction_of(f.cand);
-        let e = &f.evidence;
-        findings.push(Finding {
-            effect: effect.name(),
-            joint: None,
-            axis: None,
-            aliases: aliases_of(
-                &problem,
-                &comp,
-                options.alias_cosine,
-                f,
-                fraction,
-                &gravity_note,
-            ),
-            evidence: Evidence::Selection(SelectionEvidence {
-                step: e.step,
-                f_test: e.f_test,
-                n_candidates: e.n_candidates,
-                bh_threshold: e.bh_threshold,
-                sse_reduction: e.sse_reduction,
-                cluster_robust: e.cluster_robust,
-                heldout_sse_before: e.heldout_sse_before,
-                heldout_sse_after: e.heldout_sse_after,
-                fraction_outside_baseline: fraction,
-                estimate: parameters(&extended_fit, &extended_cov, Some(f.cand)),
-                interpretation: interpretation(&problem, &extended_fit, &extended_cov, effect),
-            }),
-        });
-    }
-
-    let connection_term = connection::connection_test(&problem, &extended_fit, &extended_cov, q);
-    if connection_term.p_asymmetry < q {
-        findings.push(Finding {
-            effect: CONNECTION_TERM,
-            joint: None,
-            axis: None,
-            aliases: Vec::new(),
-            evidence: Evidence::Connection(connection_term.clone()),
-        });
-    }
-
-    let all: Vec<usize> = (1..=loaded).collect();
-    let residuals = ResidualReport {
-        baseline: structure::residual_structure(&problem, &baseline_fit, &all),
-        extended: structure::residual_structure(&problem, &extended_fit, &all),
-    };
-    let unexplained = residuals.extended.p_bonferroni < UNEXPLAINED_P
-        || (connection_term.p_asymmetry < q && connection_term.p_theory < UNEXPLAINED_P);
-
-    let baseline = summary(&problem, &baseline_fit, &baseline_cov);
-    let extended = summary(&problem, &extended_fit, &extended_cov);
-    let gain = 1.0 - extended.test_mean_rel_error / baseline.test_mean_rel_error;
-    let base_res = problem.residuals(&baseline_fit, &all);
-    let ext_res = problem.residuals(&extended_fit, &all);
-    let rows = all
-        .iter()
-        .enumerate()
-        .map(|(r, &k)| RowResult {
-            row: samples.file_rows[k],
-            set: if problem.test.binary_search(&k).is_ok() {
-                "test"
-            } else {
-                "train"
-            },
-            dzeta: samples.zeta[k].into(),
-            dtau: samples.dtau[k].into(),
-            baseline_residual: base_res[r].into(),
-            extended_residual: ext_res[r].into(),
-        })
-        .collect();
-    progress(Progress {
-        stage: "residuals",
-        done: 1,
-        total: 1,
-    });
-    Ok(CsjmDiagnosis {
-        baseline,
-        findings,
-        extended,
-        unexplained,
-        gain,
-        connection_term,
-        residuals,
-        scores,
-        rejected_on_holdout: selection
-            .rejected_on_holdout
-            .iter()
-            .map(|t| effect_of(*t).name())
-            .collect(),
-        rows,
-        noise_sigma: problem.sigma().into(),
-        n_train: problem.train.len(),
-        n_test: problem.test.len(),
-        fdr: q,
-        holdout_seed: options.holdout_seed,
-    })
 }

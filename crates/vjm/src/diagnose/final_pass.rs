@@ -181,3 +181,103 @@ pub fn predictions_pass(
     acc.cluster_sums = sums.into_iter().map(ClusterSums::finish).collect();
     Ok(acc)
 }
+
+/// What the diagnosis takes from its final pass (or passes) over the rows.
+pub struct FinalPasses {
+    /// The baseline's totals.
+    pub base: FitTotals,
+    /// The extended model's totals.
+    pub ext: FitTotals,
+    /// The sampled training rows' kinematics, in row order (moved out of the pass, not
+    /// cloned: up to 20 000 rows).
+    pub sample: Vec<RowKinematics>,
+    /// Their per-axis noise (m).
+    pub sample_sigma: Vec<[f64; 3]>,
+    /// First row of every pose group.
+    pub first_row: Vec<Option<usize>>,
+    /// (finding, its cluster-robust test) for every finding whose test the selection deferred.
+    pub cluster_tests: Vec<(usize, Option<stiffness_core::stats::FTest>)>,
+}
+
+/// The final pass at the baseline's point, with the extended model's predictions when it has
+/// the same point (else a second pass at its own), and the cluster-robust tests the selection
+/// deferred: from the sums of a pass at their fit's point, or a pass of their own.
+pub fn final_passes(
+    problem: &VjmProblem<'_>,
+    base_fit: &Fit<Term, Linearisation>,
+    ext_fit: &Fit<Term, Linearisation>,
+    deferred: &[super::DeferredTest],
+    stride: usize,
+    per_row: bool,
+    cancel: &stiffness_core::Cancel,
+) -> Result<FinalPasses, super::DiagnoseError> {
+    use stiffness_core::engine::fit::{cluster_robust, cluster_robust_from_sums};
+    let same_lin = ext_fit.lin == base_fit.lin;
+    let fits: Vec<&Fit<Term, Linearisation>> = if same_lin {
+        vec![base_fit, ext_fit]
+    } else {
+        vec![base_fit]
+    };
+    let at = |lin: &Linearisation| -> Vec<&super::DeferredTest> {
+        deferred.iter().filter(|d| d.fit.lin == *lin).collect()
+    };
+    let in_base = at(&base_fit.lin);
+    let in_ext = if same_lin {
+        Vec::new()
+    } else {
+        at(&ext_fit.lin)
+    };
+    let base_cluster: Vec<&Fit<Term, Linearisation>> = in_base.iter().map(|d| &d.fit).collect();
+    let ext_cluster: Vec<&Fit<Term, Linearisation>> = in_ext.iter().map(|d| &d.fit).collect();
+    let mut pass = predictions_pass(
+        problem,
+        &base_fit.lin,
+        &fits,
+        &base_cluster,
+        stride,
+        per_row,
+    )?;
+    let from_sums = |d: &super::DeferredTest, sums: &[Vec<f64>]| {
+        (
+            d.finding,
+            cluster_robust_from_sums(problem, &d.fit, d.k, sums),
+        )
+    };
+    let mut cluster_tests: Vec<(usize, Option<stiffness_core::stats::FTest>)> = in_base
+        .iter()
+        .zip(&pass.cluster_sums)
+        .map(|(d, sums)| from_sums(d, sums))
+        .collect();
+    let ext = if same_lin {
+        pass.fits.pop().expect("two fits")
+    } else {
+        let mut ext_pass = predictions_pass(
+            problem,
+            &ext_fit.lin,
+            &[ext_fit],
+            &ext_cluster,
+            stride,
+            per_row,
+        )?;
+        for (d, sums) in in_ext.iter().zip(&ext_pass.cluster_sums) {
+            cluster_tests.push(from_sums(d, sums));
+        }
+        ext_pass.fits.pop().expect("one fit")
+    };
+    for d in deferred {
+        if !cluster_tests.iter().any(|(k, _)| *k == d.finding) {
+            cancel.check()?;
+            cluster_tests.push((d.finding, cluster_robust(problem, &d.fit, d.k)?));
+        }
+    }
+    let base = pass.fits.pop().expect("the baseline");
+    let (sample, sample_sigma) = std::mem::take(&mut pass.sample).into_iter().unzip();
+    Ok(FinalPasses {
+        base,
+        ext,
+        sample,
+        sample_sigma,
+        first_row: pass.first_row,
+        cluster_tests,
+    })
+}
