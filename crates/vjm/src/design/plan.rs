@@ -589,25 +589,12 @@ pub fn design_monitored(
     check_spec(spec)?;
     check_noise(model, noise)?;
     model.check_chain(chain)?;
-    let n = chain.n_joints();
-    let m = model.n_params();
     let pool = sample_poses(chain, spec, monitor)?;
     let cands = candidate_wrenches(spec.force, spec.moment);
-    let mut scratch = PoseScratch::new(chain, model, noise)?;
-    let mut data = Vec::with_capacity(spec.pool_size);
-    for (i, q) in pool.chunks_exact(n).enumerate() {
-        if i % 1024 == 0 {
-            monitor.report(Progress {
-                stage: "pool",
-                done: i,
-                total: spec.pool_size,
-            })?;
-        }
-        data.push(pose_data(chain, model, q, noise, &mut scratch)?);
-    }
+    let data = pool_data(chain, model, noise, &pool, spec.pool_size, monitor)?;
     // Identifiable combinations and rank of the model on the pool (structural for the chain).
-    let pool_comb = combinations_of(chain, model, &pool, &cands[..2.min(cands.len())], noise)?;
-    let rank = pool_comb.0;
+    let (rank, functionals) =
+        combinations_of(chain, model, &pool, &cands[..2.min(cands.len())], noise)?;
     if rank == 0 {
         return Err(VjmError::InvalidModel {
             message: format!(
@@ -620,11 +607,60 @@ pub fn design_monitored(
             ),
         });
     }
-    // Whitened pool information over all candidates, for the scaling and the subspace basis:
-    // Σ_w (L A_w)ᵀ(L A_w) = (MᵀM) ∘ (Jᵀ W J) with M = L J_lin and W = Σ_w w wᵀ, since the
-    // whitened rows are L A_w = M diag(Jᵀ w).
+    let pool_info = pool_information(&data, &cands, model.n_params(), monitor)?;
+    let reduced = Reduced::new(&pool_info, rank, &functionals, data.len() * cands.len())?;
+    let rows = greedy_rows(
+        spec,
+        chain.n_joints(),
+        &pool,
+        &data,
+        &cands,
+        &reduced,
+        monitor,
+    )?;
+    monitor.report(Progress {
+        stage: "check",
+        done: 0,
+        total: 1,
+    })?;
+    planned(chain, model, noise, rows, monitor)
+}
+
+/// Each pooled pose's Jacobian and whitening, reporting the stage `pool`.
+fn pool_data(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    noise: &NoiseModel,
+    pool: &[f64],
+    pool_size: usize,
+    monitor: &Monitor<'_>,
+) -> Result<Vec<PoseData>, VjmError> {
+    let mut scratch = PoseScratch::new(chain, model, noise)?;
+    let mut data = Vec::with_capacity(pool_size);
+    for (i, q) in pool.chunks_exact(chain.n_joints()).enumerate() {
+        if i % 1024 == 0 {
+            monitor.report(Progress {
+                stage: "pool",
+                done: i,
+                total: pool_size,
+            })?;
+        }
+        data.push(pose_data(chain, model, q, noise, &mut scratch)?);
+    }
+    Ok(data)
+}
+
+/// Whitened pool information over all candidates, for the scaling and the subspace basis:
+/// Σ_w (L A_w)ᵀ(L A_w) = (MᵀM) ∘ (Jᵀ W J) with M = L J_lin and W = Σ_w w wᵀ, since the
+/// whitened rows are L A_w = M diag(Jᵀ w).
+fn pool_information(
+    data: &[PoseData],
+    cands: &[[f64; 6]],
+    m: usize,
+    monitor: &Monitor<'_>,
+) -> Result<DMatrix<f64>, VjmError> {
     let mut wsum = [[0.0; 6]; 6];
-    for w in &cands {
+    for w in cands {
         for a in 0..6 {
             for b in 0..6 {
                 wsum[a][b] += w[a] * w[b];
@@ -649,26 +685,75 @@ pub fn design_monitored(
             }
         }
     }
-    let (scale, eig) = scaled_eigen(&pool_info)?;
-    let order = descending(&eig.eigenvalues);
-    let basis = DMatrix::from_fn(m, rank, |i, j| eig.eigenvectors[(i, order[j])] * scale[i]);
-    // Functionals of the combinations in the reduced coordinates z (c = D B z).
-    let funcs = DMatrix::from_fn(rank, pool_comb.1.len(), |i, j| {
-        pool_comb.1[j]
-            .iter()
-            .map(|(p, c)| {
-                // c_p = Σ_i basis[p][i] z_i, so tᵀc = Σ_i (Σ_p t_p basis[p][i]) z_i.
-                c * basis[(*p, i)]
-            })
-            .sum()
-    });
-    let total_z = basis.transpose() * &pool_info * &basis;
-    let ridge = 1e-9 * total_z.trace() / (rank.max(1) * data.len() * cands.len()) as f64;
+    Ok(pool_info)
+}
+
+/// The identifiable subspace's coordinates z (c = D B z), the combinations' functionals in
+/// them, and the ridge that starts the planned information.
+struct Reduced {
+    basis: DMatrix<f64>,
+    funcs: DMatrix<f64>,
+    ridge: f64,
+}
+
+impl Reduced {
+    /// From the pool information, the rank and the combinations' functionals; `candidates`
+    /// counts the pool's (pose, wrench) pairs.
+    fn new(
+        pool_info: &DMatrix<f64>,
+        rank: usize,
+        functionals: &[Functional],
+        candidates: usize,
+    ) -> Result<Self, VjmError> {
+        let m = pool_info.nrows();
+        let (scale, eig) = scaled_eigen(pool_info)?;
+        let order = descending(&eig.eigenvalues);
+        let basis = DMatrix::from_fn(m, rank, |i, j| eig.eigenvectors[(i, order[j])] * scale[i]);
+        // Functionals of the combinations in the reduced coordinates z (c = D B z).
+        let funcs = DMatrix::from_fn(rank, functionals.len(), |i, j| {
+            functionals[j]
+                .iter()
+                .map(|(p, c)| {
+                    // c_p = Σ_i basis[p][i] z_i, so tᵀc = Σ_i (Σ_p t_p basis[p][i]) z_i.
+                    c * basis[(*p, i)]
+                })
+                .sum()
+        });
+        let total_z = basis.transpose() * pool_info * &basis;
+        let ridge = 1e-9 * total_z.trace() / (rank.max(1) * candidates) as f64;
+        Ok(Self {
+            basis,
+            funcs,
+            ridge,
+        })
+    }
+}
+
+/// The planned rows: joint angles (N×n), wrenches and pose indices.
+struct PlannedRows {
+    q: Vec<f64>,
+    wrench: Vec<[f64; 6]>,
+    pose: Vec<usize>,
+}
+
+/// Greedily, pose by pose, the pose whose best wrench most reduces the predicted variances,
+/// then its wrenches one by one; reports the stage `selection`.
+fn greedy_rows(
+    spec: &PlanSpec,
+    n: usize,
+    pool: &[f64],
+    data: &[PoseData],
+    cands: &[[f64; 6]],
+    reduced: &Reduced,
+    monitor: &Monitor<'_>,
+) -> Result<PlannedRows, VjmError> {
+    let (m, rank) = reduced.basis.shape();
+    let (basis, funcs, ridge) = (&reduced.basis, &reduced.funcs, reduced.ridge);
     let mut info = DMatrix::<f64>::identity(rank, rank) * ridge;
     let wrenches: Vec<SparseWrench> = cands.iter().map(SparseWrench::new).collect();
     let scorer = Scorer {
-        data: &data,
-        basis: &basis,
+        data,
+        basis,
         basis_rows: (0..m)
             .flat_map(|k| (0..rank).map(move |j| (k, j)))
             .map(|(k, j)| basis[(k, j)])
@@ -682,16 +767,18 @@ pub fn design_monitored(
         (EXACT_SCANS / spec.n_poses).max(MIN_SCAN)
     };
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed ^ 0x005e_ed0f_5ca7);
-    let mut rows_q = Vec::new();
-    let mut rows_w = Vec::new();
-    let mut rows_p = Vec::new();
+    let mut rows = PlannedRows {
+        q: Vec::new(),
+        wrench: Vec::new(),
+        pose: Vec::new(),
+    };
     for pose in 0..spec.n_poses {
         monitor.report(Progress {
             stage: "selection",
             done: pose,
             total: spec.n_poses,
         })?;
-        let state = State::new(&info, &funcs)?;
+        let state = State::new(&info, funcs)?;
         let covered = super::symmetric_eigen(
             info.clone(),
             "eigen-decomposition of the planned information",
@@ -707,40 +794,14 @@ pub fn design_monitored(
                 remaining.swap(i, j);
             }
         }
-        // The pose whose best single wrench scores best (ties: the lowest pose index).
-        let chunk = 64;
-        let best = remaining[..k]
-            .par_chunks(chunk)
-            .map(|ps| -> Result<(f64, usize), VjmError> {
-                monitor.check()?;
-                let mut scratch = Scratch::new(rank, funcs.ncols());
-                let mut best = (f64::INFINITY, usize::MAX);
-                for &p in ps {
-                    let (s, _) = scorer.best_wrench(&state, p, covered, None, &mut scratch);
-                    if s < best.0 || (s == best.0 && p < best.1) {
-                        best = (s, p);
-                    }
-                }
-                Ok(best)
-            })
-            .try_reduce(
-                || (f64::INFINITY, usize::MAX),
-                |a, b| {
-                    Ok(if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
-                        b
-                    } else {
-                        a
-                    })
-                },
-            )?;
-        let p = best.1;
-        if p == usize::MAX {
-            return Err(VjmError::Numerical {
-                message:
-                    "no candidate pose improves the design (the information matrix is not finite)"
-                        .into(),
-            });
-        }
+        let p = best_pose(
+            &scorer,
+            &state,
+            &remaining[..k],
+            covered,
+            funcs.ncols(),
+            monitor,
+        )?;
         let at = remaining.iter().position(|&x| x == p).unwrap_or(0);
         remaining.swap_remove(at);
         let mut used = vec![false; cands.len()];
@@ -751,27 +812,85 @@ pub fn design_monitored(
             if used.iter().all(|&u| u) {
                 used.fill(false);
             }
-            let state = State::new(&info, &funcs)?;
+            let state = State::new(&info, funcs)?;
             let (_, d) = scorer.best_wrench(&state, p, covered, Some(&used), &mut scratch);
             used[d] = true;
             let g = scorer.reduced(p, &cands[d]);
             info += g.transpose() * &g;
-            rows_q.extend_from_slice(&pool[p * n..(p + 1) * n]);
-            rows_w.push(cands[d]);
-            rows_p.push(pose);
+            rows.q.extend_from_slice(&pool[p * n..(p + 1) * n]);
+            rows.wrench.push(cands[d]);
+            rows.pose.push(pose);
         }
     }
-    monitor.report(Progress {
-        stage: "check",
-        done: 0,
-        total: 1,
-    })?;
-    // The plan's own combinations (as the identification of its rows will report them) and
-    // their predicted standard errors.
-    let (plan_rank, combos) = combinations_of_rows(chain, model, &rows_q, &rows_w, noise)?;
+    Ok(rows)
+}
+
+/// The pose of `candidates` whose best single wrench scores best (ties: the lowest pose
+/// index), scored in parallel chunks.
+fn best_pose(
+    scorer: &Scorer<'_>,
+    state: &State<'_>,
+    candidates: &[usize],
+    covered: bool,
+    n_funcs: usize,
+    monitor: &Monitor<'_>,
+) -> Result<usize, VjmError> {
+    let rank = scorer.basis.ncols();
+    let chunk = 64;
+    let best = candidates
+        .par_chunks(chunk)
+        .map(|ps| -> Result<(f64, usize), VjmError> {
+            monitor.check()?;
+            let mut scratch = Scratch::new(rank, n_funcs);
+            let mut best = (f64::INFINITY, usize::MAX);
+            for &p in ps {
+                let (s, _) = scorer.best_wrench(state, p, covered, None, &mut scratch);
+                if s < best.0 || (s == best.0 && p < best.1) {
+                    best = (s, p);
+                }
+            }
+            Ok(best)
+        })
+        .try_reduce(
+            || (f64::INFINITY, usize::MAX),
+            |a, b| {
+                Ok(if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
+                    b
+                } else {
+                    a
+                })
+            },
+        )?;
+    if best.1 == usize::MAX {
+        return Err(VjmError::Numerical {
+            message: "no candidate pose improves the design (the information matrix is not finite)"
+                .into(),
+        });
+    }
+    Ok(best.1)
+}
+
+/// The plan of `rows`: its own combinations (as the identification of its rows will report
+/// them), their predicted standard errors and whether each is weak.
+fn planned(
+    chain: &SerialChain,
+    model: &VirtualJointModel,
+    noise: &NoiseModel,
+    rows: PlannedRows,
+    monitor: &Monitor<'_>,
+) -> Result<Plan, VjmError> {
+    let (plan_rank, combos) = combinations_of_rows(chain, model, &rows.q, &rows.wrench, noise)?;
     monitor.check()?;
     let terms: Vec<Vec<(usize, f64)>> = combos.iter().map(|c| c.1.clone()).collect();
-    let se = predicted_stderr(chain, model, &rows_q, &rows_w, plan_rank, &terms, noise)?;
+    let se = predicted_stderr(
+        chain,
+        model,
+        &rows.q,
+        &rows.wrench,
+        plan_rank,
+        &terms,
+        noise,
+    )?;
     // The size a combination has under the prior, a tilt (prior 0) as large as a typical
     // torsion: the scale its standard error is judged against.
     let mut positive: Vec<f64> = noise
@@ -800,13 +919,13 @@ pub fn design_monitored(
         .collect();
     let worst_stderr = combinations.iter().map(|c| c.stderr).fold(0.0, f64::max);
     Ok(Plan {
-        q: rows_q,
-        wrench: rows_w,
-        pose: rows_p,
+        q: rows.q,
+        wrench: rows.wrench,
+        pose: rows.pose,
         rank: plan_rank,
         combinations,
         worst_stderr,
-        pose_compliance_wrenches: pose_compliance_wrenches(n),
+        pose_compliance_wrenches: pose_compliance_wrenches(chain.n_joints()),
         noise: noise.clone(),
     })
 }
