@@ -167,6 +167,92 @@ pub fn solve_factor(
     opts: &SolveOptions,
 ) -> Result<RankRevealingSolution, VjmError> {
     check_options(opts)?;
+    let (m, rows) = factor_shape(factor)?;
+    let (p, r) = (m + 1, factor.r());
+    let rss0 = r[m * p + m] * r[m * p + m];
+    let (scale, zero_col) = column_scale(r, m, opts);
+    let svd = ScaledSvd::of(r, m, &scale, &zero_col, opts)?;
+    let (rank, sv) = (svd.rank, &svd.sv);
+    let y = svd.solution(opts)?;
+    // Residual of the whitened equations: the part of b outside span(Q) plus the in-span misfit.
+    let mut rss = rss0;
+    for i in 0..m {
+        let ri: f64 = (i..m).map(|j| svd.rs[(i, j)] * y[j]).sum::<f64>() - svd.z[i];
+        rss += ri * ri;
+    }
+    let dof = rows - rank;
+    let sigma2 = if opts.noise_scale_known {
+        Some(1.0)
+    } else if dof > 0 {
+        Some(rss / dof as f64)
+    } else {
+        None
+    };
+    let mut covariance = vec![0.0; m * m];
+    if let Some(s2) = sigma2 {
+        for (i, s) in sv.iter().enumerate().take(rank) {
+            let w = s2 / (s * s);
+            for a in 0..m {
+                let va = svd.v[(a, i)] * w / scale[a];
+                for b in 0..m {
+                    covariance[a * m + b] += va * svd.v[(b, i)] / scale[b];
+                }
+            }
+        }
+    }
+    let solution: Vec<f64> = y.iter().zip(&scale).map(|(yk, s)| yk / s).collect();
+    let null = NullStructure::of(&svd.v, rank, opts.null_tol);
+    let eval = |w: &[f64]| -> (f64, Option<f64>) {
+        let value = w.iter().zip(&solution).map(|(a, b)| a * b).sum();
+        let stderr = sigma2.map(|_| {
+            let mut acc = 0.0;
+            for i in 0..m {
+                if w[i] == 0.0 {
+                    continue;
+                }
+                for j in 0..m {
+                    acc += w[i] * covariance[i * m + j] * w[j];
+                }
+            }
+            acc.max(0.0).sqrt()
+        });
+        (value, stderr)
+    };
+    let combinations = null.base_parameters(&scale, opts.null_tol, eval);
+    let null_space: Vec<Vec<f64>> = (0..m - rank)
+        .map(|i| (0..m).map(|k| svd.v[(k, rank + i)] / scale[k]).collect())
+        .collect();
+    let mut estimate = vec![None; m];
+    let mut stderr = vec![None; m];
+    for k in 0..m {
+        if null.identifiable[k] {
+            estimate[k] = Some(solution[k]);
+            stderr[k] = sigma2.map(|_| covariance[k * m + k].max(0.0).sqrt());
+        }
+    }
+    Ok(RankRevealingSolution {
+        n_params: m,
+        rank,
+        n_equations: rows,
+        dof,
+        estimate,
+        stderr,
+        identifiable: null.identifiable,
+        combinations,
+        aliases: null.aliases,
+        null_space,
+        singular_values: svd.sv,
+        column_scale: scale,
+        rss,
+        sigma2,
+        covariance,
+        solution,
+    })
+}
+
+/// (m, rows) of an augmented factor with p = m + 1 columns: at least one parameter and as
+/// many scalar equations as parameters.
+fn factor_shape(factor: &TriangularFactor) -> Result<(usize, usize), VjmError> {
     let p = factor.ncols();
     if p < 2 {
         return Err(VjmError::ShapeMismatch {
@@ -184,8 +270,16 @@ pub fn solve_factor(
             why: format!("a model with {m} parameters needs at least {m} scalar equations"),
         });
     }
-    let r = factor.r();
-    let rss0 = r[m * p + m] * r[m * p + m];
+    Ok((m, rows))
+}
+
+/// s_k = ‖R e_k‖ per parameter column of the row-major factor `r` (p = m + 1 columns), and
+/// which columns are zero up to rounding (e.g. a torsion about an axis through the tip point,
+/// whose column is |J|·1e-17): those must not be blown up to unit norm by the scaling —
+/// columns below ZERO_COLUMN_RTOL × the largest are the parameter not entering the data; their
+/// scale is 1 and their scaled column zero.
+fn column_scale(r: &[f64], m: usize, opts: &SolveOptions) -> (Vec<f64>, Vec<bool>) {
+    let p = m + 1;
     let mut scale = vec![0.0; m];
     for (k, s) in scale.iter_mut().enumerate() {
         *s = (0..=k)
@@ -193,9 +287,6 @@ pub fn solve_factor(
             .sum::<f64>()
             .sqrt();
     }
-    // A column that is zero up to rounding (e.g. a torsion about an axis through the tip
-    // point, whose column is |J|·1e-17) must not be blown up to unit norm by the scaling:
-    // columns below ZERO_COLUMN_RTOL × the largest are the parameter not entering the data.
     let smax_col = scale.iter().copied().fold(0.0, f64::max);
     let zero_col: Vec<bool> = scale
         .iter()
@@ -206,171 +297,163 @@ pub fn solve_factor(
             *s = 1.0;
         }
     }
-    let rs = faer::Mat::<f64>::from_fn(m, m, |i, j| {
-        if i <= j && !zero_col[j] {
-            r[i * p + j] / scale[j]
-        } else {
-            0.0
-        }
-    });
-    let z: Vec<f64> = (0..m).map(|i| r[i * p + m]).collect();
-    let svd = rs.svd().map_err(|e| VjmError::Numerical {
-        message: format!("SVD of the scaled {m}×{m} factor did not converge: {e:?}"),
-    })?;
-    let u = svd.U();
-    let v = svd.V();
-    let sv: Vec<f64> = (0..m).map(|i| svd.S().column_vector()[i]).collect();
-    let smax = sv.first().copied().unwrap_or(0.0);
-    let rank = sv
-        .iter()
-        .filter(|&&s| s > opts.rank_rtol * smax && s > 0.0)
-        .count();
+    (scale, zero_col)
+}
 
-    // Scaled minimum-norm solution y = V_r Σ_r⁻¹ U_rᵀ z and covariance V_r Σ_r⁻² V_rᵀ.
-    let mut y = vec![0.0; m];
-    for i in 0..rank {
-        let uz: f64 = (0..m).map(|k| u[(k, i)] * z[k]).sum::<f64>() / sv[i];
-        for (k, yk) in y.iter_mut().enumerate() {
-            *yk += v[(k, i)] * uz;
-        }
-    }
-    if opts.nonnegative {
-        let a = DMatrix::from_fn(m, m, |i, j| rs[(i, j)]);
-        y = nnls(&a, &DVector::from_column_slice(&z), opts.rank_rtol)?;
-    }
-    // Residual of the whitened equations: the part of b outside span(Q) plus the in-span misfit.
-    let mut rss = rss0;
-    for i in 0..m {
-        let ri: f64 = (i..m).map(|j| rs[(i, j)] * y[j]).sum::<f64>() - z[i];
-        rss += ri * ri;
-    }
-    let dof = rows - rank;
-    let sigma2 = if opts.noise_scale_known {
-        Some(1.0)
-    } else if dof > 0 {
-        Some(rss / dof as f64)
-    } else {
-        None
-    };
-    let mut covariance = vec![0.0; m * m];
-    if let Some(s2) = sigma2 {
-        for i in 0..rank {
-            let w = s2 / (sv[i] * sv[i]);
-            for a in 0..m {
-                let va = v[(a, i)] * w / scale[a];
-                for b in 0..m {
-                    covariance[a * m + b] += va * v[(b, i)] / scale[b];
-                }
+/// The SVD of the column-scaled m×m factor, its rank and the scaled right-hand side z.
+struct ScaledSvd {
+    rs: faer::Mat<f64>,
+    z: Vec<f64>,
+    u: faer::Mat<f64>,
+    v: faer::Mat<f64>,
+    sv: Vec<f64>,
+    rank: usize,
+}
+
+impl ScaledSvd {
+    fn of(
+        r: &[f64],
+        m: usize,
+        scale: &[f64],
+        zero_col: &[bool],
+        opts: &SolveOptions,
+    ) -> Result<Self, VjmError> {
+        let p = m + 1;
+        let rs = faer::Mat::<f64>::from_fn(m, m, |i, j| {
+            if i <= j && !zero_col[j] {
+                r[i * p + j] / scale[j]
+            } else {
+                0.0
             }
-        }
-    }
-    let solution: Vec<f64> = y.iter().zip(&scale).map(|(yk, s)| yk / s).collect();
-
-    // Null space (scaled coordinates, orthonormal columns) in reduced row echelon form.
-    let d = m - rank;
-    let mut nt = DMatrix::from_fn(d, m, |i, k| v[(k, rank + i)]);
-    let pivots = rref_from_right(&mut nt, opts.null_tol);
-    let is_pivot: Vec<bool> = (0..m).map(|k| pivots.contains(&k)).collect();
-    let mut identifiable = vec![true; m];
-    for k in 0..m {
-        if is_pivot[k] || (0..d).any(|i| nt[(i, k)].abs() > opts.null_tol) {
-            identifiable[k] = false;
-        }
-    }
-    // Aliases: connected components of the supports of the RREF rows.
-    let mut parent: Vec<usize> = (0..m).collect();
-    fn find(parent: &mut [usize], mut x: usize) -> usize {
-        while parent[x] != x {
-            parent[x] = parent[parent[x]];
-            x = parent[x];
-        }
-        x
-    }
-    for i in 0..d {
-        let support: Vec<usize> = (0..m)
-            .filter(|&k| nt[(i, k)].abs() > opts.null_tol)
-            .collect();
-        for w in support.windows(2) {
-            let (a, b) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
-            parent[a] = b;
-        }
-    }
-    let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for (k, &ident) in identifiable.iter().enumerate() {
-        if !ident {
-            let root = find(&mut parent, k);
-            groups.entry(root).or_default().push(k);
-        }
-    }
-    let mut aliases: Vec<Vec<usize>> = groups.into_values().collect();
-    aliases.sort();
-
-    // Base parameters: for independent k, x_k − Σ_i N_ik (s_{D_i}/s_k) x_{D_i} (see module docs).
-    let mut combinations = Vec::with_capacity(rank);
-    let eval = |w: &[f64]| -> (f64, Option<f64>) {
-        let value = w.iter().zip(&solution).map(|(a, b)| a * b).sum();
-        let stderr = sigma2.map(|_| {
-            let mut acc = 0.0;
-            for i in 0..m {
-                if w[i] == 0.0 {
-                    continue;
-                }
-                for j in 0..m {
-                    acc += w[i] * covariance[i * m + j] * w[j];
-                }
-            }
-            acc.max(0.0).sqrt()
         });
-        (value, stderr)
-    };
-    for k in (0..m).filter(|&k| !is_pivot[k]) {
-        let mut w = vec![0.0; m];
-        w[k] = 1.0;
-        let mut terms = vec![(k, 1.0)];
-        for (i, &dk) in pivots.iter().enumerate() {
-            let c = nt[(i, k)];
-            if c.abs() > opts.null_tol {
-                let coef = -c * scale[dk] / scale[k];
-                w[dk] = coef;
-                terms.push((dk, coef));
+        let z: Vec<f64> = (0..m).map(|i| r[i * p + m]).collect();
+        let svd = rs.svd().map_err(|e| VjmError::Numerical {
+            message: format!("SVD of the scaled {m}×{m} factor did not converge: {e:?}"),
+        })?;
+        let sv: Vec<f64> = (0..m).map(|i| svd.S().column_vector()[i]).collect();
+        let smax = sv.first().copied().unwrap_or(0.0);
+        let rank = sv
+            .iter()
+            .filter(|&&s| s > opts.rank_rtol * smax && s > 0.0)
+            .count();
+        Ok(Self {
+            u: svd.U().to_owned(),
+            v: svd.V().to_owned(),
+            rs,
+            z,
+            sv,
+            rank,
+        })
+    }
+
+    /// The scaled minimum-norm solution y = V_r Σ_r⁻¹ U_rᵀ z, or the non-negative one.
+    fn solution(&self, opts: &SolveOptions) -> Result<Vec<f64>, VjmError> {
+        let m = self.z.len();
+        let mut y = vec![0.0; m];
+        for i in 0..self.rank {
+            let uz: f64 = (0..m).map(|k| self.u[(k, i)] * self.z[k]).sum::<f64>() / self.sv[i];
+            for (k, yk) in y.iter_mut().enumerate() {
+                *yk += self.v[(k, i)] * uz;
             }
         }
-        let (value, stderr) = eval(&w);
-        combinations.push(LinearCombination {
-            terms,
-            value,
-            stderr,
-        });
+        if opts.nonnegative {
+            let a = DMatrix::from_fn(m, m, |i, j| self.rs[(i, j)]);
+            y = nnls(&a, &DVector::from_column_slice(&self.z), opts.rank_rtol)?;
+        }
+        Ok(y)
     }
-    let null_space: Vec<Vec<f64>> = (0..d)
-        .map(|i| (0..m).map(|k| v[(k, rank + i)] / scale[k]).collect())
-        .collect();
-    let mut estimate = vec![None; m];
-    let mut stderr = vec![None; m];
-    for k in 0..m {
-        if identifiable[k] {
-            estimate[k] = Some(solution[k]);
-            stderr[k] = sigma2.map(|_| covariance[k * m + k].max(0.0).sqrt());
+}
+
+/// The null space (scaled coordinates, orthonormal columns of V beyond the rank) in reduced
+/// row echelon form: which parameters are identifiable alone and which alias which.
+struct NullStructure {
+    /// The RREF rows, d × m.
+    nt: DMatrix<f64>,
+    pivots: Vec<usize>,
+    is_pivot: Vec<bool>,
+    identifiable: Vec<bool>,
+    /// Connected components of the supports of the RREF rows, sorted.
+    aliases: Vec<Vec<usize>>,
+}
+
+impl NullStructure {
+    fn of(v: &faer::Mat<f64>, rank: usize, null_tol: f64) -> Self {
+        let m = v.nrows();
+        let d = m - rank;
+        let mut nt = DMatrix::from_fn(d, m, |i, k| v[(k, rank + i)]);
+        let pivots = rref_from_right(&mut nt, null_tol);
+        let is_pivot: Vec<bool> = (0..m).map(|k| pivots.contains(&k)).collect();
+        let mut identifiable = vec![true; m];
+        for k in 0..m {
+            if is_pivot[k] || (0..d).any(|i| nt[(i, k)].abs() > null_tol) {
+                identifiable[k] = false;
+            }
+        }
+        let mut parent: Vec<usize> = (0..m).collect();
+        fn find(parent: &mut [usize], mut x: usize) -> usize {
+            while parent[x] != x {
+                parent[x] = parent[parent[x]];
+                x = parent[x];
+            }
+            x
+        }
+        for i in 0..d {
+            let support: Vec<usize> = (0..m).filter(|&k| nt[(i, k)].abs() > null_tol).collect();
+            for w in support.windows(2) {
+                let (a, b) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
+                parent[a] = b;
+            }
+        }
+        let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+        for (k, &ident) in identifiable.iter().enumerate() {
+            if !ident {
+                let root = find(&mut parent, k);
+                groups.entry(root).or_default().push(k);
+            }
+        }
+        let mut aliases: Vec<Vec<usize>> = groups.into_values().collect();
+        aliases.sort();
+        Self {
+            nt,
+            pivots,
+            is_pivot,
+            identifiable,
+            aliases,
         }
     }
-    Ok(RankRevealingSolution {
-        n_params: m,
-        rank,
-        n_equations: rows,
-        dof,
-        estimate,
-        stderr,
-        identifiable,
-        combinations,
-        aliases,
-        null_space,
-        singular_values: sv,
-        column_scale: scale,
-        rss,
-        sigma2,
-        covariance,
-        solution,
-    })
+
+    /// Base parameters: for independent k, x_k − Σ_i N_ik (s_{D_i}/s_k) x_{D_i} (see module
+    /// docs), valued by `eval` (value and standard error of wᵀx).
+    fn base_parameters(
+        &self,
+        scale: &[f64],
+        null_tol: f64,
+        eval: impl Fn(&[f64]) -> (f64, Option<f64>),
+    ) -> Vec<LinearCombination> {
+        let m = self.is_pivot.len();
+        (0..m)
+            .filter(|&k| !self.is_pivot[k])
+            .map(|k| {
+                let mut w = vec![0.0; m];
+                w[k] = 1.0;
+                let mut terms = vec![(k, 1.0)];
+                for (i, &dk) in self.pivots.iter().enumerate() {
+                    let c = self.nt[(i, k)];
+                    if c.abs() > null_tol {
+                        let coef = -c * scale[dk] / scale[k];
+                        w[dk] = coef;
+                        terms.push((dk, coef));
+                    }
+                }
+                let (value, stderr) = eval(&w);
+                LinearCombination {
+                    terms,
+                    value,
+                    stderr,
+                }
+            })
+            .collect()
+    }
 }
 
 /// Dense path: QR (faer) of the row-major `rows×cols` design with right-hand side `rhs`,
