@@ -72,7 +72,8 @@ pub struct IdentifyOptions {
     pub noise_scale_known: bool,
     /// Use the measured rotations (6 rows per measurement) — requires `rotation` data.
     pub use_rotations: bool,
-    /// Constrain every compliance to be ≥ 0.
+    /// Constrain every compliance to be ≥ 0 (under gravity: on the measurements corrected at
+    /// the unconstrained refits' fixed point).
     pub nonnegative: bool,
     /// Relative singular-value cut-off of the column-scaled design for the rank.
     pub rank_rtol: f64,
@@ -353,7 +354,7 @@ fn identify_inner(
         wrench,
         displacement,
         rotation,
-        &weightless,
+        &unconstrained(&weightless),
         rows_ok,
     )?
     else {
@@ -365,11 +366,9 @@ fn identify_inner(
         displacement,
         rotation,
     };
-    refit_under_gravity(chain, &inputs, &weightless, &weight, first, |d, r| {
-        identify_pass(chain, model, q, wrench, d, r, &weightless, None)?.ok_or_else(|| {
-            VjmError::Numerical {
-                message: "the identification was abandoned without a row check".into(),
-            }
+    refit_under_gravity(chain, &inputs, &weightless, &weight, first, |d, r, o| {
+        identify_pass(chain, model, q, wrench, d, r, o, None)?.ok_or_else(|| VjmError::Numerical {
+            message: "the identification was abandoned without a row check".into(),
         })
     })
     .map(Some)
@@ -402,14 +401,24 @@ struct Measurements<'a> {
 /// exactly, and the refits contract with the ratio of the sag and of ‖C K_G‖ to 1 (≈ 1e-2 on
 /// an arm), a few refits to [`GRAVITY_TOLERANCE`]. Memory: one corrected copy of the
 /// displacements (and rotations when used).
+///
+/// The refits are unconstrained fits; a non-negative fit (`opts.nonnegative`) is made once, on
+/// the measurements corrected at the refits' fixed point. Non-negative least squares is not a
+/// smooth map of the data: on a rank-deficient model it returns a vertex of its face of
+/// minimisers (the Panda's J1y and J2z, one axis through one point, trade their shares), and
+/// weakly determined springs at their bound enter and leave its active set from one refit to
+/// the next, so refitting it never settled (`nonnegative_fits_settle_under_gravity`). `first`
+/// is the unconstrained weightless fit; `fit` fits corrected measurements with the options
+/// given.
 fn refit_under_gravity(
     chain: &SerialChain,
     data: &Measurements<'_>,
     opts: &IdentifyOptions,
     weight: &GravityWorkspace,
     first: Identification,
-    fit: impl Fn(&[f64], Option<&[f64]>) -> Result<Identification, VjmError>,
+    fit: impl Fn(&[f64], Option<&[f64]>, &IdentifyOptions) -> Result<Identification, VjmError>,
 ) -> Result<Identification, VjmError> {
+    let free = unconstrained(opts);
     let rotation = data.rotation.filter(|_| opts.use_rotations);
     let mut displacement = data.displacement.to_vec();
     let mut rot = rotation.map(<[f64]>::to_vec);
@@ -430,16 +439,18 @@ fn refit_under_gravity(
             &mut displacement,
             rot.as_deref_mut(),
         )?;
-        let mut next = fit(&displacement, rot.as_deref())?;
+        let mut next = fit(&displacement, rot.as_deref(), &free)?;
         next.gravity_iterations = refit;
         let c_next = weak.determined(&next.solution.solution);
         let scale = c_next.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let step = c_next
-            .iter()
-            .zip(&c)
-            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        let step = row_space_step(&next.solution, &c_next, &c);
         if step <= GRAVITY_TOLERANCE * scale {
-            return Ok(next);
+            if !opts.nonnegative {
+                return Ok(next);
+            }
+            let mut bounded = fit(&displacement, rot.as_deref(), opts)?;
+            bounded.gravity_iterations = refit;
+            return Ok(bounded);
         }
         c = c_next;
         change = step / scale;
@@ -452,6 +463,46 @@ fn refit_under_gravity(
             stiffness_core::num::Short(change)
         ),
     })
+}
+
+/// The largest change of a compliance from `before` to `after` in the row space of the
+/// design — what the data determine. Springs that alias exactly (the Panda's J1y and J2z turn
+/// about one axis through one point: the same deflection under a load and under the weight)
+/// may trade their shares from one refit to the next when the fit is not the minimum-norm one
+/// (non-negative least squares returns a vertex of its face of minimisers); that trade is no
+/// change of the model and must not keep the refits going (`nonnegative_fits_settle_under_
+/// gravity`). The null space is removed in the column-scaled coordinates, where the
+/// solution's null-space basis is orthonormal.
+fn row_space_step(
+    solution: &crate::lsq::RankRevealingSolution,
+    after: &[f64],
+    before: &[f64],
+) -> f64 {
+    let scale = &solution.column_scale;
+    let mut d: Vec<f64> = after
+        .iter()
+        .zip(before)
+        .zip(scale)
+        .map(|((a, b), s)| (a - b) * s)
+        .collect();
+    for n in &solution.null_space {
+        let ns: Vec<f64> = n.iter().zip(scale).map(|(v, s)| v * s).collect();
+        let dot: f64 = ns.iter().zip(&d).map(|(a, b)| a * b).sum();
+        for (x, v) in d.iter_mut().zip(&ns) {
+            *x -= dot * v;
+        }
+    }
+    d.iter()
+        .zip(scale)
+        .fold(0.0f64, |a, (x, s)| a.max((x / s).abs()))
+}
+
+/// `opts` without the non-negativity constraint (the refits under gravity).
+fn unconstrained(opts: &IdentifyOptions) -> IdentifyOptions {
+    IdentifyOptions {
+        nonnegative: false,
+        ..*opts
+    }
 }
 
 /// Per-thread scratch of [`correct_for_gravity`].
@@ -705,15 +756,15 @@ pub fn identify_dense(
         .gravity
         .map(|g| GravityWorkspace::new(chain, model, &g, None))
         .transpose()?;
-    let fit = |d: &[f64], r: Option<&[f64]>| {
-        let (design, rhs) = build_design(chain, model, q, wrench, d, r, &weightless)?;
+    let fit = |d: &[f64], r: Option<&[f64]>, o: &IdentifyOptions| {
+        let (design, rhs) = build_design(chain, model, q, wrench, d, r, o)?;
         let factor = lsq::dense_factor(&design, rhs.len(), model.n_params(), &rhs)?;
-        finish(chain, model, &factor, &weightless, SolveMethod::Qr)
+        finish(chain, model, &factor, o, SolveMethod::Qr)
     };
-    let first = fit(displacement, rotation)?;
     let Some(weight) = weight else {
-        return Ok(first);
+        return fit(displacement, rotation, &weightless);
     };
+    let first = fit(displacement, rotation, &unconstrained(&weightless))?;
     let inputs = Measurements {
         q,
         wrench,
