@@ -583,6 +583,13 @@ fn verdict_tests(
     let model_w: Vec<usize> = model.iter().map(|&c| at(c)).collect();
     let full_w: Vec<usize> = model.iter().chain(&alt).map(|&c| at(c)).collect();
     let y_w = at(y);
+    let v = VerdictColumns {
+        model: &model,
+        y,
+        model_w: &model_w,
+        y_w,
+        sel: &sel,
+    };
     let lack_of_fit = nested_test_with_block(
         &fit.compressed.train,
         &model,
@@ -592,119 +599,10 @@ fn verdict_tests(
         y_w,
         within.n_offsets,
     );
-    // A generic block alone: the model plus the block, whose SSE is read from the within-pose
-    // pass's factor of the same rows without the projection (the blocks are not in the
-    // compressed design).
-    let mut blocks: Vec<BlockTest> = Alternative::ALL
-        .iter()
-        .map(|a| {
-            let with_block: Vec<usize> = model
-                .iter()
-                .copied()
-                .chain(problem.columns(Term::Alt(*a)))
-                .map(at)
-                .collect();
-            BlockTest {
-                block: a.name().to_string(),
-                f_test: nested_test_with_block(
-                    &fit.compressed.train,
-                    &model,
-                    y,
-                    &within.plain,
-                    &with_block,
-                    y_w,
-                    0,
-                ),
-                wild_cluster_p_value: None,
-                meaning: a.meaning().to_string(),
-            }
-        })
-        .collect();
-    blocks.push(BlockTest {
-        block: POSE_OFFSETS.to_string(),
-        f_test: nested_test_with_block(
-            &fit.compressed.train,
-            &model,
-            y,
-            &within.factor,
-            &model_w,
-            y_w,
-            within.n_offsets,
-        ),
-        wild_cluster_p_value: None,
-        meaning: "a displacement offset that differs from pose to pose and does not grow with the load: a base that settles, a tracker reflector that moves, thermal drift between poses?".to_string(),
-    });
-    // Per pose, its own offsets and its own scale of every joint's torsion response, against
-    // the model. It is a second lack-of-fit test rather than a part of `lack_of_fit`'s
-    // alternative: with 4 wrenches per pose (12 rows) and 3 + n local columns it takes ~10
-    // parameters per pose, and inside the one alternative it would leave about a quarter of its
-    // residual degrees of freedom (≈ 230 → ≈ 50 on 40 poses × 4 wrenches), weakening every
-    // other block's share of the overall test (a compliant tool, a sensor's cross-talk). As its
-    // own test it keeps `lack_of_fit` as it was and costs one more hypothesis in the verdict's
-    // family: on clean data the chance of any alarm stays at `fdr` (measured in
-    // docs/diagnose.md §3.6).
-    let pose_compliance = nested_test_with_block(
-        &fit.compressed.train,
-        &model,
-        y,
-        &within.pose_compliance,
-        &within.pose_compliance_columns(&model_w),
-        y_w,
-        within.n_local,
-    );
-    blocks.push(BlockTest {
-        block: POSE_COMPLIANCE.to_string(),
-        f_test: pose_compliance,
-        wild_cluster_p_value: None,
-        meaning: "the compliance changes from pose to pose: a gear whose stiffness depends on its angle or on its preload?".to_string(),
-    });
-    // Each joint's torsion compliance to first harmonic in its own angle: 2n columns that
-    // carry all of a gear's position-dependent stiffness when it varies smoothly, where the
-    // per-pose block spends ~n columns per pose on it (on Kinova at ± 20 % the per-pose block
-    // missed 6 of 50 campaigns with λ ≈ 300; docs/diagnose.md §3.6). Its own test, like the
-    // per-pose compliance, read from the within-pose pass's factor without the projection.
-    // When the noise level is given, its F test decides. Without it, the F test's p is not
-    // uniform on clean data: under the default assumption (21 µm, F/T 1 %) on a tracker of
-    // 3 µm the whitened residuals' variance follows the force sensor's noise propagated
-    // through each pose's Jacobian, the same structure as the block's columns (Panda, 300
-    // clean campaigns: F's p below 0.01 in 22, below 0.05 in 54). The block then decides on
-    // its cluster-robust Wald statistic referred to a wild cluster bootstrap (one more pass
-    // over the training rows; `stiffness_core::engine::wild_cluster`): below 0.01 in 4 and
-    // below 0.05 in 26 of the same 300 (docs/diagnose.md §3.6).
-    // The model and the block, in the layout's numbering and in the factor's.
-    let full_layout: Vec<usize> = model
-        .iter()
-        .copied()
-        .chain(problem.columns(Term::Alt(Alternative::AngleCompliance)))
-        .collect();
-    let angle_cols: Vec<usize> = full_layout.iter().map(|&c| at(c)).collect();
-    let angle_compliance = nested_test_with_block(
-        &fit.compressed.train,
-        &model,
-        y,
-        &within.plain,
-        &angle_cols,
-        y_w,
-        0,
-    );
-    let wild_p = if noise_known {
-        None
-    } else {
-        wild_cluster_p(
-            problem,
-            &fit.lin,
-            &within.plain,
-            (&model, &model_w),
-            (&full_layout, &angle_cols),
-            y_w,
-        )?
-    };
-    blocks.push(BlockTest {
-        block: Alternative::AngleCompliance.name().to_string(),
-        f_test: angle_compliance,
-        wild_cluster_p_value: wild_p,
-        meaning: Alternative::AngleCompliance.meaning().to_string(),
-    });
+    let mut blocks = generic_blocks(problem, fit, &within, &v);
+    let pose_compliance = pose_blocks(fit, &within, &v, &mut blocks);
+    let (angle_compliance, wild_p) =
+        angle_block(problem, fit, &within, &v, noise_known, &mut blocks)?;
     blocks.push(BlockTest {
         block: "springs".to_string(),
         f_test: nested_test(
@@ -729,6 +627,179 @@ fn verdict_tests(
         goodness_of_fit: noise_known.then(|| goodness_of_fit(problem, fit)),
         blocks,
     })
+}
+
+/// The verdict's model, observation and selection, in the layout's numbering and in the
+/// within-pose factor's (`_w`).
+struct VerdictColumns<'a> {
+    model: &'a [usize],
+    y: usize,
+    model_w: &'a [usize],
+    y_w: usize,
+    sel: &'a [usize],
+}
+
+impl VerdictColumns<'_> {
+    /// A layout column's index in the within-pose factor.
+    fn at(&self, c: usize) -> usize {
+        self.sel.iter().position(|&s| s == c).expect("selected")
+    }
+}
+
+/// Each generic block alone against the model.
+fn generic_blocks(
+    problem: &VjmProblem<'_>,
+    fit: &Fit<Term, Linearisation>,
+    within: &problem::WithinPose,
+    v: &VerdictColumns<'_>,
+) -> Vec<BlockTest> {
+    use stiffness_core::engine::verdict::nested_test_with_block;
+    use stiffness_core::engine::Problem as _;
+    let (model, y, y_w) = (v.model, v.y, v.y_w);
+    let at = |c: usize| v.at(c);
+    // A generic block alone: the model plus the block, whose SSE is read from the within-pose
+    // pass's factor of the same rows without the projection (the blocks are not in the
+    // compressed design).
+    Alternative::ALL
+        .iter()
+        .map(|a| {
+            let with_block: Vec<usize> = model
+                .iter()
+                .copied()
+                .chain(problem.columns(Term::Alt(*a)))
+                .map(at)
+                .collect();
+            BlockTest {
+                block: a.name().to_string(),
+                f_test: nested_test_with_block(
+                    &fit.compressed.train,
+                    model,
+                    y,
+                    &within.plain,
+                    &with_block,
+                    y_w,
+                    0,
+                ),
+                wild_cluster_p_value: None,
+                meaning: a.meaning().to_string(),
+            }
+        })
+        .collect()
+}
+
+/// The per-pose offsets' block and the per-pose compliance block (returned: it decides
+/// `unexplained` too), appended to `blocks`.
+fn pose_blocks(
+    fit: &Fit<Term, Linearisation>,
+    within: &problem::WithinPose,
+    v: &VerdictColumns<'_>,
+    blocks: &mut Vec<BlockTest>,
+) -> stiffness_core::stats::FTest {
+    use stiffness_core::engine::verdict::nested_test_with_block;
+    let (model, y, model_w, y_w) = (v.model, v.y, v.model_w, v.y_w);
+    blocks.push(BlockTest {
+        block: POSE_OFFSETS.to_string(),
+        f_test: nested_test_with_block(
+            &fit.compressed.train,
+            model,
+            y,
+            &within.factor,
+            model_w,
+            y_w,
+            within.n_offsets,
+        ),
+        wild_cluster_p_value: None,
+        meaning: "a displacement offset that differs from pose to pose and does not grow with the load: a base that settles, a tracker reflector that moves, thermal drift between poses?".to_string(),
+    });
+    // Per pose, its own offsets and its own scale of every joint's torsion response, against
+    // the model. It is a second lack-of-fit test rather than a part of `lack_of_fit`'s
+    // alternative: with 4 wrenches per pose (12 rows) and 3 + n local columns it takes ~10
+    // parameters per pose, and inside the one alternative it would leave about a quarter of its
+    // residual degrees of freedom (≈ 230 → ≈ 50 on 40 poses × 4 wrenches), weakening every
+    // other block's share of the overall test (a compliant tool, a sensor's cross-talk). As its
+    // own test it keeps `lack_of_fit` as it was and costs one more hypothesis in the verdict's
+    // family: on clean data the chance of any alarm stays at `fdr` (measured in
+    // docs/diagnose.md §3.6).
+    let pose_compliance = nested_test_with_block(
+        &fit.compressed.train,
+        model,
+        y,
+        &within.pose_compliance,
+        &within.pose_compliance_columns(model_w),
+        y_w,
+        within.n_local,
+    );
+    blocks.push(BlockTest {
+        block: POSE_COMPLIANCE.to_string(),
+        f_test: pose_compliance,
+        wild_cluster_p_value: None,
+        meaning: "the compliance changes from pose to pose: a gear whose stiffness depends on its angle or on its preload?".to_string(),
+    });
+    pose_compliance
+}
+
+/// The angle-compliance block (appended to `blocks`), its F test and, when the noise level is
+/// not given, its wild cluster bootstrap p-value.
+fn angle_block(
+    problem: &VjmProblem<'_>,
+    fit: &Fit<Term, Linearisation>,
+    within: &problem::WithinPose,
+    v: &VerdictColumns<'_>,
+    noise_known: bool,
+    blocks: &mut Vec<BlockTest>,
+) -> Result<(stiffness_core::stats::FTest, Option<f64>), stiffness_core::Cancelled> {
+    use stiffness_core::engine::verdict::nested_test_with_block;
+    use stiffness_core::engine::Problem as _;
+    let (model, y, model_w, y_w) = (v.model, v.y, v.model_w, v.y_w);
+    let at = |c: usize| v.at(c);
+    // Each joint's torsion compliance to first harmonic in its own angle: 2n columns that
+    // carry all of a gear's position-dependent stiffness when it varies smoothly, where the
+    // per-pose block spends ~n columns per pose on it (on Kinova at ± 20 % the per-pose block
+    // missed 6 of 50 campaigns with λ ≈ 300; docs/diagnose.md §3.6). Its own test, like the
+    // per-pose compliance, read from the within-pose pass's factor without the projection.
+    // When the noise level is given, its F test decides. Without it, the F test's p is not
+    // uniform on clean data: under the default assumption (21 µm, F/T 1 %) on a tracker of
+    // 3 µm the whitened residuals' variance follows the force sensor's noise propagated
+    // through each pose's Jacobian, the same structure as the block's columns (Panda, 300
+    // clean campaigns: F's p below 0.01 in 22, below 0.05 in 54). The block then decides on
+    // its cluster-robust Wald statistic referred to a wild cluster bootstrap (one more pass
+    // over the training rows; `stiffness_core::engine::wild_cluster`): below 0.01 in 4 and
+    // below 0.05 in 26 of the same 300 (docs/diagnose.md §3.6).
+    // The model and the block, in the layout's numbering and in the factor's.
+    let full_layout: Vec<usize> = model
+        .iter()
+        .copied()
+        .chain(problem.columns(Term::Alt(Alternative::AngleCompliance)))
+        .collect();
+    let angle_cols: Vec<usize> = full_layout.iter().map(|&c| at(c)).collect();
+    let angle_compliance = nested_test_with_block(
+        &fit.compressed.train,
+        model,
+        y,
+        &within.plain,
+        &angle_cols,
+        y_w,
+        0,
+    );
+    let wild_p = if noise_known {
+        None
+    } else {
+        wild_cluster_p(
+            problem,
+            &fit.lin,
+            &within.plain,
+            (model, model_w),
+            (&full_layout, &angle_cols),
+            y_w,
+        )?
+    };
+    blocks.push(BlockTest {
+        block: Alternative::AngleCompliance.name().to_string(),
+        f_test: angle_compliance,
+        wild_cluster_p_value: wild_p,
+        meaning: Alternative::AngleCompliance.meaning().to_string(),
+    });
+    Ok((angle_compliance, wild_p))
 }
 
 /// The seed of the verdict's wild cluster bootstrap: the p-value is a function of the data.
