@@ -354,7 +354,6 @@ fn fit(
             required,
         });
     }
-    let p = options.parameters();
     // Samples: the increments, plus the reference itself (Δζ = 0, Δτ = 0) when an offset is
     // fitted — then the reference is one noisy sample among others rather than an exact anchor.
     let zero = Vector3::zeros();
@@ -366,79 +365,21 @@ fn fit(
         dzeta.iter().zip(dtau).collect()
     };
     let m = samples.len();
-
-    let mut row = Vec::with_capacity(p);
-    let mut x = Mat::<f64>::zeros(m, p);
-    for (i, (z, _)) in samples.iter().enumerate() {
-        regressor(z, options, &mut row);
-        for (j, v) in row.iter().enumerate() {
-            x[(i, j)] = *v;
-        }
-    }
-    // Column scaling makes the condition number independent of units and load size.
-    let mut scale = vec![0.0; p];
-    for (j, s) in scale.iter_mut().enumerate() {
-        *s = (0..m).map(|i| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
-    }
     let omega_singular_values = singular_values_of_omega(dzeta)?;
     let omega_condition = omega_singular_values[0] / omega_singular_values[2];
-    if !(omega_condition <= options.max_condition) {
-        return Err(IdentificationError::IllConditioned {
-            matrix: "Ω (displacements)",
-            condition: omega_condition,
-            max_condition: options.max_condition,
-            omega_singular_values,
-        });
-    }
-    if scale.iter().any(|s| !(*s > 0.0)) {
-        return Err(IdentificationError::IllConditioned {
-            matrix: "column-scaled regressor",
-            condition: f64::INFINITY,
-            max_condition: MAX_REGRESSOR_CONDITION,
-            omega_singular_values,
-        });
-    }
-    for j in 0..p {
-        for i in 0..m {
-            x[(i, j)] /= scale[j];
-        }
-    }
-    let svd = x.thin_svd().map_err(|_| IdentificationError::SvdFailed)?;
-    let s: Vec<f64> = (0..p).map(|k| svd.S().column_vector()[k]).collect();
-    let condition = s[0] / s[p - 1];
-    if !(condition <= MAX_REGRESSOR_CONDITION) {
-        return Err(IdentificationError::IllConditioned {
-            matrix: "column-scaled regressor",
-            condition,
-            max_condition: MAX_REGRESSOR_CONDITION,
-            omega_singular_values,
-        });
-    }
-    let u = svd.U();
-    let v = svd.V();
-    // β = D⁻¹ V Σ⁻¹ Uᵀ y for each moment component; cov(β) = σ² D⁻¹ V Σ⁻² Vᵀ D⁻¹.
-    let mut beta = vec![[0.0; 3]; p];
-    for comp in 0..3 {
-        let uty: Vec<f64> = (0..p)
-            .map(|k| (0..m).map(|i| u[(i, k)] * samples[i].1[comp]).sum::<f64>() / s[k])
-            .collect();
-        for (j, b) in beta.iter_mut().enumerate() {
-            b[comp] = (0..p).map(|k| v[(j, k)] * uty[k]).sum::<f64>() / scale[j];
-        }
-    }
-    let cov_diag: Vec<f64> = (0..p)
-        .map(|j| (0..p).map(|k| (v[(j, k)] / s[k]).powi(2)).sum::<f64>() / (scale[j] * scale[j]))
-        .collect();
+    let ls = LinearFit::of(&samples, options, omega_singular_values, omega_condition)?;
+    let (beta, cov_diag) = (&ls.beta, &ls.cov_diag);
 
+    let mut row = Vec::with_capacity(beta.len());
     let mut rss = Vector3::zeros();
     for (z, dt) in &samples {
         regressor(z, options, &mut row);
         for comp in 0..3 {
-            let predicted: f64 = row.iter().zip(&beta).map(|(r, b)| r * b[comp]).sum();
+            let predicted: f64 = row.iter().zip(beta).map(|(r, b)| r * b[comp]).sum();
             rss[comp] += (dt[comp] - predicted).powi(2);
         }
     }
-    let dof = m - p;
+    let dof = m - beta.len();
     let sigma2 = if dof > 0 {
         rss / dof as f64
     } else {
@@ -467,35 +408,9 @@ fn fit(
     };
     let tau0_used = tau0 + offset;
     let k_l = options.connection.k_l(&tau0_used);
-    let f2 = options.connection.factor().powi(2);
-    let mut k_stderr = Matrix3::zeros();
-    for i in 0..3 {
-        for j in 0..3 {
-            // hat(τ)_ij involves τ_k with k ∉ {i, j} for i ≠ j; components are independent.
-            let kl_var = if i == j {
-                0.0
-            } else {
-                f2 * tau0_var[3 - i - j]
-            };
-            k_stderr[(i, j)] = (k_d_var[(i, j)] + kl_var).sqrt();
-        }
-    }
-    let curvature = (options.order == FitOrder::Second).then(|| {
-        let q = first_linear + 3;
-        let mut h = [Matrix3::zeros(); 3];
-        for (i, hi) in h.iter_mut().enumerate() {
-            hi[(0, 0)] = 2.0 * beta[q][i];
-            hi[(1, 1)] = 2.0 * beta[q + 1][i];
-            hi[(2, 2)] = 2.0 * beta[q + 2][i];
-            hi[(0, 1)] = beta[q + 3][i];
-            hi[(1, 0)] = beta[q + 3][i];
-            hi[(0, 2)] = beta[q + 4][i];
-            hi[(2, 0)] = beta[q + 4][i];
-            hi[(1, 2)] = beta[q + 5][i];
-            hi[(2, 1)] = beta[q + 5][i];
-        }
-        h
-    });
+    let k_stderr = stiffness_stderr(&k_d_var, &tau0_var, options.connection.factor());
+    let curvature =
+        (options.order == FitOrder::Second).then(|| curvature_of(beta, first_linear + 3));
     Ok(StiffnessEstimate {
         k: k_d + k_l,
         k_d,
@@ -510,7 +425,131 @@ fn fit(
         residual_rms: (rss / m as f64).map(f64::sqrt),
         omega_singular_values,
         omega_condition,
-        regressor_condition: condition,
+        regressor_condition: ls.condition,
         det_convergence: Vec::new(),
     })
+}
+
+/// The least-squares coefficients of the column-scaled regressor (one column of 3 per
+/// parameter), the diagonal of (XᵀX)⁻¹ and the scaled regressor's condition number.
+struct LinearFit {
+    beta: Vec<[f64; 3]>,
+    cov_diag: Vec<f64>,
+    condition: f64,
+}
+
+impl LinearFit {
+    /// β = D⁻¹ V Σ⁻¹ Uᵀ y for each moment component, cov(β) = σ² D⁻¹ V Σ⁻² Vᵀ D⁻¹; refused
+    /// when Ω (the displacements) or the scaled regressor is too ill-conditioned.
+    fn of(
+        samples: &[(&Vector3<f64>, &Vector3<f64>)],
+        options: &FitOptions,
+        omega_singular_values: [f64; 3],
+        omega_condition: f64,
+    ) -> Result<Self, IdentificationError> {
+        let (m, p) = (samples.len(), options.parameters());
+        let mut row = Vec::with_capacity(p);
+        let mut x = Mat::<f64>::zeros(m, p);
+        for (i, (z, _)) in samples.iter().enumerate() {
+            regressor(z, options, &mut row);
+            for (j, v) in row.iter().enumerate() {
+                x[(i, j)] = *v;
+            }
+        }
+        // Column scaling makes the condition number independent of units and load size.
+        let mut scale = vec![0.0; p];
+        for (j, s) in scale.iter_mut().enumerate() {
+            *s = (0..m).map(|i| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
+        }
+        if !(omega_condition <= options.max_condition) {
+            return Err(IdentificationError::IllConditioned {
+                matrix: "Ω (displacements)",
+                condition: omega_condition,
+                max_condition: options.max_condition,
+                omega_singular_values,
+            });
+        }
+        if scale.iter().any(|s| !(*s > 0.0)) {
+            return Err(IdentificationError::IllConditioned {
+                matrix: "column-scaled regressor",
+                condition: f64::INFINITY,
+                max_condition: MAX_REGRESSOR_CONDITION,
+                omega_singular_values,
+            });
+        }
+        for j in 0..p {
+            for i in 0..m {
+                x[(i, j)] /= scale[j];
+            }
+        }
+        let svd = x.thin_svd().map_err(|_| IdentificationError::SvdFailed)?;
+        let s: Vec<f64> = (0..p).map(|k| svd.S().column_vector()[k]).collect();
+        let condition = s[0] / s[p - 1];
+        if !(condition <= MAX_REGRESSOR_CONDITION) {
+            return Err(IdentificationError::IllConditioned {
+                matrix: "column-scaled regressor",
+                condition,
+                max_condition: MAX_REGRESSOR_CONDITION,
+                omega_singular_values,
+            });
+        }
+        let u = svd.U();
+        let v = svd.V();
+        let mut beta = vec![[0.0; 3]; p];
+        for comp in 0..3 {
+            let uty: Vec<f64> = (0..p)
+                .map(|k| (0..m).map(|i| u[(i, k)] * samples[i].1[comp]).sum::<f64>() / s[k])
+                .collect();
+            for (j, b) in beta.iter_mut().enumerate() {
+                b[comp] = (0..p).map(|k| v[(j, k)] * uty[k]).sum::<f64>() / scale[j];
+            }
+        }
+        let cov_diag: Vec<f64> = (0..p)
+            .map(|j| {
+                (0..p).map(|k| (v[(j, k)] / s[k]).powi(2)).sum::<f64>() / (scale[j] * scale[j])
+            })
+            .collect();
+        Ok(Self {
+            beta,
+            cov_diag,
+            condition,
+        })
+    }
+}
+
+/// Standard errors of K = K_D + K_L: K_D's from the fit, K_L's from the pre-load's variance
+/// through the connection's `factor` (hat(τ)_ij involves τ_k with k ∉ {i, j} for i ≠ j;
+/// the components are independent).
+fn stiffness_stderr(k_d_var: &Matrix3<f64>, tau0_var: &Vector3<f64>, factor: f64) -> Matrix3<f64> {
+    let f2 = factor.powi(2);
+    let mut k_stderr = Matrix3::zeros();
+    for i in 0..3 {
+        for j in 0..3 {
+            let kl_var = if i == j {
+                0.0
+            } else {
+                f2 * tau0_var[3 - i - j]
+            };
+            k_stderr[(i, j)] = (k_d_var[(i, j)] + kl_var).sqrt();
+        }
+    }
+    k_stderr
+}
+
+/// The Hessians of the three moment components from the quadratic coefficients starting at
+/// `q` (order xx, yy, zz, xy, xz, yz).
+fn curvature_of(beta: &[[f64; 3]], q: usize) -> [Matrix3<f64>; 3] {
+    let mut h = [Matrix3::zeros(); 3];
+    for (i, hi) in h.iter_mut().enumerate() {
+        hi[(0, 0)] = 2.0 * beta[q][i];
+        hi[(1, 1)] = 2.0 * beta[q + 1][i];
+        hi[(2, 2)] = 2.0 * beta[q + 2][i];
+        hi[(0, 1)] = beta[q + 3][i];
+        hi[(1, 0)] = beta[q + 3][i];
+        hi[(0, 2)] = beta[q + 4][i];
+        hi[(2, 0)] = beta[q + 4][i];
+        hi[(1, 2)] = beta[q + 5][i];
+        hi[(2, 1)] = beta[q + 5][i];
+    }
+    h
 }
