@@ -170,36 +170,14 @@ pub fn select<P: Problem>(
                 std::cmp::Reverse(significant(testable[k].f_test.f)),
             )
         });
-        let mut accepted = None;
-        for &k in &order {
-            cancel.check()?;
-            let s = testable[k];
-            let guard: Vec<P::Term> = problem
-                .guard(s.cand)
-                .into_iter()
-                .filter(|g| !current.terms.contains(g))
-                .collect();
-            if !guard.is_empty() {
-                let given = score_given(problem, &current, &guard, &[s.cand])?;
-                if given[0].rank == 0 || given[0].f_test.p_value > guard_alpha {
-                    explained_by_guard.push(s.cand);
-                    pool.retain(|c| *c != s.cand);
-                    continue;
-                }
-            }
-            let mut terms = current.terms.clone();
-            terms.push(s.cand);
-            let trial = fit(problem, &terms, &current.lin)?;
-            let before = sse(problem, &current, RowSet::Test);
-            let after = sse(problem, &trial, RowSet::Test);
-            if after < before * (1.0 - HOLDOUT_RTOL) {
-                accepted = Some((k, trial, before, after));
-                break;
-            }
-            rejected_on_holdout.push(s.cand);
-            pool.retain(|c| *c != s.cand);
-        }
-        let Some((k, trial, before, after)) = accepted else {
+        let screened = Screened {
+            explained_by_guard: &mut explained_by_guard,
+            rejected_on_holdout: &mut rejected_on_holdout,
+            pool: &mut pool,
+        };
+        let Some((k, trial, before, after)) =
+            first_confirmed(problem, &current, &testable, &order, guard_alpha, screened)?
+        else {
             break;
         };
         let a = testable[k];
@@ -267,6 +245,57 @@ pub fn select<P: Problem>(
         extra_rejected,
         deferred_cluster_robust: deferred,
     })
+}
+
+/// Where [`first_confirmed`] puts the candidates it passes over: those explained by their
+/// guard terms and those that do not lower the held-out SSE (both leave the pool).
+struct Screened<'a, T> {
+    explained_by_guard: &'a mut Vec<T>,
+    rejected_on_holdout: &'a mut Vec<T>,
+    pool: &'a mut Vec<T>,
+}
+
+/// The first of the step's rejected candidates, in `order`, that is significant given its
+/// guard terms (at `guard_alpha`) and lowers the held-out SSE by more than [`HOLDOUT_RTOL`]:
+/// its index in `testable`, its trial fit, and the held-out SSE before and after.
+#[allow(clippy::type_complexity)] // the one call site destructures it at once
+fn first_confirmed<P: Problem>(
+    problem: &P,
+    current: &Fit<P::Term, P::Lin>,
+    testable: &[&Score<P::Term>],
+    order: &[usize],
+    guard_alpha: f64,
+    screened: Screened<'_, P::Term>,
+) -> Result<Option<(usize, Fit<P::Term, P::Lin>, f64, f64)>, Cancelled> {
+    let cancel = problem.cancel();
+    for &k in order {
+        cancel.check()?;
+        let s = testable[k];
+        let guard: Vec<P::Term> = problem
+            .guard(s.cand)
+            .into_iter()
+            .filter(|g| !current.terms.contains(g))
+            .collect();
+        if !guard.is_empty() {
+            let given = score_given(problem, current, &guard, &[s.cand])?;
+            if given[0].rank == 0 || given[0].f_test.p_value > guard_alpha {
+                screened.explained_by_guard.push(s.cand);
+                screened.pool.retain(|c| *c != s.cand);
+                continue;
+            }
+        }
+        let mut terms = current.terms.clone();
+        terms.push(s.cand);
+        let trial = fit(problem, &terms, &current.lin)?;
+        let before = sse(problem, current, RowSet::Test);
+        let after = sse(problem, &trial, RowSet::Test);
+        if after < before * (1.0 - HOLDOUT_RTOL) {
+            return Ok(Some((k, trial, before, after)));
+        }
+        screened.rejected_on_holdout.push(s.cand);
+        screened.pool.retain(|c| *c != s.cand);
+    }
+    Ok(None)
 }
 
 /// The state of an accepted step that the exchange needs to restate its finding as one of
