@@ -443,7 +443,10 @@ fn refit_under_gravity(
         next.gravity_iterations = refit;
         let c_next = weak.determined(&next.solution.solution);
         let scale = c_next.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let step = row_space_step(&next.solution, &c_next, &c);
+        let step = c_next
+            .iter()
+            .zip(&c)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
         if step <= GRAVITY_TOLERANCE * scale {
             if !opts.nonnegative {
                 return Ok(next);
@@ -463,38 +466,6 @@ fn refit_under_gravity(
             stiffness_core::num::Short(change)
         ),
     })
-}
-
-/// The largest change of a compliance from `before` to `after` in the row space of the
-/// design — what the data determine. Springs that alias exactly (the Panda's J1y and J2z turn
-/// about one axis through one point: the same deflection under a load and under the weight)
-/// may trade their shares from one refit to the next when the fit is not the minimum-norm one
-/// (non-negative least squares returns a vertex of its face of minimisers); that trade is no
-/// change of the model and must not keep the refits going (`nonnegative_fits_settle_under_
-/// gravity`). The null space is removed in the column-scaled coordinates, where the
-/// solution's null-space basis is orthonormal.
-fn row_space_step(
-    solution: &crate::lsq::RankRevealingSolution,
-    after: &[f64],
-    before: &[f64],
-) -> f64 {
-    let scale = &solution.column_scale;
-    let mut d: Vec<f64> = after
-        .iter()
-        .zip(before)
-        .zip(scale)
-        .map(|((a, b), s)| (a - b) * s)
-        .collect();
-    for n in &solution.null_space {
-        let ns: Vec<f64> = n.iter().zip(scale).map(|(v, s)| v * s).collect();
-        let dot: f64 = ns.iter().zip(&d).map(|(a, b)| a * b).sum();
-        for (x, v) in d.iter_mut().zip(&ns) {
-            *x -= dot * v;
-        }
-    }
-    d.iter()
-        .zip(scale)
-        .fold(0.0f64, |a, (x, s)| a.max((x / s).abs()))
 }
 
 /// `opts` without the non-negativity constraint (the refits under gravity).

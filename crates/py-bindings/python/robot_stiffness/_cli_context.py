@@ -35,6 +35,15 @@ FORCE_HELP = (
 )
 
 
+def add_kinds(sub: Any, command: str, help: str, description: str) -> Any:
+    """Adds ``command`` to the subcommand set ``sub`` and returns its required ``KIND`` set
+    (``vjm``, ``csjm``): every command but ``demo`` is ``robot-stiffness COMMAND KIND ...``."""
+    parser = sub.add_parser(command, help=help, description=description)
+    kinds = parser.add_subparsers(dest="kind", metavar="KIND")
+    kinds.required = True
+    return kinds
+
+
 # ----------------------------------------------------------------------------- robot
 
 

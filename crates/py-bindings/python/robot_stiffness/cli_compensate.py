@@ -14,6 +14,7 @@ from ._cli_context import (
     GRAVITY_DEFAULT_MODEL,
     CliError,
     add_gravity_args,
+    add_kinds,
     add_robot_args,
     check_input,
     data_file,
@@ -105,10 +106,12 @@ def cmd_compensate_vjm(args: argparse.Namespace, out: Outputs) -> int:
 
 def register(sub: Any) -> None:
     """Adds ``compensate`` (kind ``vjm``) to the subcommand set ``sub``."""
-    com = sub.add_parser("compensate", help="corrected joint targets for a trajectory under load",
-                         description="Compensate the deflection of a trajectory with a saved model.")
-    com_sub = com.add_subparsers(dest="kind", metavar="KIND")
-    com_sub.required = True
+    com_sub = add_kinds(
+        sub,
+        "compensate",
+        help="corrected joint targets for a trajectory under load",
+        description="Compensate the deflection of a trajectory with a saved model.",
+    )
     cv = com_sub.add_parser(
         "vjm",
         help="joint targets so that the loaded tip reaches the nominal tip",

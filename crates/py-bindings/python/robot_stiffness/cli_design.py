@@ -10,6 +10,7 @@ from . import _cli_types as T
 from ._cli_context import (
     FORCE_HELP,
     add_gravity_args,
+    add_kinds,
     add_robot_args,
     clear_progress,
     gravity_of,
@@ -67,10 +68,12 @@ def cmd_design_vjm(args: argparse.Namespace, out: Outputs) -> int:
 
 def register(sub: Any) -> None:
     """Adds ``design`` (kind ``vjm``) to the subcommand set ``sub``."""
-    des = sub.add_parser("design", help="plan a measurement campaign (poses and wrenches)",
-                         description="Plan where and how to measure for a VJM identification.")
-    des_sub = des.add_subparsers(dest="kind", metavar="KIND")
-    des_sub.required = True
+    des_sub = add_kinds(
+        sub,
+        "design",
+        help="plan a measurement campaign (poses and wrenches)",
+        description="Plan where and how to measure for a VJM identification.",
+    )
     dv = des_sub.add_parser(
         "vjm",
         help="poses and wrenches that minimise the worst predicted standard error",

@@ -11,6 +11,7 @@ from . import _cli_types as T
 from ._cli_context import (
     FORCE_HELP,
     add_gravity_args,
+    add_kinds,
     add_robot_args,
     clear_progress,
     data_file,
@@ -160,10 +161,12 @@ ROWS_HELP = "also write the per-row data (measured, baseline and extended values
 
 def register(sub: Any) -> None:
     """Adds ``diagnose`` (kinds ``vjm`` and ``csjm``) to the subcommand set ``sub``."""
-    dia = sub.add_parser("diagnose", help="what the model gets wrong, the cause, the gain",
-                         description="Diagnose a stiffness model on measured data.")
-    dia_sub = dia.add_subparsers(dest="kind", metavar="KIND")
-    dia_sub.required = True
+    dia_sub = add_kinds(
+        sub,
+        "diagnose",
+        help="what the model gets wrong, the cause, the gain",
+        description="Diagnose a stiffness model on measured data.",
+    )
     dv = dia_sub.add_parser(
         "vjm",
         help="a serial arm's VJM measurements",

@@ -11,6 +11,7 @@ from . import _cli_types as T
 from ._cli_context import (
     FORCE_HELP,
     add_gravity_args,
+    add_kinds,
     add_robot_args,
     data_file,
     gravity_of,
@@ -96,10 +97,12 @@ def cmd_identify_csjm(args: argparse.Namespace, out: Outputs) -> int:
 
 def register(sub: Any) -> None:
     """Adds ``identify`` (kinds ``vjm`` and ``csjm``) to the subcommand set ``sub``."""
-    ide = sub.add_parser("identify", help="identify compliances (VJM) or a stiffness matrix (CSJM)",
-                         description="Identify stiffness parameters from a measurement file.")
-    ide_sub = ide.add_subparsers(dest="kind", metavar="KIND")
-    ide_sub.required = True
+    ide_sub = add_kinds(
+        sub,
+        "identify",
+        help="identify compliances (VJM) or a stiffness matrix (CSJM)",
+        description="Identify stiffness parameters from a measurement file.",
+    )
     iv = ide_sub.add_parser(
         "vjm",
         help="joint compliances of a serial arm",

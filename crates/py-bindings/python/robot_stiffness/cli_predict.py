@@ -14,6 +14,7 @@ from ._cli_context import (
     GRAVITY_DEFAULT_MODEL,
     CliError,
     add_gravity_args,
+    add_kinds,
     add_robot_args,
     check_input,
     data_file,
@@ -122,13 +123,12 @@ def cmd_predict_vjm(args: argparse.Namespace, out: Any) -> int:
 def register(sub: Any) -> None:
     """Adds ``predict`` (with kind ``vjm``) to the subparsers ``sub`` of the main parser."""
 
-    pre = sub.add_parser(
+    pre_sub = add_kinds(
+        sub,
         "predict",
         help="predict tip deflections with a saved stiffness model",
         description="Predict tip deflections (with standard deviations) from a model saved by identify --save.",
     )
-    pre_sub = pre.add_subparsers(dest="kind", metavar="KIND")
-    pre_sub.required = True
     pv = pre_sub.add_parser(
         "vjm",
         help="a serial arm",

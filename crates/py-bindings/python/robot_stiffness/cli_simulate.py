@@ -15,6 +15,7 @@ from ._cli_context import (
     FORCE_HELP,
     CliError,
     add_gravity_args,
+    add_kinds,
     add_robot_args,
     check_input,
     data_file,
@@ -219,10 +220,12 @@ def _add_table_out(parser: argparse.ArgumentParser) -> None:
 
 def register(sub: Any) -> None:
     """Adds ``simulate`` (kinds ``vjm`` and ``csjm``) to the subcommand set ``sub``."""
-    sim = sub.add_parser("simulate", help="simulate a measurement campaign (virtual testbed)",
-                         description="Simulate a measurement campaign from a true model with hidden effects.")
-    sim_sub = sim.add_subparsers(dest="kind", metavar="KIND")
-    sim_sub.required = True
+    sim_sub = add_kinds(
+        sub,
+        "simulate",
+        help="simulate a measurement campaign (virtual testbed)",
+        description="Simulate a measurement campaign from a true model with hidden effects.",
+    )
     sv = sim_sub.add_parser(
         "vjm",
         help="a serial arm",
