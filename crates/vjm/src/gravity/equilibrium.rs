@@ -274,28 +274,7 @@ pub(crate) fn equilibrium_from(
         signs,
         changes,
     } = scratch;
-    // The torque's tangent at θ = 0: gravity's stiffness and the wrench's K_C.
-    if tangent.shape() != (m, m) {
-        *tangent = DMatrix::zeros(m, m);
-    }
-    match rest {
-        Some(r) => tangent.copy_from(r.stiffness()),
-        None => tangent.fill(0.0),
-    }
-    if let Some(w) = &wrench {
-        if kc.shape() != (m, m) {
-            *kc = DMatrix::zeros(m, m);
-        }
-        complementary_stiffness_at(ws, w, kc.as_mut_slice());
-        *tangent += &*kc;
-    }
-    if !chord.factor(compliance, tangent) {
-        return Err(VjmError::Numerical {
-            message: "the tangent of the static equilibrium is singular (a load at the arm's \
-                      buckling limit?)"
-                .to_string(),
-        });
-    }
+    factor_tangent(ws, rest, wrench.as_ref(), compliance, tangent, kc, chord)?;
     for v in [&mut *theta, &mut *tau, &mut *residual] {
         v.clear();
         v.resize(m, 0.0);
@@ -316,34 +295,7 @@ pub(crate) fn equilibrium_from(
             r[k] = compliance[k] * tau[k] - theta[k];
         }
         if lost {
-            let band = LOST_MOTION_TORQUE_BAND * tau.iter().fold(0.0f64, |a, t| a.max(t.abs()));
-            for (i, (k, curve)) in curved.iter().enumerate() {
-                let t = tau[k];
-                let s = if curve.lost_motion() == 0.0 || t.abs() <= band {
-                    0.0
-                } else {
-                    t.signum()
-                };
-                if signs[i].is_some_and(|p| p != s) {
-                    changes[i] += 1;
-                    if changes[i] > MAX_LOST_MOTION_SIGN_CHANGES {
-                        return Err(VjmError::Numerical {
-                            message: format!(
-                                "the static equilibrium did not settle: the torque of joint \
-                                 {}'s gear ({t:.3e} N·m) changes sign within its lost motion \
-                                 of {} rad (the joint rests inside its dead band)",
-                                curve.joint() + 1,
-                                curve.lost_motion()
-                            ),
-                        });
-                    }
-                }
-                signs[i] = Some(s);
-                let e = curve.excess_with_sign(t, s);
-                if e != 0.0 {
-                    r[k] += e;
-                }
-            }
+            add_lost_motion_excess(&curved, tau, r, signs, changes)?;
         } else {
             curved.add_excess(tau, r);
         }
@@ -362,17 +314,7 @@ pub(crate) fn equilibrium_from(
         // step; with lost motion the signs must have settled first.
         let left = steps.remaining(size, !lost || iteration > 2);
         if left <= 1e-13 * scale || size < 1e-300 {
-            // The tip: the sweep's deflected point, turned by the springs' rotations.
-            let point = loads.torques(ws, theta, None, None, tau);
-            let turn = DeflectedLoads::turn(ws, theta);
-            let d = point - ws.p;
-            let r = turn.scaled_axis();
-            let rotation = deflected_tip_rotation(&turn, &ws.tip_rotation(chain));
-            return Ok(Settled {
-                tip: Isometry3::from_parts(Translation3::from(point), rotation),
-                from_rigid: [d.x, d.y, d.z, r.x, r.y, r.z],
-                iterations: iteration,
-            });
+            return Ok(settled_tip(chain, ws, loads, theta, tau, iteration));
         }
     }
     Err(VjmError::Numerical {
@@ -381,6 +323,107 @@ pub(crate) fn equilibrium_from(
              (deflections beyond 0.5 rad or a load beyond the arm's buckling)"
         ),
     })
+}
+
+/// Writes the tangent of the spring torques at θ = 0 (gravity's stiffness from `rest` and the
+/// wrench's K_C, using `kc` as scratch) into `tangent` and factors the chord matrix from it.
+fn factor_tangent(
+    ws: &Workspace,
+    rest: Option<&GravityWorkspace>,
+    wrench: Option<&[f64; 6]>,
+    compliance: &[f64],
+    tangent: &mut DMatrix<f64>,
+    kc: &mut DMatrix<f64>,
+    chord: &mut ChordLu,
+) -> Result<(), VjmError> {
+    let m = compliance.len();
+    if tangent.shape() != (m, m) {
+        *tangent = DMatrix::zeros(m, m);
+    }
+    match rest {
+        Some(r) => tangent.copy_from(r.stiffness()),
+        None => tangent.fill(0.0),
+    }
+    if let Some(w) = wrench {
+        if kc.shape() != (m, m) {
+            *kc = DMatrix::zeros(m, m);
+        }
+        complementary_stiffness_at(ws, w, kc.as_mut_slice());
+        *tangent += &*kc;
+    }
+    if chord.factor(compliance, tangent) {
+        Ok(())
+    } else {
+        Err(VjmError::Numerical {
+            message: "the tangent of the static equilibrium is singular (a load at the arm's \
+                      buckling limit?)"
+                .to_string(),
+        })
+    }
+}
+
+/// Adds each gear curve's excess over its linear spring to the residual `r`, with the torque's
+/// sign taken inside a band of the largest torque as 0 (the dead band of the lost motion).
+/// `signs` holds each curve's last sign and `changes` how often it changed: a sign that keeps
+/// changing is a joint resting inside its dead band, an error.
+fn add_lost_motion_excess(
+    curved: &CurvedSprings<'_>,
+    tau: &[f64],
+    r: &mut [f64],
+    signs: &mut [Option<f64>],
+    changes: &mut [usize],
+) -> Result<(), VjmError> {
+    let band = LOST_MOTION_TORQUE_BAND * tau.iter().fold(0.0f64, |a, t| a.max(t.abs()));
+    for (i, (k, curve)) in curved.iter().enumerate() {
+        let t = tau[k];
+        let s = if curve.lost_motion() == 0.0 || t.abs() <= band {
+            0.0
+        } else {
+            t.signum()
+        };
+        if signs[i].is_some_and(|p| p != s) {
+            changes[i] += 1;
+            if changes[i] > MAX_LOST_MOTION_SIGN_CHANGES {
+                return Err(VjmError::Numerical {
+                    message: format!(
+                        "the static equilibrium did not settle: the torque of joint \
+                         {}'s gear ({t:.3e} N·m) changes sign within its lost motion \
+                         of {} rad (the joint rests inside its dead band)",
+                        curve.joint() + 1,
+                        curve.lost_motion()
+                    ),
+                });
+            }
+        }
+        signs[i] = Some(s);
+        let e = curve.excess_with_sign(t, s);
+        if e != 0.0 {
+            r[k] += e;
+        }
+    }
+    Ok(())
+}
+
+/// The settled tip at the spring deflections `theta`: the sweep's deflected point, turned by the
+/// springs' rotations (`tau` is scratch).
+fn settled_tip(
+    chain: &SerialChain,
+    ws: &Workspace,
+    loads: &mut DeflectedLoads,
+    theta: &[f64],
+    tau: &mut [f64],
+    iterations: usize,
+) -> Settled {
+    let point = loads.torques(ws, theta, None, None, tau);
+    let turn = DeflectedLoads::turn(ws, theta);
+    let d = point - ws.p;
+    let r = turn.scaled_axis();
+    let rotation = deflected_tip_rotation(&turn, &ws.tip_rotation(chain));
+    Settled {
+        tip: Isometry3::from_parts(Translation3::from(point), rotation),
+        from_rigid: [d.x, d.y, d.z, r.x, r.y, r.z],
+        iterations,
+    }
 }
 
 /// The tip's displacement from `from` to `to`: `[dx, dy, dz, rx, ry, rz]` (m, rad), base frame,

@@ -210,10 +210,31 @@ pub(crate) fn sag_batch<S: Simd>(
     sc: &mut SagScratch<S>,
     out: SagBatchOut<'_>,
 ) {
+    let payload = rigid_pose(s, chain, weights, q, count, sc);
+    // τ_g at the rigid pose, and the regressor J·diag(τ_g).
+    let all = std::mem::take(&mut sc.all);
+    weight_torques(s, chain, weights, payload, &all, false, sc);
+    sc.all = all;
+    write_regressor(s, chain, count, sc, out.regressor);
+    let failed = settle(s, chain, weights, payload, count, sc);
+    let (moved, quat) = tip_motion(s, chain, &failed, count, sc);
+    write_sag(&moved, &quat, &failed, count, out.sag, out.solved);
+}
+
+/// The frames of the rigid pose of `q`'s `count` rows, the bodies' centres of mass and the
+/// springs' axes and centres (base frame) into `sc`; the payload's mass and centre (base
+/// frame) if any.
+#[inline(always)]
+fn rigid_pose<S: Simd>(
+    s: S,
+    chain: &ChainLanes,
+    weights: &SagWeights,
+    q: &[f64],
+    count: usize,
+    sc: &mut SagScratch<S>,
+) -> Option<(V<S>, [V<S>; 3])> {
     let nj = chain.n_joints();
-    let m = chain.n_springs();
     debug_assert!(count <= V::<S>::LANES && q.len() >= count * nj);
-    let z = V::zero(s);
     for j in 0..nj {
         sc.q[j] = super::vector::gather(s, q, nj, j, 0, count);
     }
@@ -228,14 +249,25 @@ pub(crate) fn sag_batch<S: Simd>(
         )),
         None => None,
     };
-    for k in 0..m {
+    for k in 0..chain.n_springs() {
         sc.axis[k] = chain.spring_axis(s, &sc.frames, k);
         sc.centre[k] = sc.frames.centre[chain.spring_joint(k)];
     }
-    // τ_g at the rigid pose, and the regressor J·diag(τ_g).
-    let all = std::mem::take(&mut sc.all);
-    weight_torques(s, chain, weights, payload, &all, false, sc);
-    sc.all = all;
+    payload
+}
+
+/// The row-major 6×m regressor `J[r][k] · τ_g,k` of each of the `count` rows (at `l·6m`),
+/// from the rigid pose's Jacobian columns and torques in `sc`.
+#[inline(always)]
+fn write_regressor<S: Simd>(
+    s: S,
+    chain: &ChainLanes,
+    count: usize,
+    sc: &SagScratch<S>,
+    regressor: &mut [f64],
+) {
+    let m = chain.n_springs();
+    let z = V::zero(s);
     let tip = sc.frames.tip;
     let mut buf = [[0.0; MAX_LANES]; 6];
     for k in 0..m {
@@ -252,11 +284,24 @@ pub(crate) fn sag_batch<S: Simd>(
         }
         for l in 0..count {
             for (r, b) in buf.iter().enumerate() {
-                out.regressor[l * 6 * m + r * m + k] = b[l];
+                regressor[l * 6 * m + r * m + k] = b[l];
             }
         }
     }
-    // The fixed point θ = C τ(θ) from θ₁ = C τ_g, lane by lane.
+}
+
+/// The fixed point θ = C τ(θ) from θ₁ = C τ_g, lane by lane: each lane's deflections in
+/// `sc.frozen` (zero for a lane that failed) and `sc.theta`; whether each lane failed.
+#[inline(always)]
+fn settle<S: Simd>(
+    s: S,
+    chain: &ChainLanes,
+    weights: &SagWeights,
+    payload: Option<(V<S>, [V<S>; 3])>,
+    count: usize,
+    sc: &mut SagScratch<S>,
+) -> [bool; MAX_LANES] {
+    let z = V::zero(s);
     let active = std::mem::take(&mut sc.active);
     let mut frozen = std::mem::take(&mut sc.frozen);
     frozen.iter_mut().for_each(|f| f.fill(0.0));
@@ -330,8 +375,25 @@ pub(crate) fn sag_batch<S: Simd>(
         }
         weight_torques(s, chain, weights, payload, &active, true, sc);
     }
-    // The tip at each lane's equilibrium: moved by the springs from the tip back
-    // (E_1 ∘ ⋯ ∘ E_m (p) − p), and turned by G_m = R_1 ⋯ R_m.
+    sc.active = active;
+    sc.frozen = frozen;
+    failed
+}
+
+/// The tip's motion at each lane's equilibrium: moved by the springs from the tip back
+/// (E_1 ∘ ⋯ ∘ E_m (p) − p, base frame, m), and turned by G_m = R_1 ⋯ R_m (a quaternion
+/// `[w, x, y, z]`).
+#[inline(always)]
+fn tip_motion<S: Simd>(
+    s: S,
+    chain: &ChainLanes,
+    failed: &[bool; MAX_LANES],
+    count: usize,
+    sc: &mut SagScratch<S>,
+) -> ([V<S>; 3], [V<S>; 4]) {
+    let z = V::zero(s);
+    let active = std::mem::take(&mut sc.active);
+    let mut frozen = std::mem::take(&mut sc.frozen);
     for &k in &active {
         for l in 0..count {
             if failed[l] {
@@ -343,6 +405,7 @@ pub(crate) fn sag_batch<S: Simd>(
         sc.sin[k] = sn;
         sc.versine[k] = vs;
     }
+    let tip = sc.frames.tip;
     let mut moved = [z; 3];
     for &k in active.iter().rev() {
         let a = sc.axis[k];
@@ -376,6 +439,20 @@ pub(crate) fn sag_batch<S: Simd>(
     }
     sc.active = active;
     sc.frozen = frozen;
+    (moved, quat)
+}
+
+/// Each solved lane's sag `[dx, dy, dz, rx, ry, rz]` (m, rad, base frame) from its tip
+/// motion, and the solved flags of the `count` rows.
+#[inline(always)]
+fn write_sag<S: Simd>(
+    moved: &[V<S>; 3],
+    quat: &[V<S>; 4],
+    failed: &[bool; MAX_LANES],
+    count: usize,
+    sag: &mut [[f64; 6]],
+    solved: &mut [bool],
+) {
     let mut lanes6 = [[0.0; MAX_LANES]; 7];
     for d in 0..3 {
         moved[d].store(&mut lanes6[d]);
@@ -384,7 +461,7 @@ pub(crate) fn sag_batch<S: Simd>(
         quat[d].store(&mut lanes6[3 + d]);
     }
     for l in 0..count {
-        out.solved[l] = !failed[l];
+        solved[l] = !failed[l];
         if failed[l] {
             continue;
         }
@@ -395,7 +472,7 @@ pub(crate) fn sag_batch<S: Simd>(
             lanes6[6][l],
         ))
         .scaled_axis();
-        out.sag[l] = [
+        sag[l] = [
             lanes6[0][l],
             lanes6[1][l],
             lanes6[2][l],

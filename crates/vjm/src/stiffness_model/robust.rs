@@ -44,7 +44,28 @@ impl StiffnessModel {
         let Some(sigma2) = self.noise.sigma2 else {
             return Ok(self);
         };
-        let n = chain.n_joints();
+        let rotation = self.checked_rows(chain.n_joints(), q, wrench, displacement, rotation)?;
+        let Some(cov) = self.estimate.covariance.clone() else {
+            return Ok(self);
+        };
+        // B = (AᵀA)⁺ on the row space = V/σ².
+        let b: Vec<f64> = cov.iter().flatten().map(|v| v / sigma2).collect();
+        let meat = self.cr2_meat(chain, &b, q, wrench, displacement, rotation)?;
+        self.estimate.covariance = Some(sandwich(&b, &meat, cov.len())?);
+        self.estimate.covariance_method = COVARIANCE_ROBUST.to_string();
+        Ok(self)
+    }
+
+    /// Checks that the identification's rows have the model's row count and the rotations
+    /// are there exactly when the model was identified with them; the rotations to use.
+    fn checked_rows<'r>(
+        &self,
+        n: usize,
+        q: &[f64],
+        wrench: &[f64],
+        displacement: &[f64],
+        rotation: Option<&'r [f64]>,
+    ) -> Result<Option<&'r [f64]>, ModelError> {
         let g = self.data.rows;
         let shape = |what: &'static str, got: usize, per: usize| {
             if got != g * per {
@@ -64,23 +85,31 @@ impl StiffnessModel {
             displacement.len(),
             3,
         )?;
-        let rotation = match (self.noise.use_rotations, rotation) {
+        match (self.noise.use_rotations, rotation) {
             (true, Some(r)) => {
                 shape("rotation (the identification's rows)", r.len(), 3)?;
-                Some(r)
+                Ok(Some(r))
             }
-            (false, _) => None,
-            (true, None) => {
-                return Err(ModelError::Mismatch {
-                    message: "the model was identified with rotations: pass them too".into(),
-                })
-            }
-        };
-        let Some(cov) = self.estimate.covariance.clone() else {
-            return Ok(self);
-        };
+            (false, _) => Ok(None),
+            (true, None) => Err(ModelError::Mismatch {
+                message: "the model was identified with rotations: pass them too".into(),
+            }),
+        }
+    }
+
+    /// The sandwich's meat `Σᵢ A_iᵀ r̃ᵢ r̃ᵢᵀ A_i` (m×m, row-major) over the identification's
+    /// measurements, with `b` = (AᵀA)⁺ (m×m, row-major) for the leverage correction.
+    fn cr2_meat(
+        &self,
+        chain: &SerialChain,
+        b: &[f64],
+        q: &[f64],
+        wrench: &[f64],
+        displacement: &[f64],
+        rotation: Option<&[f64]>,
+    ) -> Result<Vec<f64>, ModelError> {
         let model = self.spring_model()?;
-        let m = model.n_params();
+        let (n, m) = (chain.n_joints(), model.n_params());
         let measured = if rotation.is_some() {
             Measured::Full
         } else {
@@ -89,14 +118,12 @@ impl StiffnessModel {
         let rows = measured.rows();
         let inv_sigma: Vec<f64> = self.noise.noise_sigma.iter().map(|s| 1.0 / s).collect();
         let x = &self.estimate.compliance;
-        // B = (AᵀA)⁺ on the row space = V/σ².
-        let b: Vec<f64> = cov.iter().flatten().map(|v| v / sigma2).collect();
         let mut ws = Workspace::new(chain, &model)?;
         let mut a = vec![0.0; rows * m];
         let mut meat = vec![0.0; m * m];
         let mut score = vec![0.0; m];
         let mut ab = vec![0.0; rows * m];
-        for i in 0..g {
+        for i in 0..self.data.rows {
             let wi = &wrench[6 * i..6 * i + 6];
             let w = [wi[0], wi[1], wi[2], wi[3], wi[4], wi[5]];
             regressor_rows(
@@ -120,33 +147,7 @@ impl StiffnessModel {
                 ar.iter_mut().for_each(|v| *v *= inv_sigma[r]);
                 resid[r] = y * inv_sigma[r] - ar.iter().zip(x).map(|(p, c)| p * c).sum::<f64>();
             }
-            // Leverage block H_ii = A_i B A_iᵀ; the residual is inflated to (I − H_ii)^(-1/2) r_i
-            // (CR2, Bell–McCaffrey: fitted residuals are smaller than the errors).
-            for r in 0..rows {
-                for k in 0..m {
-                    ab[r * m + k] = (0..m).map(|l| a[r * m + l] * b[l * m + k]).sum();
-                }
-            }
-            let ih = nalgebra::DMatrix::<f64>::from_fn(rows, rows, |r, c| {
-                let h: f64 = (0..m).map(|k| ab[r * m + k] * a[c * m + k]).sum();
-                if r == c {
-                    1.0 - h
-                } else {
-                    -h
-                }
-            });
-            let eig =
-                stiffness_core::decompose::symmetric_eigen(ih, "eigen-decomposition of I − H_ii")
-                    .map_err(|e| VjmError::Numerical {
-                    message: format!("robust covariance, measurement {i}: {e}"),
-                })?;
-            let inv_sqrt = eig
-                .eigenvalues
-                .map(|l| if l > 1e-12 { 1.0 / l.sqrt() } else { 0.0 });
-            let adj = &eig.eigenvectors
-                * nalgebra::DMatrix::from_diagonal(&inv_sqrt)
-                * eig.eigenvectors.transpose()
-                * resid;
+            let adj = leverage_corrected(&a, b, &mut ab, resid, (rows, m), i)?;
             score.iter_mut().for_each(|s| *s = 0.0);
             for r in 0..rows {
                 for (s, p) in score.iter_mut().zip(&a[r * m..(r + 1) * m]) {
@@ -159,37 +160,76 @@ impl StiffnessModel {
                 }
             }
         }
-        let mut bm = vec![0.0; m * m];
-        for j in 0..m {
-            for k in 0..m {
-                bm[j * m + k] = (0..m).map(|l| b[j * m + l] * meat[l * m + k]).sum();
-            }
-        }
-        let robust: Vec<Vec<f64>> = (0..m)
-            .map(|j| {
-                (0..m)
-                    .map(|k| (0..m).map(|l| bm[j * m + l] * b[l * m + k]).sum::<f64>())
-                    .collect()
-            })
-            .collect();
-        if robust.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(VjmError::NonFinite {
-                what: "robust covariance",
-                row: 0,
-                column: 0,
-                value: f64::NAN,
-            }
-            .into());
-        }
-        // Symmetrise exactly (the products above agree only to rounding).
-        let mut sym = robust.clone();
-        for j in 0..m {
-            for k in 0..m {
-                sym[j][k] = 0.5 * (robust[j][k] + robust[k][j]);
-            }
-        }
-        self.estimate.covariance = Some(sym);
-        self.estimate.covariance_method = COVARIANCE_ROBUST.to_string();
-        Ok(self)
+        Ok(meat)
     }
+}
+
+/// Measurement `i`'s residual inflated to (I − H_ii)^(-1/2) r_i, with the leverage block
+/// H_ii = A_i B A_iᵀ (CR2, Bell–McCaffrey: fitted residuals are smaller than the errors);
+/// `a` its whitened rows (`rows`×m), `ab` scratch of the same size.
+fn leverage_corrected(
+    a: &[f64],
+    b: &[f64],
+    ab: &mut [f64],
+    resid: nalgebra::DVector<f64>,
+    (rows, m): (usize, usize),
+    i: usize,
+) -> Result<nalgebra::DVector<f64>, VjmError> {
+    for r in 0..rows {
+        for k in 0..m {
+            ab[r * m + k] = (0..m).map(|l| a[r * m + l] * b[l * m + k]).sum();
+        }
+    }
+    let ih = nalgebra::DMatrix::<f64>::from_fn(rows, rows, |r, c| {
+        let h: f64 = (0..m).map(|k| ab[r * m + k] * a[c * m + k]).sum();
+        if r == c {
+            1.0 - h
+        } else {
+            -h
+        }
+    });
+    let eig = stiffness_core::decompose::symmetric_eigen(ih, "eigen-decomposition of I − H_ii")
+        .map_err(|e| VjmError::Numerical {
+            message: format!("robust covariance, measurement {i}: {e}"),
+        })?;
+    let inv_sqrt = eig
+        .eigenvalues
+        .map(|l| if l > 1e-12 { 1.0 / l.sqrt() } else { 0.0 });
+    Ok(&eig.eigenvectors
+        * nalgebra::DMatrix::from_diagonal(&inv_sqrt)
+        * eig.eigenvectors.transpose()
+        * resid)
+}
+
+/// The sandwich `B · meat · B` (both m×m, row-major), symmetrised exactly.
+fn sandwich(b: &[f64], meat: &[f64], m: usize) -> Result<Vec<Vec<f64>>, VjmError> {
+    let mut bm = vec![0.0; m * m];
+    for j in 0..m {
+        for k in 0..m {
+            bm[j * m + k] = (0..m).map(|l| b[j * m + l] * meat[l * m + k]).sum();
+        }
+    }
+    let robust: Vec<Vec<f64>> = (0..m)
+        .map(|j| {
+            (0..m)
+                .map(|k| (0..m).map(|l| bm[j * m + l] * b[l * m + k]).sum::<f64>())
+                .collect()
+        })
+        .collect();
+    if robust.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(VjmError::NonFinite {
+            what: "robust covariance",
+            row: 0,
+            column: 0,
+            value: f64::NAN,
+        });
+    }
+    // Symmetrise exactly (the products above agree only to rounding).
+    let mut sym = robust.clone();
+    for j in 0..m {
+        for k in 0..m {
+            sym[j][k] = 0.5 * (robust[j][k] + robust[k][j]);
+        }
+    }
+    Ok(sym)
 }

@@ -6,6 +6,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::Serialize;
+use stiffness_core::num::Short;
 
 use super::effects::{ForceSensorNoise, TrackerNoise};
 use super::kinematics::deflected_pose;
@@ -119,179 +120,169 @@ pub(crate) fn check_truth(chain: &SerialChain, truth: &TrueModel) -> Result<(), 
         .position(|c| !(c.is_finite() && *c >= 0.0))
     {
         // A negative compliance is an unstable spring: refused like a NaN, naming the spring.
-        return Err(TestbedError::InvalidTruth {
-            message: format!(
-                "compliance of spring J{}{} must be finite and ≥ 0 rad/(N·m), got {}",
-                c / 3 + 1,
-                ["z", "x", "y"][c % 3],
-                stiffness_core::num::Short(truth.compliance[c])
-            ),
-        });
+        return Err(invalid(format!(
+            "compliance of spring J{}{} must be finite and ≥ 0 rad/(N·m), got {}",
+            c / 3 + 1,
+            ["z", "x", "y"][c % 3],
+            Short(truth.compliance[c])
+        )));
     }
     for e in &truth.effects {
-        let joint = match e {
-            Effect::JointTilt {
-                joint,
-                axis,
-                compliance,
-            } => {
-                if !(compliance.is_finite() && *compliance >= 0.0) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "joint_tilt at joint {}: compliance must be finite and ≥ 0 rad/(N·m), \
-                             got {}",
-                            joint + 1,
-                            stiffness_core::num::Short(*compliance)
-                        ),
-                    });
-                }
-                if *axis == SpringAxis::Z {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "joint_tilt at joint {} has axis z; tilts are about x or y",
-                            joint + 1
-                        ),
-                    });
-                }
-                Some(*joint)
-            }
-            Effect::LinkTranslation {
-                joint, compliance, ..
-            } => {
-                if !(compliance.is_finite() && *compliance >= 0.0) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "link_translation after joint {}: compliance must be finite and ≥ 0 \
-                             m/N, got {}",
-                            joint + 1,
-                            stiffness_core::num::Short(*compliance)
-                        ),
-                    });
-                }
-                Some(*joint)
-            }
-            Effect::TorsionNonlinear { joint, spring } => {
-                if !(spring.k1 > 0.0
-                    && spring.k2 > 0.0
-                    && spring.k3 > 0.0
-                    && spring.t1 > 0.0
-                    && spring.t2 > spring.t1)
-                {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "harmonic-drive spring at joint {} needs k1, k2, k3 > 0 and 0 < t1 < t2",
-                            joint + 1
-                        ),
-                    });
-                }
-                Some(*joint)
-            }
-            Effect::Backlash { joint, lost_motion } => {
-                if !(lost_motion.is_finite() && *lost_motion >= 0.0) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "backlash at joint {} must be finite and ≥ 0, got {}",
-                            joint + 1,
-                            stiffness_core::num::Short(*lost_motion)
-                        ),
-                    });
-                }
-                Some(*joint)
-            }
-            Effect::TorsionAngleDependent { joint, amplitude } => {
-                if !(amplitude.is_finite() && amplitude.abs() < 1.0) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "joint_torsion_angle_dependent at joint {}: amplitude must be within \
-                             (−1, 1) (the compliance c·(1 + amplitude·sin q) stays > 0), got {}",
-                            joint + 1,
-                            stiffness_core::num::Short(*amplitude)
-                        ),
-                    });
-                }
-                Some(*joint)
-            }
-            Effect::MountCompliance {
-                translation,
-                rotation,
-            } => {
-                if !(translation.is_finite()
-                    && *translation >= 0.0
-                    && rotation.is_finite()
-                    && *rotation >= 0.0)
-                {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "mount compliances must be finite and ≥ 0, got {} m/N and {} rad/(N·m)",
-                            stiffness_core::num::Short(*translation),
-                            stiffness_core::num::Short(*rotation)
-                        ),
-                    });
-                }
-                None
-            }
-            Effect::ToolAxialCompliance { compliance } => {
-                if !(compliance.is_finite() && *compliance >= 0.0) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "tool axial compliance must be finite and ≥ 0, got {} m/N",
-                            stiffness_core::num::Short(*compliance)
-                        ),
-                    });
-                }
-                None
-            }
-            Effect::SensorCrosstalk { coupling } => {
-                if !(coupling.is_finite() && coupling.abs() <= 0.5) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "sensor cross-talk coupling must be finite and within ±0.5, got {}",
-                            stiffness_core::num::Short(*coupling)
-                        ),
-                    });
-                }
-                None
-            }
-            Effect::PoseDrift { sigma } => {
-                if !(sigma.is_finite() && *sigma >= 0.0) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "pose drift sigma must be finite and ≥ 0, got {}",
-                            stiffness_core::num::Short(*sigma)
-                        ),
-                    });
-                }
-                None
-            }
-            Effect::WrenchBias { bias } => {
-                if !bias.iter().all(|b| b.is_finite()) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!("wrench_bias must be finite, got {bias:?}"),
-                    });
-                }
-                None
-            }
-            Effect::FrameMisalignment { rotation } => {
-                if !rotation.iter().all(|r| r.is_finite()) {
-                    return Err(TestbedError::InvalidTruth {
-                        message: format!(
-                            "frame_misalignment rotation must be finite, got {rotation:?}"
-                        ),
-                    });
-                }
-                None
-            }
-            _ => None,
-        };
-        if let Some(j) = joint {
-            if j >= n {
-                return Err(TestbedError::InvalidTruth {
-                    message: format!("effect at joint {} but the chain has {n} joints", j + 1),
-                });
-            }
+        if let Some(j) = check_effect(e)? {
+            require(j < n, || {
+                format!("effect at joint {} but the chain has {n} joints", j + 1)
+            })?;
         }
     }
     Ok(())
+}
+
+/// An [`TestbedError::InvalidTruth`] saying `message`.
+fn invalid(message: String) -> TestbedError {
+    TestbedError::InvalidTruth { message }
+}
+
+/// `Ok` when `ok`, else [`TestbedError::InvalidTruth`] with the `message` built only then.
+fn require(ok: bool, message: impl FnOnce() -> String) -> Result<(), TestbedError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(invalid(message()))
+    }
+}
+
+/// Whether `x` is a finite, non-negative number (a compliance, a lost motion, a σ).
+fn finite_non_negative(x: f64) -> bool {
+    x.is_finite() && x >= 0.0
+}
+
+/// Checks one effect's own parameters; returns the joint it sits at (0-based), if any, for the
+/// caller to check against the chain.
+fn check_effect(e: &Effect) -> Result<Option<usize>, TestbedError> {
+    Ok(match e {
+        Effect::JointTilt {
+            joint,
+            axis,
+            compliance,
+        } => {
+            require(finite_non_negative(*compliance), || {
+                format!(
+                    "joint_tilt at joint {}: compliance must be finite and ≥ 0 rad/(N·m), got {}",
+                    joint + 1,
+                    Short(*compliance)
+                )
+            })?;
+            require(*axis != SpringAxis::Z, || {
+                format!(
+                    "joint_tilt at joint {} has axis z; tilts are about x or y",
+                    joint + 1
+                )
+            })?;
+            Some(*joint)
+        }
+        Effect::LinkTranslation {
+            joint, compliance, ..
+        } => {
+            require(finite_non_negative(*compliance), || {
+                format!(
+                    "link_translation after joint {}: compliance must be finite and ≥ 0 m/N, \
+                     got {}",
+                    joint + 1,
+                    Short(*compliance)
+                )
+            })?;
+            Some(*joint)
+        }
+        Effect::TorsionNonlinear { joint, spring } => {
+            let ok = spring.k1 > 0.0
+                && spring.k2 > 0.0
+                && spring.k3 > 0.0
+                && spring.t1 > 0.0
+                && spring.t2 > spring.t1;
+            require(ok, || {
+                format!(
+                    "harmonic-drive spring at joint {} needs k1, k2, k3 > 0 and 0 < t1 < t2",
+                    joint + 1
+                )
+            })?;
+            Some(*joint)
+        }
+        Effect::Backlash { joint, lost_motion } => {
+            require(finite_non_negative(*lost_motion), || {
+                format!(
+                    "backlash at joint {} must be finite and ≥ 0, got {}",
+                    joint + 1,
+                    Short(*lost_motion)
+                )
+            })?;
+            Some(*joint)
+        }
+        Effect::TorsionAngleDependent { joint, amplitude } => {
+            require(amplitude.is_finite() && amplitude.abs() < 1.0, || {
+                format!(
+                    "joint_torsion_angle_dependent at joint {}: amplitude must be within \
+                     (−1, 1) (the compliance c·(1 + amplitude·sin q) stays > 0), got {}",
+                    joint + 1,
+                    Short(*amplitude)
+                )
+            })?;
+            Some(*joint)
+        }
+        Effect::MountCompliance {
+            translation,
+            rotation,
+        } => {
+            let ok = finite_non_negative(*translation) && finite_non_negative(*rotation);
+            require(ok, || {
+                format!(
+                    "mount compliances must be finite and ≥ 0, got {} m/N and {} rad/(N·m)",
+                    Short(*translation),
+                    Short(*rotation)
+                )
+            })?;
+            None
+        }
+        Effect::ToolAxialCompliance { compliance } => {
+            require(finite_non_negative(*compliance), || {
+                format!(
+                    "tool axial compliance must be finite and ≥ 0, got {} m/N",
+                    Short(*compliance)
+                )
+            })?;
+            None
+        }
+        Effect::SensorCrosstalk { coupling } => {
+            require(coupling.is_finite() && coupling.abs() <= 0.5, || {
+                format!(
+                    "sensor cross-talk coupling must be finite and within ±0.5, got {}",
+                    Short(*coupling)
+                )
+            })?;
+            None
+        }
+        Effect::PoseDrift { sigma } => {
+            require(finite_non_negative(*sigma), || {
+                format!(
+                    "pose drift sigma must be finite and ≥ 0, got {}",
+                    Short(*sigma)
+                )
+            })?;
+            None
+        }
+        Effect::WrenchBias { bias } => {
+            require(bias.iter().all(|b| b.is_finite()), || {
+                format!("wrench_bias must be finite, got {bias:?}")
+            })?;
+            None
+        }
+        Effect::FrameMisalignment { rotation } => {
+            require(rotation.iter().all(|r| r.is_finite()), || {
+                format!("frame_misalignment rotation must be finite, got {rotation:?}")
+            })?;
+            None
+        }
+        _ => None,
+    })
 }
 
 /// Inverse condition number of the actuated Jacobian `[J_lin; L·J_ang]`, L = 0.5 m.
