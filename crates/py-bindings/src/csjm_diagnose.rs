@@ -113,7 +113,7 @@ pub fn csjm_simulate<'py>(
 fn options(
     fdr: Option<f64>,
     test_fraction: Option<f64>,
-    holdout_seed: Option<u64>,
+    split_seed: Option<u64>,
     project: bool,
 ) -> DiagnoseOptions {
     let mut opts = DiagnoseOptions::default();
@@ -123,8 +123,8 @@ fn options(
     if let Some(v) = test_fraction {
         opts.test_fraction = v;
     }
-    if let Some(v) = holdout_seed {
-        opts.holdout_seed = v;
+    if let Some(v) = split_seed {
+        opts.split_seed = v;
     }
     if project {
         opts.read = ReadOptions::projecting();
@@ -137,7 +137,7 @@ fn options(
 /// as `progress(stage, done, total)` on the calling thread; an exception it raises (or Ctrl-C)
 /// cancels the run and propagates.
 #[pyfunction]
-#[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, holdout_seed = None, project = false, progress = None))]
+#[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, split_seed = None, project = false, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn csjm_diagnose<'py>(
     py: Python<'py>,
@@ -146,12 +146,12 @@ pub fn csjm_diagnose<'py>(
     reference: i64,
     fdr: Option<f64>,
     test_fraction: Option<f64>,
-    holdout_seed: Option<u64>,
+    split_seed: Option<u64>,
     project: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let data = crate::csjm::dataset_from_arrays(&r, &tau, reference, project, None)?;
-    let opts = options(fdr, test_fraction, holdout_seed, project);
+    let opts = options(fdr, test_fraction, split_seed, project);
     let result = run_interruptible(py, progress.as_ref(), |monitor| {
         diagnose_monitored(&data, &opts, monitor)
     })?
@@ -162,17 +162,17 @@ pub fn csjm_diagnose<'py>(
 /// Diagnoses a CSJM measurement file; returns `(summary, rows)`. `progress` as for
 /// `csjm_diagnose`.
 #[pyfunction]
-#[pyo3(signature = (path, fdr = None, test_fraction = None, holdout_seed = None, project = false, progress = None))]
+#[pyo3(signature = (path, fdr = None, test_fraction = None, split_seed = None, project = false, progress = None))]
 pub fn csjm_diagnose_csv<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     fdr: Option<f64>,
     test_fraction: Option<f64>,
-    holdout_seed: Option<u64>,
+    split_seed: Option<u64>,
     project: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
-    let opts = options(fdr, test_fraction, holdout_seed, project);
+    let opts = options(fdr, test_fraction, split_seed, project);
     let result = run_interruptible(py, progress.as_ref(), |monitor| {
         diagnose_file_monitored(&path, &opts, monitor)
     })?

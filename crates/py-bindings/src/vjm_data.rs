@@ -473,7 +473,7 @@ fn planned_rows(
 /// JSON with the truth's `tilt_ratio` and `link_scale` (m/N, 0 without links).
 #[pyfunction]
 #[pyo3(signature = (robot, tilt_ratio = None, noise = true, seed = 0, links = false, link_share = None))]
-pub fn vjm_seed_study(
+pub fn vjm_paper_study(
     py: Python<'_>,
     robot: &PyRobot,
     tilt_ratio: Option<f64>,
@@ -511,9 +511,9 @@ pub fn vjm_seed_study(
             (true, _) => {
                 let share = match link_share {
                     Some(s) => s,
-                    None => testbed::seed_structural_link_share(chain)?,
+                    None => testbed::paper_structural_link_share(chain)?,
                 };
-                let t = testbed::seed_structural_truth(chain, share)?;
+                let t = testbed::paper_structural_truth(chain, share)?;
                 (t.truth, t.tilt_ratio, t.link_scale)
             }
             (false, Some(r)) => {
@@ -523,12 +523,12 @@ pub fn vjm_seed_study(
                 (TrueModel::with_tilts(&torsion, r), r, 0.0)
             }
             (false, None) => {
-                let (truth, r) = testbed::seed_truth(chain)?;
+                let (truth, r) = testbed::paper_truth(chain)?;
                 (truth, r, 0.0)
             }
         };
         Ok((
-            testbed::seed_study(chain, &truth, noise, seed)?,
+            testbed::paper_study(chain, &truth, noise, seed)?,
             ratio,
             scale,
         ))
@@ -546,6 +546,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vjm_read_csv, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_to_csv, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_simulate, m)?)?;
-    m.add_function(wrap_pyfunction!(vjm_seed_study, m)?)?;
+    m.add_function(wrap_pyfunction!(vjm_paper_study, m)?)?;
     Ok(())
 }

@@ -46,3 +46,20 @@ def test_an_exception_in_progress_stops_the_run_and_propagates(friction_csv: Pat
 def test_a_progress_that_is_not_callable_is_refused(friction_csv: Path):
     with pytest.raises(rs.ArgumentTypeError, match="progress must be callable"):
         csjm.diagnose(friction_csv, progress=3)
+
+
+def test_the_split_seed_has_the_arms_name_and_default(friction_csv: Path):
+    # One name and one default for every model (issue 26): `split_seed`, 0.
+    default = csjm.diagnose(friction_csv)
+    assert default.split_seed == 0
+    other = csjm.diagnose(friction_csv, split_seed=7)
+    assert other.split_seed == 7
+    assert (other.n_train, other.n_test) == (default.n_train, default.n_test)
+    # Another split holds out other rows: the held-out error changes.
+    assert other.baseline.test_mean_rel_error != default.baseline.test_mean_rel_error
+    # The former name still works, with a warning, and means the same seed.
+    with pytest.warns(DeprecationWarning, match="split_seed"):
+        old = csjm.diagnose(friction_csv, holdout_seed=7)
+    assert old.split_seed == 7 and old.baseline.test_mean_rel_error == other.baseline.test_mean_rel_error
+    with pytest.raises(rs.StiffnessError, match="split_seed alone"):
+        csjm.diagnose(friction_csv, split_seed=7, holdout_seed=7)

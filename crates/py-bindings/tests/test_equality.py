@@ -53,7 +53,7 @@ def test_predictions_plans_and_studies_compare_field_by_field(robot, identificat
     assert np.isnan(pred.deflection[:, 3:]).all()  # rotations not modelled: NaN
     assert pred == model.predict(q, wrench=w, gravity=None)
     assert _changed(pred, "deflection") != pred
-    study = vjm.seed_study(robot, seed=2)
+    study = vjm.paper_study(robot, seed=2)
     assert pickle.loads(pickle.dumps(study)) == study
     assert dataclasses.replace(study, rows=_changed(study.rows, "measured")) != study
     plan = vjm.design(robot, poses=4, seed=1)

@@ -30,7 +30,7 @@ from robot_stiffness._vjm_data import _pose_array
 VJM_KEYS = {"baseline", "findings", "extended", "unexplained", "gain", "residuals", "scores",
             "rejected_on_holdout", "per_pose", "n_train", "n_test", "fdr"}
 CSJM_KEYS = {"baseline", "findings", "extended", "unexplained", "gain", "connection_term", "residuals",
-             "scores", "rejected_on_holdout", "noise_sigma", "n_train", "n_test", "fdr", "holdout_seed"}
+             "scores", "rejected_on_holdout", "noise_sigma", "n_train", "n_test", "fdr", "split_seed"}
 FINDING_KEYS = {"effect", "joint", "axis", "aliases", "evidence"}
 
 TILT = {"effect": "joint_tilt", "joint": 3, "axis": "x", "compliance": 5e-5}

@@ -15,7 +15,7 @@
 use nalgebra::{Matrix3, Vector3};
 use so3_stiffness::csjm::EquilibriumOptions;
 use so3_stiffness::identification::campaign::{
-    seed_like_simulator, simulate_campaign, CampaignConfig, MomentNoise, TrackerNoise,
+    paper_like_simulator, simulate_campaign, CampaignConfig, MomentNoise, TrackerNoise,
 };
 use so3_stiffness::identification::{identify, FitOptions, FitOrder, StiffnessEstimate};
 use so3_stiffness::so3;
@@ -62,14 +62,14 @@ fn report(order: &str, e: &StiffnessEstimate, truth: &Matrix3<f64>) {
 
 /// First- and second-order errors over seeds 1–8, noisy and noise-free, ≤ 1 and ≤ 3 N·m.
 fn sweep() -> Result<(), Box<dyn std::error::Error>> {
-    let cables = seed_like_simulator()?;
+    let cables = paper_like_simulator()?;
     println!("\n| max ‖Δτ‖ (N·m) | noise | first order, seeds 1–8 | second order, seeds 1–8 |");
     println!("|---|---|---|---|");
     for max_increment in [1.0, 3.0] {
         for noisy in [false, true] {
             let (mut first, mut second) = (Vec::new(), Vec::new());
             for seed in 1..=8 {
-                let mut config = CampaignConfig::seed_like(max_increment, seed);
+                let mut config = CampaignConfig::paper_like(max_increment, seed);
                 if !noisy {
                     config.tracker = TrackerNoise::none();
                     config.moment_noise = MomentNoise::none();
@@ -96,8 +96,8 @@ fn sweep() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let cables = seed_like_simulator()?;
-    let config = CampaignConfig::seed_like(MAX_INCREMENT, SEED);
+    let cables = paper_like_simulator()?;
+    let config = CampaignConfig::paper_like(MAX_INCREMENT, SEED);
     let campaign = simulate_campaign(&cables, &config)?;
     let truth = campaign.true_stiffness.covariant;
     let r0 = campaign.dataset.reference().orientation;

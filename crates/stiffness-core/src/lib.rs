@@ -12,7 +12,13 @@
 //! - [`num`]: [`num::Short`], the one format of a number quoted in a message (`1e308`, not 309
 //!   digits).
 //!
-//! This crate knows nothing about robots, URDF or SO(3); the model crates (`so3-stiffness`,
+//! - [`so3`]: the Lie toolkit of rotations (`exp`, `log`, `hat`, `vee`, `adjoint`, the left and
+//!   right Jacobians), shared by both model crates (it is geometry, not a robot; `so3-stiffness`
+//!   re-exports it); [`engine`]: the diagnosis engine both models run on; [`lsq`]: the
+//!   streaming least-squares accumulator; [`row_blocks`]: rows on every core in fixed blocks,
+//!   results independent of the thread count.
+//!
+//! This crate knows nothing about robots, URDF or cables; the model crates (`so3-stiffness`,
 //! `vjm`) depend on it, never the other way round.
 //!
 //! ```

@@ -57,7 +57,7 @@ __all__ = [
     "vjm_model_file_robot",
     "vjm_read_csv",
     "vjm_read_poses",
-    "vjm_seed_study",
+    "vjm_paper_study",
     "vjm_simulate",
     "vjm_to_csv",
     "vjm_write_compensation",
@@ -104,7 +104,7 @@ def csjm_diagnose(
     reference: int,
     fdr: Optional[float] = None,
     test_fraction: Optional[float] = None,
-    holdout_seed: Optional[int] = None,
+    split_seed: Optional[int] = None,
     project: bool = False,
     progress: Optional[Callable[[str, int, int], Any]] = None,
 ) -> _CoreDiagnosis: ...
@@ -112,7 +112,7 @@ def csjm_diagnose_csv(
     path: _Path,
     fdr: Optional[float] = None,
     test_fraction: Optional[float] = None,
-    holdout_seed: Optional[int] = None,
+    split_seed: Optional[int] = None,
     project: bool = False,
     progress: Optional[Callable[[str, int, int], Any]] = None,
 ) -> _CoreDiagnosis: ...
@@ -267,7 +267,7 @@ def vjm_design(
     progress: Optional[Callable[[str, int, int], Any]] = None,
     gravity: Optional[Tuple[float, float, float]] = None,
 ) -> str: ...
-def vjm_seed_study(
+def vjm_paper_study(
     robot: Robot,
     tilt_ratio: Optional[float] = None,
     noise: bool = True,

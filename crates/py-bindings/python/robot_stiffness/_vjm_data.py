@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
 
@@ -392,7 +393,7 @@ def _diagnose_core(robot: Robot, m: Measurements, baseline: Any, fdr: Optional[f
 
 
 @dataclass(frozen=True, eq=False)
-class SeedErrors(FieldEq):
+class PaperErrors(FieldEq):
     """One error metric of one model over the seed's 26 tests, as fractions: means over the
     16 identification tests, the 10 verification tests and all 26, and the largest verification
     error with its test number (1–26)."""
@@ -405,16 +406,16 @@ class SeedErrors(FieldEq):
 
 
 @dataclass(frozen=True, eq=False)
-class SeedModelErrors(FieldEq):
+class PaperModelErrors(FieldEq):
     """Both metrics of one model: ``magnitude`` = |‖d_pred‖ − ‖d‖| / ‖d‖ (the seed's "total
     deformation" error), ``vector`` = ‖d_pred − d‖ / ‖d‖."""
 
-    magnitude: SeedErrors
-    vector: SeedErrors
+    magnitude: PaperErrors
+    vector: PaperErrors
 
 
 @dataclass(frozen=True, eq=False)
-class SeedStudyRows(FieldEq):
+class PaperStudyRows(FieldEq):
     """The 26 tests in the seed's order (configuration c under load l is test 2(c − 1) + l):
     arrays of length 26, vectors (26, 3) in m, errors as fractions."""
 
@@ -435,7 +436,7 @@ class SeedStudyRows(FieldEq):
 
 
 @dataclass(frozen=True, eq=False)
-class SeedClippedAngle(FieldEq):
+class PaperClippedAngle(FieldEq):
     """A Table I angle moved inside the joint limits (1-based configuration and joint, rad)."""
 
     configuration: int
@@ -445,7 +446,7 @@ class SeedClippedAngle(FieldEq):
 
 
 @dataclass(frozen=True, eq=False)
-class SeedPaperFigures(FieldEq):
+class PaperFigures(FieldEq):
     """What the seed paper reports, as fractions (magnitude metric)."""
 
     traditional_all: float
@@ -457,33 +458,33 @@ class SeedPaperFigures(FieldEq):
 
 
 @dataclass(frozen=True, eq=False)
-class SeedStudy(FieldEq):
-    """Result of :func:`seed_study`: the traditional, extended and full models under both
+class PaperStudy(FieldEq):
+    """Result of :func:`paper_study`: the traditional, extended and full models under both
     metrics, the per-row table, the extended and full models' identification ranks, the
     truth's torsion share (mean over the 13 configurations under the seed's Section IV-B load
     of ‖d_torsion‖/‖d‖) and link share (the same with the links' translations), the truth's
     tilt ratio and link scale (the longest link's bending compliance, m/N; 0 without links),
     the clipped angles and the seed's own figures."""
 
-    traditional: SeedModelErrors
-    extended: SeedModelErrors
-    full: SeedModelErrors
-    rows: SeedStudyRows
+    traditional: PaperModelErrors
+    extended: PaperModelErrors
+    full: PaperModelErrors
+    rows: PaperStudyRows
     extended_rank: int
     full_rank: int
     torsion_share: float
     link_share: float
     tilt_ratio: float
     link_scale: float
-    clipped: List[SeedClippedAngle]
-    paper: SeedPaperFigures
+    clipped: List[PaperClippedAngle]
+    paper: PaperFigures
 
     @classmethod
-    def _from_json(cls, text: str) -> "SeedStudy":
+    def _from_json(cls, text: str) -> "PaperStudy":
         d = json.loads(text)
 
-        def model(m: Dict[str, Any]) -> SeedModelErrors:
-            return SeedModelErrors(magnitude=SeedErrors(**m["magnitude"]), vector=SeedErrors(**m["vector"]))
+        def model(m: Dict[str, Any]) -> PaperModelErrors:
+            return PaperModelErrors(magnitude=PaperErrors(**m["magnitude"]), vector=PaperErrors(**m["vector"]))
 
         rows = d["rows"]
 
@@ -494,7 +495,7 @@ class SeedStudy(FieldEq):
             traditional=model(d["traditional"]),
             extended=model(d["extended"]),
             full=model(d["full"]),
-            rows=SeedStudyRows(
+            rows=PaperStudyRows(
                 test=col("test", np.int64),
                 configuration=col("configuration", np.int64),
                 load=col("load", np.int64),
@@ -516,13 +517,13 @@ class SeedStudy(FieldEq):
             link_share=float(d["link_share"]),
             tilt_ratio=float(d["tilt_ratio"]),
             link_scale=float(d["link_scale"]),
-            clipped=[SeedClippedAngle(**c) for c in d["clipped"]],
-            paper=SeedPaperFigures(**d["paper"]),
+            clipped=[PaperClippedAngle(**c) for c in d["clipped"]],
+            paper=PaperFigures(**d["paper"]),
         )
 
 
 @checked
-def seed_study(
+def paper_study(
     robot: Robot,
     *,
     tilt_ratio: Optional[float] = None,
@@ -530,7 +531,7 @@ def seed_study(
     link_share: Optional[float] = None,
     noise: bool = True,
     seed: int = 0,
-) -> SeedStudy:
+) -> PaperStudy:
     """The seed paper's study on ``robot`` (7 joints): Table I configurations clipped to the
     joint limits, two wrenches each, and three models fitted on the 16 identification rows:
     traditional (7 torsions), extended (21 rotational springs) and full (plus 21 link
@@ -541,4 +542,14 @@ def seed_study(
     seed's 3.74 % noise-free) and the tilts calibrated to 76.5 % torsion around them. Errors
     are the magnitude error (the seed's metric; it reports 7.75 % → 3.74 %) and the vector
     error, per row and as means."""
-    return SeedStudy._from_json(_core.vjm_seed_study(robot._inner, tilt_ratio, noise, seed, links, link_share))
+    return PaperStudy._from_json(_core.vjm_paper_study(robot._inner, tilt_ratio, noise, seed, links, link_share))
+
+
+def seed_study(robot: Robot, **kwargs: Any) -> PaperStudy:
+    """Deprecated: the former name of :func:`paper_study` ("seed" also names the RNG seed)."""
+    warnings.warn("seed_study is deprecated: use paper_study", DeprecationWarning, stacklevel=2)
+    return paper_study(robot, **kwargs)
+
+
+#: Deprecated: the former name of :class:`PaperStudy`.
+SeedStudy = PaperStudy

@@ -25,7 +25,7 @@ DEMO_EFFECTS: List[Dict[str, Any]] = [
 ]
 
 
-def _seed_study_lines(study: Any) -> List[str]:
+def _paper_study_lines(study: Any) -> List[str]:
     """The demo's two lines on the seed study: ours next to the seed's for the same metric
     (the seed's is the error of the deflection magnitude), then the vector error."""
     paper, trad, ext = study.paper, study.traditional, study.extended
@@ -62,7 +62,7 @@ def _structural_study_lines(study: Any) -> List[str]:
 
 def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     from .report import REPORT_FILES, story
-    from .vjm import Robot, seed_study, simulate
+    from .vjm import Robot, paper_study, simulate
 
     t0 = time.monotonic()
     directory = Path(args.out)
@@ -74,8 +74,8 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
                          gravity=gravity)
     # The report's residual plot draws the per-row predictions: keep them.
     result = diagnose_data(robot, campaign.measurements, args, per_row=True)
-    study = in_worker(seed_study, robot, seed=args.seed)
-    structural = in_worker(seed_study, robot, links=True, seed=args.seed)
+    study = in_worker(paper_study, robot, seed=args.seed)
+    structural = in_worker(paper_study, robot, links=True, seed=args.seed)
     (staged / "campaign.csv").write_text(campaign.csv, encoding="utf-8")
     (staged / "truth.json").write_text(json_text({"truth": campaign.truth, "spec": campaign.spec}), encoding="utf-8")
     (staged / "diagnosis.json").write_text(json_text(result.to_dict()), encoding="utf-8")
@@ -91,7 +91,7 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
           f"{gravity_words(gravity)}) on the bundled Franka Panda; hidden in the truth: {hidden}.")
     for line in story(result):
         print(line)
-    for line in _seed_study_lines(study) + _structural_study_lines(structural):
+    for line in _paper_study_lines(study) + _structural_study_lines(structural):
         print(line)
     print(f"Wrote {directory}/ (campaign.csv, diagnosis.json, report/report.md) in {time.monotonic() - t0:.1f} s.")
     return 0

@@ -137,7 +137,7 @@ def cmd_diagnose_csjm(args: argparse.Namespace, out: Outputs) -> int:
     report_dir = _report_dir(out, args, CSJM_REPORT_FILES)
     with data_file(args.data):
         result = in_worker(
-            diagnose_csjm, args.data, fdr=args.fdr, holdout_seed=args.split_seed, project=args.project
+            diagnose_csjm, args.data, fdr=args.fdr, split_seed=args.split_seed, project=args.project
         )
     _write_diagnosis(result, json_out, rows_out)
     if report_dir is not None:

@@ -24,6 +24,7 @@ Example::
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
@@ -280,6 +281,16 @@ def simulate(
     return Campaign(csv=d["csv"], true_K=d["true_K"], true_K_D=d["true_K_D"], true_R0=d["true_R0"])
 
 
+def _split_seed(split_seed: Optional[int], holdout_seed: Optional[int]) -> Optional[int]:
+    """``split_seed``, or the deprecated ``holdout_seed`` (with a warning); not both."""
+    if holdout_seed is None:
+        return split_seed
+    if split_seed is not None:
+        raise ArgumentTypeError("give split_seed alone: holdout_seed is its former name")
+    warnings.warn("csjm.diagnose(holdout_seed=…) is deprecated: use split_seed", DeprecationWarning, stacklevel=4)
+    return holdout_seed
+
+
 @checked
 def diagnose(
     data: Any,
@@ -288,9 +299,10 @@ def diagnose(
     *,
     fdr: Optional[float] = None,
     test_fraction: Optional[float] = None,
-    holdout_seed: Optional[int] = None,
+    split_seed: Optional[int] = None,
     project: bool = False,
     progress: Optional[ProgressCallback] = None,
+    holdout_seed: Optional[int] = None,
 ) -> Diagnosis:
     """Diagnose a CSJM campaign: fit the first-order baseline Δτ = c + K_D Δζ on training rows,
     show the structure of its residuals, name effects (``platform_gravity``,
@@ -302,10 +314,12 @@ def diagnose(
 
     ``data``: a measurement-file path, a table (DataFrame) with the file's columns, or arrays
     ``R`` (N, 3, 3), ``tau`` (N, 3) N·m in frame A and ``ref`` as for :func:`identify`. ``test_mean_rel_error`` compares predicted and measured
-    body-frame displacements Δζ (rad).
+    body-frame displacements Δζ (rad). ``split_seed``: seed of the train/test split (default 0,
+    as for :func:`vjm.diagnose`); ``holdout_seed`` is its former name, deprecated.
     """
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
+    split_seed = _split_seed(split_seed, holdout_seed)
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)) and is_columnar_path(check_path(data, "data")):
         data = _columnar_table(data)
     if tau is None and ref is None and is_table(data):
@@ -313,14 +327,14 @@ def diagnose(
     if tau is None and ref is None and isinstance(data, (str, os.PathLike)):
         with reworded(PYTHON_NAMES):
             summary, rows = _core.csjm_diagnose_csv(
-                check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, holdout_seed=holdout_seed,
+                check_path(data, "data"), fdr=fdr, test_fraction=test_fraction, split_seed=split_seed,
                 project=bool(project), progress=progress,
             )
     elif tau is not None and ref is not None:
         with reworded(PYTHON_NAMES):
             summary, rows = _core.csjm_diagnose(
                 f64(data, "R"), f64(tau, "tau"), int(ref), fdr=fdr, test_fraction=test_fraction,
-                holdout_seed=holdout_seed, project=bool(project), progress=progress,
+                split_seed=split_seed, project=bool(project), progress=progress,
             )
     else:
         raise ShapeError("diagnose needs a measurement-file path, or R (N, 3, 3), tau (N, 3) and ref")

@@ -573,7 +573,7 @@ class Diagnosis(_Result):
     error, the residual structure, the first-step ``scores`` of the catalogue, candidates
     ``rejected_on_holdout``, row counts, the ``fdr`` used. ``model_kind`` is ``"vjm"`` or
     ``"csjm"``. VJM: ``per_pose`` errors; CSJM: ``connection_term``, ``noise_sigma`` (N·m),
-    ``holdout_seed``. ``rows``: the per-row data (numpy columns).
+    ``split_seed``. ``rows``: the per-row data (numpy columns).
     """
 
     model_kind: str = field(metadata={"json": False})
@@ -593,7 +593,7 @@ class Diagnosis(_Result):
     explained_by_springs: Optional[List[str]] = _only(VJM)
     connection_term: Optional[ConnectionTest] = _only(CSJM)
     noise_sigma: Optional[List[float]] = _only(CSJM)
-    holdout_seed: Optional[int] = _only(CSJM)
+    split_seed: Optional[int] = _only(CSJM)
     rows: Optional[Union[DisplacementRows, MomentRows]] = field(default=None, repr=False, metadata={"json": False})
 
     def to_dict(self, *, rows: bool = False) -> Dict[str, Json]:

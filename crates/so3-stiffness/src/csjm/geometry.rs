@@ -30,7 +30,7 @@ pub struct PrototypeDimensions {
 
 impl PrototypeDimensions {
     /// The dimensions printed in the seed (section IV.A).
-    pub const SEED: PrototypeDimensions = PrototypeDimensions {
+    pub const PAPER: PrototypeDimensions = PrototypeDimensions {
         platform_short_side: 0.010,
         platform_long_side: 0.095,
         base_short_side: 0.005,
@@ -161,7 +161,7 @@ impl CsjmGeometry {
     /// assert!(((a - b).norm() - 0.010).abs() < 1e-12);
     /// ```
     pub fn prototype() -> Self {
-        Self::from_prototype_dimensions(&PrototypeDimensions::SEED)
+        Self::from_prototype_dimensions(&PrototypeDimensions::PAPER)
     }
 
     // Unvalidated construction; callers guarantee finite, positive dimensions.

@@ -100,8 +100,10 @@ pub struct DiagnoseOptions {
     pub fdr: f64,
     /// Fraction of the loaded rows held out (0 < f < 1).
     pub test_fraction: f64,
-    /// Seed of the train/test split (the same seed gives the same split).
-    pub holdout_seed: u64,
+    /// Seed of the train/test split (the same seed gives the same split; default
+    /// [`DEFAULT_SPLIT_SEED`](stiffness_core::engine::DEFAULT_SPLIT_SEED), 0, as for every
+    /// model).
+    pub split_seed: u64,
     /// The platform weight the `platform_gravity` candidate tests for (the prototype's by
     /// default: 4.82 N at ᴬr_G = (0, 0, 0.081) m, z_B up).
     pub weight: PointLoad,
@@ -119,7 +121,7 @@ impl Default for DiagnoseOptions {
         DiagnoseOptions {
             fdr: 0.01,
             test_fraction: 0.25,
-            holdout_seed: 0x5eed_d1a6,
+            split_seed: stiffness_core::engine::DEFAULT_SPLIT_SEED,
             weight: PointLoad::prototype_gravity(),
             read: ReadOptions::default(),
             alias_cosine: 0.99,
@@ -365,7 +367,7 @@ fn split(
     options: &DiagnoseOptions,
 ) -> Result<(Vec<usize>, Vec<usize>), DiagnoseError> {
     let mut order: Vec<usize> = (1..=loaded).collect();
-    order.shuffle(&mut StdRng::seed_from_u64(options.holdout_seed));
+    order.shuffle(&mut StdRng::seed_from_u64(options.split_seed));
     let n_test = ((options.test_fraction * loaded as f64).round() as usize).min(loaded);
     let mut test: Vec<usize> = order[..n_test].to_vec();
     test.sort_unstable();

@@ -214,7 +214,7 @@ pub struct CsjmDiagnosis {
     /// False discovery rate used.
     pub fdr: f64,
     /// Seed of the train/test split.
-    pub holdout_seed: u64,
+    pub split_seed: u64,
 }
 
 impl CsjmDiagnosis {

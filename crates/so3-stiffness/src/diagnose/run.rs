@@ -112,7 +112,7 @@ pub(super) fn run_diagnosis(
         n_train: problem.train.len(),
         n_test: problem.test.len(),
         fdr: q,
-        holdout_seed: options.holdout_seed,
+        split_seed: options.split_seed,
     })
 }
 

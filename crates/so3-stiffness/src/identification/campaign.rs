@@ -18,7 +18,7 @@
 //! counterweight increments (+x, −y, +z).
 //!
 //! # Seed-like campaign
-//! [`seed_like_simulator`] with [`CampaignConfig::seed_like`]: the prototype posed at the
+//! [`paper_like_simulator`] with [`CampaignConfig::paper_like`]: the prototype posed at the
 //! seed's R₀ under Table 3's pre-load, tilt stiffness calibrated to Table 3, counterweight-like
 //! increments. Measured first- versus second-order errors are in `docs/csjm-identification.md`.
 //!
@@ -113,7 +113,7 @@ pub const SEED_TABLE3_PRELOAD: [f64; 3] = [-0.06, -3.08, 1.07];
 
 /// The seed's reference pose R₀ of Table 3 (ᴮ_A R, row-major) with the sign of r₃₂ restored
 /// (printed +0.300 is not a rotation; see `docs/seed-000-tables.md` §2). Three decimals:
-/// project it with [`seed_reference_pose`].
+/// project it with [`paper_reference_pose`].
 pub const SEED_TABLE3_R0: [[f64; 3]; 3] = [
     [0.992, -0.060, -0.111],
     [0.090, 0.952, 0.292],
@@ -123,47 +123,47 @@ pub const SEED_TABLE3_R0: [[f64; 3]; 3] = [
 /// Tilt stiffness the seed-like simulator is calibrated to: the mean of K_D,xx = 29.39 and
 /// K_D,yy = 29.96 of Table 3, N·m/rad (K's diagonal equals K_D's: the connection term is
 /// skew).
-pub const SEED_LIKE_TILT_STIFFNESS: f64 = 29.675;
+pub const PAPER_LIKE_TILT_STIFFNESS: f64 = 29.675;
 
 /// Mean cable tension of the seed-like simulator at R₀ under the Table 3 pre-load, N: the
 /// lowest multiple of 10 N at which no cable goes slack in seed-like campaigns with
 /// increments up to 3 N·m (seeds 1–8; at 60 N cable 4 goes slack, at 40 N it is already slack
 /// at R₀). Kept low because tension raises the torsional stiffness (see
-/// [`seed_like_simulator`]).
-pub const SEED_LIKE_MEAN_TENSION: f64 = 70.0;
+/// [`paper_like_simulator`]).
+pub const PAPER_LIKE_MEAN_TENSION: f64 = 70.0;
 
 /// [`SEED_TABLE3_R0`] projected onto SO(3) (orthogonality error of the print: 7.1e-4).
-pub fn seed_reference_pose() -> Rotation3<f64> {
+pub fn paper_reference_pose() -> Rotation3<f64> {
     let m = nalgebra::Matrix3::from_fn(|i, j| SEED_TABLE3_R0[i][j]);
     // The constant is a rotation to print precision; the projection cannot fail.
     so3::project_to_rotation(&m).unwrap_or_else(|_| Rotation3::identity())
 }
 
 /// A seed-like CSJM (the seed's prototype geometry, cables alone) posed as in Table 3: the
-/// driving units hold the platform at the seed's R₀ ([`seed_reference_pose`]) where the cable
+/// driving units hold the platform at the seed's R₀ ([`paper_reference_pose`]) where the cable
 /// tensions balance the Table 3 pre-load exactly, so the campaign's reference pose is the
 /// seed's R₀ and the pre-load is the seed's.
 ///
 /// Calibration (stated, not fitted to any identification result):
-/// - tensions at R₀: the ones closest to a uniform [`SEED_LIKE_MEAN_TENSION`] (least-squares
+/// - tensions at R₀: the ones closest to a uniform [`PAPER_LIKE_MEAN_TENSION`] (least-squares
 ///   change, T = t̄·1 + J(JᵀJ)⁻¹(−τ₀ − Jᵀt̄·1)) that balance the pre-load: JᵀT = −τ₀;
 /// - one cable stiffness k for all six, chosen so that (K_xx + K_yy)/2 at R₀ equals
-///   [`SEED_LIKE_TILT_STIFFNESS`] (K is affine in k at fixed tensions).
+///   [`PAPER_LIKE_TILT_STIFFNESS`] (K is affine in k at fixed tensions).
 ///
 /// With the printed dimensions the torsional stiffness cannot reach Table 3's 7 N·m/rad: at
 /// home, with equal tensions t and stiffness k, K_xx = 0.00933k − 0.2325t and
 /// K_zz = 0.00249k + 0.0771t, so K_xx = 29.7 forces K_zz = 7.93 + 0.139t > 7.9. Here
 /// K_zz ≈ 16.9 N·m/rad at R₀ (k ≈ 4650 N/m; see `docs/csjm-identification.md`).
-pub fn seed_like_simulator() -> Result<CsjmSimulator, IdentificationError> {
+pub fn paper_like_simulator() -> Result<CsjmSimulator, IdentificationError> {
     let geometry = CsjmGeometry::prototype();
-    let r0 = seed_reference_pose();
+    let r0 = paper_reference_pose();
     let sim_error = |e: crate::CsjmError| IdentificationError::Simulation {
         index: 0,
         message: e.to_string(),
     };
     let kinematics = crate::csjm::CableKinematics::new(&geometry, &r0).map_err(sim_error)?;
     let j = kinematics.jacobian();
-    let uniform = nalgebra::Vector6::repeat(SEED_LIKE_MEAN_TENSION);
+    let uniform = nalgebra::Vector6::repeat(PAPER_LIKE_MEAN_TENSION);
     let preload = Vector3::from(SEED_TABLE3_PRELOAD);
     let jtj_inv =
         (j.transpose() * j)
@@ -179,7 +179,7 @@ pub fn seed_like_simulator() -> Result<CsjmSimulator, IdentificationError> {
     };
     // Affine in k: evaluate at k = 1 and 2 N/m (the model needs k > 0).
     let (k1, k2) = (tilt(1.0)?, tilt(2.0)?);
-    let cable_stiffness = 1.0 + (SEED_LIKE_TILT_STIFFNESS - k1) / (k2 - k1);
+    let cable_stiffness = 1.0 + (PAPER_LIKE_TILT_STIFFNESS - k1) / (k2 - k1);
     CsjmSimulator::with_pretension(geometry, [cable_stiffness; 6], tensions, &r0).map_err(sim_error)
 }
 
@@ -320,8 +320,8 @@ impl CampaignConfig {
     /// The seed's experiment as far as it is printed: Table 3's pre-load, 85 increments up to
     /// `max_increment` N·m in the sense of Table 4's counterweight loads
     /// ([`LoadPattern::SeedTable4`]), tracker and F/T noise of Tables 1–2. Use with
-    /// [`seed_like_simulator`].
-    pub fn seed_like(max_increment: f64, seed: u64) -> Self {
+    /// [`paper_like_simulator`].
+    pub fn paper_like(max_increment: f64, seed: u64) -> Self {
         CampaignConfig {
             preload: Vector3::from(SEED_TABLE3_PRELOAD),
             max_increment,

@@ -71,7 +71,7 @@ pub enum ConnectionTerm {
     LeviCivita,
     /// `K_L = −hat(τ₀)`, as printed in seed eq. 48b/50 (structure constants ±2). Reproduces the
     /// seed's Table 3; not symmetric for a conservative system.
-    SeedEq48b,
+    PaperEq48b,
     /// `K_L = 0`: the Euclidean slope K_D alone.
     None,
 }
@@ -81,7 +81,7 @@ impl ConnectionTerm {
     pub fn k_l(self, tau0: &Vector3<f64>) -> Matrix3<f64> {
         match self {
             ConnectionTerm::LeviCivita => -0.5 * so3::hat(tau0),
-            ConnectionTerm::SeedEq48b => -so3::hat(tau0),
+            ConnectionTerm::PaperEq48b => -so3::hat(tau0),
             ConnectionTerm::None => Matrix3::zeros(),
         }
     }
@@ -90,7 +90,7 @@ impl ConnectionTerm {
     fn factor(self) -> f64 {
         match self {
             ConnectionTerm::LeviCivita => 0.5,
-            ConnectionTerm::SeedEq48b => 1.0,
+            ConnectionTerm::PaperEq48b => 1.0,
             ConnectionTerm::None => 0.0,
         }
     }

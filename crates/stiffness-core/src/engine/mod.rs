@@ -37,6 +37,10 @@ pub use verdict::{goodness_of_fit, nested_test, ChiSquareTest};
 
 use crate::{Cancel, Cancelled};
 
+/// The default seed of a diagnosis' train/test split, for every model: the same data and the
+/// same seed give the same split, hence the same diagnosis.
+pub const DEFAULT_SPLIT_SEED: u64 = 0;
+
 /// What a model supplies to the engine.
 pub trait Problem {
     /// A term of a model: a named group of columns of the compressed design.

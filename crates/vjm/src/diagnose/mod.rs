@@ -137,7 +137,9 @@ pub struct DiagnoseOptions {
     pub fdr: f64,
     /// Fraction of poses held out when the file has no `set` column (default 0.25).
     pub test_fraction: f64,
-    /// Seed of the pose hold-out (default 0).
+    /// Seed of the pose hold-out (default
+    /// [`DEFAULT_SPLIT_SEED`](stiffness_core::engine::DEFAULT_SPLIT_SEED), 0, as for every
+    /// model).
     pub split_seed: u64,
     /// Noise model of the weights.
     pub noise: NoiseAssumption,
@@ -174,7 +176,7 @@ impl Default for DiagnoseOptions {
             baseline: None,
             fdr: 0.01,
             test_fraction: 0.25,
-            split_seed: 0,
+            split_seed: stiffness_core::engine::DEFAULT_SPLIT_SEED,
             noise: NoiseAssumption::default(),
             noise_known: false,
             max_findings: 6,

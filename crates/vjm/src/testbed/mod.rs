@@ -10,7 +10,7 @@
 //!   [`Dataset`](crate::dataset::Dataset) can be written as the measurement file. Weightless by
 //!   default; with [`CampaignSpec::gravity`] the arm is measured under its own weight
 //!   (see [`TrueModel::displacement_under_gravity`]).
-//! - [`seed_study`]: the seed paper's Table I study on the bundled arm.
+//! - [`paper_study`]: the seed paper's Table I study on the bundled arm.
 //!
 //! Magnitudes and the noise model are stated in `docs/diagnose.md`.
 
@@ -18,7 +18,7 @@ mod campaign;
 pub mod effects;
 pub mod kinematics;
 pub mod outside;
-mod seed_study;
+mod paper_study;
 mod truth;
 
 pub use campaign::{
@@ -26,11 +26,11 @@ pub use campaign::{
     simulate_planned_monitored, Campaign, CampaignSpec, CHECK_EVERY_ROWS,
 };
 pub use effects::{ForceSensorNoise, HarmonicDriveSpring, TrackerNoise};
-pub use seed_study::{
-    magnitude_error, seed_link_compliances, seed_link_share, seed_structural_link_share,
-    seed_structural_truth, seed_study, seed_tilt_ratio, seed_torsion_share, seed_truth,
-    vector_error, ClippedAngle, ErrorSummary, ModelErrors, SeedPaperFigures, SeedStudy,
-    SeedStudyRow, StructuralTruth, SEED_PAPER, SEED_TABLE_I_DEG, SEED_TORSION_SHARE, SEED_WRENCHES,
+pub use paper_study::{
+    magnitude_error, paper_link_compliances, paper_link_share, paper_structural_link_share,
+    paper_structural_truth, paper_study, paper_tilt_ratio, paper_torsion_share, paper_truth,
+    vector_error, ClippedAngle, ErrorSummary, ModelErrors, PaperFigures, PaperStudy, PaperStudyRow,
+    StructuralTruth, PAPER_FIGURES, PAPER_TABLE_I_DEG, PAPER_TORSION_SHARE, PAPER_WRENCHES,
 };
 pub use truth::{Effect, RestUnderGravity, TrueModel, MAX_GRAVITY_ITERATIONS, NOMINAL_TORSION};
 

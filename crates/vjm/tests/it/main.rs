@@ -20,12 +20,12 @@ mod kinematics;
 mod lsq;
 mod model_robot_path;
 mod model_vocabulary;
+mod paper_study;
 mod pinocchio;
 mod planning;
 mod prediction;
 mod robustness;
 mod screening;
-mod seed_study;
 mod stiffness_model;
 mod urdf;
 

@@ -46,7 +46,7 @@ fn noise_free_small_increments_recover_the_true_covariant_stiffness() {
     assert!((e.tau0 - c.true_tau0).norm() < 1e-9);
     // The seed's connection term misses the symmetric truth by ½‖hat τ₀‖.
     let mut seed = FitOptions::with_order(FitOrder::Second);
-    seed.connection = ConnectionTerm::SeedEq48b;
+    seed.connection = ConnectionTerm::PaperEq48b;
     let e_seed = identify(&c.dataset, &seed).unwrap();
     println!(
         "noise-free: seed eq. 48b rel error {:.3}, asymmetry {:.3}",
@@ -275,12 +275,12 @@ fn invalid_settings_are_named() {
 // stiffness calibrated to Table 3, one-sided increments in the sense of Table 4 (issue 4,
 // "second-order fit … where the first-order fit does not"). See docs/csjm-identification.md.
 
-mod seed_like {
+mod paper_like {
     use super::*;
     use nalgebra::Vector3;
     use so3_stiffness::csjm::{stiffness_at, CsjmGeometry};
     use so3_stiffness::identification::campaign::{
-        seed_like_simulator, seed_reference_pose, SEED_LIKE_TILT_STIFFNESS, SEED_TABLE3_PRELOAD,
+        paper_like_simulator, paper_reference_pose, PAPER_LIKE_TILT_STIFFNESS, SEED_TABLE3_PRELOAD,
         SEED_TABLE3_R0, SEED_TABLE4_DIRECTION,
     };
     use so3_stiffness::so3;
@@ -288,30 +288,30 @@ mod seed_like {
     /// The acceptance threshold of issue 4 (relative Frobenius error).
     const ACCEPTANCE: f64 = 0.03;
 
-    fn seed_like(max_increment: f64, seed: u64, noisy: bool) -> Campaign {
-        let mut config = CampaignConfig::seed_like(max_increment, seed);
+    fn paper_like(max_increment: f64, seed: u64, noisy: bool) -> Campaign {
+        let mut config = CampaignConfig::paper_like(max_increment, seed);
         if !noisy {
             config.tracker = TrackerNoise::none();
             config.moment_noise = MomentNoise::none();
         }
-        simulate_campaign(&seed_like_simulator().unwrap(), &config).unwrap()
+        simulate_campaign(&paper_like_simulator().unwrap(), &config).unwrap()
     }
 
     #[test]
     fn simulator_is_posed_and_calibrated_as_table_3() {
-        let sim = seed_like_simulator().unwrap();
-        let r0 = seed_reference_pose();
+        let sim = paper_like_simulator().unwrap();
+        let r0 = paper_reference_pose();
         // The projection stays within print precision of Table 3's R₀ (r₃₂ = −0.300).
         let printed = nalgebra::Matrix3::from_fn(|i, j| SEED_TABLE3_R0[i][j]);
         assert!((r0.matrix() - printed).amax() < 2e-3);
         let preload = Vector3::from(SEED_TABLE3_PRELOAD);
         // The seed's R₀ is an equilibrium under the seed's pre-load.
         assert!((sim.holding_moment(&r0).unwrap() - preload).norm() < 1e-9);
-        let c = seed_like(1.0, 1, false);
+        let c = paper_like(1.0, 1, false);
         assert!(so3::distance(&c.true_r0, &r0) < 1e-9);
         let k = c.true_stiffness.covariant;
         println!("seed-like K at R₀ (N·m/rad):\n{k:.3}");
-        assert!((0.5 * (k[(0, 0)] + k[(1, 1)]) - SEED_LIKE_TILT_STIFFNESS).abs() < 1e-6);
+        assert!((0.5 * (k[(0, 0)] + k[(1, 1)]) - PAPER_LIKE_TILT_STIFFNESS).abs() < 1e-6);
         assert!((k - k.transpose()).norm() < 1e-9 * k.norm());
         // Torsion stays above the geometric floor (7.93 N·m/rad at zero tension): Table 3's
         // 7 N·m/rad is out of reach of the printed dimensions.
@@ -337,7 +337,7 @@ mod seed_like {
                     .covariant
             };
             let (k1, k2) = (at(1.0), at(2.0));
-            let k = 1.0 + (SEED_LIKE_TILT_STIFFNESS - k1[(0, 0)]) / (k2[(0, 0)] - k1[(0, 0)]);
+            let k = 1.0 + (PAPER_LIKE_TILT_STIFFNESS - k1[(0, 0)]) / (k2[(0, 0)] - k1[(0, 0)]);
             let kzz = at(k)[(2, 2)];
             println!("home, t = {t} N: k = {k:.0} N/m, K_zz = {kzz:.3} N·m/rad");
             assert!(
@@ -353,7 +353,7 @@ mod seed_like {
     #[test]
     fn curvature_bias_of_counterweight_loading() {
         for seed in SEEDS {
-            let bias = |m: f64, order| error_of(&seed_like(m, seed, false), order);
+            let bias = |m: f64, order| error_of(&paper_like(m, seed, false), order);
             let (first_1, first_3) = (bias(1.0, FitOrder::First), bias(3.0, FitOrder::First));
             let (second_1, second_3) = (bias(1.0, FitOrder::Second), bias(3.0, FitOrder::Second));
             println!(
@@ -374,7 +374,7 @@ mod seed_like {
     fn noisy_counterweight_campaign_first_versus_second_order_at_3_nm() {
         let (mut first_sum, mut second_sum) = (0.0, 0.0);
         for seed in SEEDS {
-            let c = seed_like(3.0, seed, true);
+            let c = paper_like(3.0, seed, true);
             let k_true = c.true_stiffness.covariant;
             let first = identify(&c.dataset, &FitOptions::with_order(FitOrder::First)).unwrap();
             let second = identify(&c.dataset, &FitOptions::with_order(FitOrder::Second)).unwrap();
@@ -479,7 +479,7 @@ mod seed_like {
     fn conservative_second_order_fit_does_not_rescue_it_either() {
         let (mut first_sum, mut constrained_sum) = (0.0, 0.0);
         for seed in SEEDS {
-            let clean = seed_like(3.0, seed, false);
+            let clean = paper_like(3.0, seed, false);
             let k_true = clean.true_stiffness.covariant;
             let bias = rel(&conservative_second_order_k(&clean), &k_true);
             let first_bias = error_of(&clean, FitOrder::First);
@@ -487,7 +487,7 @@ mod seed_like {
                 bias < 0.15 * first_bias,
                 "seed {seed}: {bias} vs {first_bias}"
             );
-            let noisy = seed_like(3.0, seed, true);
+            let noisy = paper_like(3.0, seed, true);
             let constrained = rel(&conservative_second_order_k(&noisy), &k_true);
             let first = error_of(&noisy, FitOrder::First);
             println!(

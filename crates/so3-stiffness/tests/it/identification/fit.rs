@@ -58,7 +58,7 @@ fn connection_options_differ_by_multiples_of_hat_tau0() {
     };
     assert!((fit(ConnectionTerm::None) - k_true()).norm() < 1e-10);
     assert!((fit(ConnectionTerm::LeviCivita) - (k_true() - 0.5 * so3::hat(&tau0))).norm() < 1e-10);
-    assert!((fit(ConnectionTerm::SeedEq48b) - (k_true() - so3::hat(&tau0))).norm() < 1e-10);
+    assert!((fit(ConnectionTerm::PaperEq48b) - (k_true() - so3::hat(&tau0))).norm() < 1e-10);
 }
 
 /// The central mathematical check: on an independent conservative system, K = K_D − ½hat(τ₀)

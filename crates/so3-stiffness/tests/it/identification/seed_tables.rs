@@ -95,7 +95,7 @@ fn max_abs(m: &Matrix3<f64>) -> f64 {
 /// what was printed. The printed K_L entry "−1.067" is −1.07 (= −τ_z) to rounding.
 #[test]
 fn table3_k_is_k_d_minus_hat_tau0() {
-    let seed_kl = ConnectionTerm::SeedEq48b.k_l(&tau0());
+    let seed_kl = ConnectionTerm::PaperEq48b.k_l(&tau0());
     assert!(max_abs(&(seed_kl - k_l_printed())) < 0.0031);
     let k = k_d() + seed_kl;
     assert!(max_abs(&(k - k_printed())) <= 0.0101, "{}", k - k_printed());

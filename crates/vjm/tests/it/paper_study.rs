@@ -2,9 +2,10 @@
 //! truth calibrated to the seed's torsion share, and the study's figures next to the seed's.
 
 use vjm::testbed::{
-    magnitude_error, seed_link_compliances, seed_link_share, seed_structural_link_share,
-    seed_structural_truth, seed_study, seed_tilt_ratio, seed_torsion_share, seed_truth,
-    vector_error, Effect, SeedStudy, TrueModel, NOMINAL_TORSION, SEED_PAPER, SEED_TORSION_SHARE,
+    magnitude_error, paper_link_compliances, paper_link_share, paper_structural_link_share,
+    paper_structural_truth, paper_study, paper_tilt_ratio, paper_torsion_share, paper_truth,
+    vector_error, Effect, PaperStudy, TrueModel, NOMINAL_TORSION, PAPER_FIGURES,
+    PAPER_TORSION_SHARE,
 };
 use vjm::SerialChain;
 use vjm::{spring_axes, SpringAxis};
@@ -29,7 +30,7 @@ fn the_two_metrics_by_hand() {
     assert!((vector_error(&pred, &meas) - 0.1).abs() < 1e-15);
 }
 
-fn print(name: &str, s: &SeedStudy) {
+fn print(name: &str, s: &PaperStudy) {
     for (model, e) in [
         ("traditional", &s.traditional),
         ("extended", &s.extended),
@@ -64,12 +65,12 @@ fn print(name: &str, s: &SeedStudy) {
 }
 
 #[test]
-fn seed_study_reports_both_metrics_per_row_and_as_means() {
+fn paper_study_reports_both_metrics_per_row_and_as_means() {
     let chain = SerialChain::bundled();
-    let (truth, ratio) = seed_truth(&chain).unwrap();
+    let (truth, ratio) = paper_truth(&chain).unwrap();
     println!("calibrated tilt ratio {ratio:.6}");
-    let quiet = seed_study(&chain, &truth, false, 0).unwrap();
-    let noisy = seed_study(&chain, &truth, true, 0).unwrap();
+    let quiet = paper_study(&chain, &truth, false, 0).unwrap();
+    let noisy = paper_study(&chain, &truth, true, 0).unwrap();
     print("noise-free", &quiet);
     print("noisy", &noisy);
     for s in [&quiet, &noisy] {
@@ -123,7 +124,7 @@ fn seed_study_reports_both_metrics_per_row_and_as_means() {
     assert!(noisy.extended.vector.all < noisy.traditional.vector.all);
     // The magnitude hides the error of direction: well below the vector error.
     assert!(quiet.traditional.magnitude.all < 0.8 * quiet.traditional.vector.all);
-    assert!((quiet.torsion_share - SEED_TORSION_SHARE).abs() < 1e-3);
+    assert!((quiet.torsion_share - PAPER_TORSION_SHARE).abs() < 1e-3);
     assert!(
         !quiet.clipped.is_empty(),
         "Table I exceeds the Panda's joint 4/6 limits"
@@ -133,30 +134,30 @@ fn seed_study_reports_both_metrics_per_row_and_as_means() {
 #[test]
 fn the_truth_is_calibrated_to_the_seed_torsion_share() {
     let chain = SerialChain::bundled();
-    let (truth, ratio) = seed_truth(&chain).unwrap();
-    let share = seed_torsion_share(&chain, &truth).unwrap();
+    let (truth, ratio) = paper_truth(&chain).unwrap();
+    let share = paper_torsion_share(&chain, &truth).unwrap();
     assert!((share - 0.765).abs() < 1e-3, "share {share}");
     assert!(ratio > 0.0);
     // The share is the seed's: over the 13 configurations under the Section IV-B load.
     let torsion_only = TrueModel::torsion_only(&NOMINAL_TORSION);
-    assert_eq!(seed_torsion_share(&chain, &torsion_only).unwrap(), 1.0);
+    assert_eq!(paper_torsion_share(&chain, &torsion_only).unwrap(), 1.0);
     // The study's former fixed ratio 0.3 does not give the seed's share (the check can fail).
     let fixed = TrueModel::with_tilts(&NOMINAL_TORSION, 0.3);
-    let fixed_share = seed_torsion_share(&chain, &fixed).unwrap();
+    let fixed_share = paper_torsion_share(&chain, &fixed).unwrap();
     println!(
         "torsion share at tilt ratio 0.3: {:.2} %",
         100.0 * fixed_share
     );
     assert!((fixed_share - 0.765).abs() > 0.01);
     // Other targets are reached too, and bad targets are refused by name.
-    let r = seed_tilt_ratio(&chain, &NOMINAL_TORSION, 0.6).unwrap();
-    let s = seed_torsion_share(&chain, &TrueModel::with_tilts(&NOMINAL_TORSION, r)).unwrap();
+    let r = paper_tilt_ratio(&chain, &NOMINAL_TORSION, 0.6).unwrap();
+    let s = paper_torsion_share(&chain, &TrueModel::with_tilts(&NOMINAL_TORSION, r)).unwrap();
     assert!((s - 0.6).abs() < 1e-6);
     for bad in [0.0, 1.0, f64::NAN, -0.2] {
-        let e = seed_tilt_ratio(&chain, &NOMINAL_TORSION, bad).unwrap_err();
+        let e = paper_tilt_ratio(&chain, &NOMINAL_TORSION, bad).unwrap_err();
         assert!(e.to_string().contains("share"), "{e}");
     }
-    assert!(seed_tilt_ratio(&chain, &NOMINAL_TORSION[..6], 0.7).is_err());
+    assert!(paper_tilt_ratio(&chain, &NOMINAL_TORSION[..6], 0.7).is_err());
 }
 
 #[test]
@@ -195,7 +196,7 @@ fn a_link_translation_moves_the_tip_along_its_axis_by_the_force_it_carries() {
 #[test]
 fn link_compliances_are_cantilevers_across_the_link() {
     let chain = SerialChain::bundled();
-    let c = seed_link_compliances(&chain, 2.0e-6);
+    let c = paper_link_compliances(&chain, 2.0e-6);
     // The Panda's longest link runs from joint 4 to joint 5: (−0.0825, 0.384, 0) m in joint
     // 4's frame, whose spring axes are [z, x, y]. Across it: the full scale on z (⊥ to the
     // link), scale·(1 − (0.0825/L)²) on x and scale·(1 − (0.384/L)²) on y.
@@ -215,43 +216,43 @@ fn link_compliances_are_cantilevers_across_the_link() {
 fn the_structural_truth_has_the_seed_torsion_share_and_the_asked_link_share() {
     let chain = SerialChain::bundled();
     for share in [0.03, 0.1] {
-        let t = seed_structural_truth(&chain, share).unwrap();
-        let torsion = seed_torsion_share(&chain, &t.truth).unwrap();
-        let links = seed_link_share(&chain, &t.truth).unwrap();
-        assert!((torsion - SEED_TORSION_SHARE).abs() < 1e-6, "{torsion}");
+        let t = paper_structural_truth(&chain, share).unwrap();
+        let torsion = paper_torsion_share(&chain, &t.truth).unwrap();
+        let links = paper_link_share(&chain, &t.truth).unwrap();
+        assert!((torsion - PAPER_TORSION_SHARE).abs() < 1e-6, "{torsion}");
         assert!((links - share).abs() < 1e-6, "{links}");
         // The links take part of what the tilts carried without them.
-        let (_, plain) = seed_truth(&chain).unwrap();
+        let (_, plain) = paper_truth(&chain).unwrap();
         assert!(t.tilt_ratio < plain && t.tilt_ratio > 0.0);
     }
     // A joints-only truth has no link share; impossible targets are refused by name.
-    let (plain, _) = seed_truth(&chain).unwrap();
-    assert_eq!(seed_link_share(&chain, &plain).unwrap(), 0.0);
+    let (plain, _) = paper_truth(&chain).unwrap();
+    assert_eq!(paper_link_share(&chain, &plain).unwrap(), 0.0);
     for bad in [0.0, 1.0, f64::NAN] {
-        let e = seed_structural_truth(&chain, bad).unwrap_err();
+        let e = paper_structural_truth(&chain, bad).unwrap_err();
         assert!(e.to_string().contains("link share"), "{e}");
     }
-    let e = seed_structural_truth(&chain, 0.9).unwrap_err();
+    let e = paper_structural_truth(&chain, 0.9).unwrap_err();
     assert!(e.to_string().contains("the most is"), "{e}");
 }
 
 #[test]
 fn with_compliant_links_the_full_model_recovers_what_the_extended_model_misses() {
     let chain = SerialChain::bundled();
-    let share = seed_structural_link_share(&chain).unwrap();
-    let t = seed_structural_truth(&chain, share).unwrap();
+    let share = paper_structural_link_share(&chain).unwrap();
+    let t = paper_structural_truth(&chain, share).unwrap();
     println!(
         "structural truth: link share {:.2} %, tilt ratio {:.4}, link scale {:.3e} m/N",
         100.0 * share,
         t.tilt_ratio,
         t.link_scale
     );
-    let quiet = seed_study(&chain, &t.truth, false, 0).unwrap();
-    let noisy = seed_study(&chain, &t.truth, true, 0).unwrap();
+    let quiet = paper_study(&chain, &t.truth, false, 0).unwrap();
+    let noisy = paper_study(&chain, &t.truth, true, 0).unwrap();
     print("links, noise-free", &quiet);
     print("links, noisy", &noisy);
     // Calibrated: the extended model keeps the seed's 3.74 % on noise-free data.
-    assert!((quiet.extended.magnitude.all - SEED_PAPER.extended_all).abs() < 1e-5);
+    assert!((quiet.extended.magnitude.all - PAPER_FIGURES.extended_all).abs() < 1e-5);
     // The full model contains the truth: exact without noise, and the better model with it.
     assert!(quiet.full.vector.all < 1e-9, "{}", quiet.full.vector.all);
     assert!(noisy.full.vector.all < noisy.extended.vector.all);
@@ -265,7 +266,7 @@ fn with_compliant_links_the_full_model_recovers_what_the_extended_model_misses()
     // Not calibrated: the traditional model's error lands near the seed's 7.75 % (within 1.5
     // points), a check of the truth's structure rather than a target.
     assert!(
-        (quiet.traditional.magnitude.all - SEED_PAPER.traditional_all).abs() < 0.015,
+        (quiet.traditional.magnitude.all - PAPER_FIGURES.traditional_all).abs() < 0.015,
         "{}",
         quiet.traditional.magnitude.all
     );

@@ -16,7 +16,7 @@ use crate::testbed::kinematics::deflected_pose;
 use stiffness_core::engine::basis::solve_columns;
 
 /// Table I of the seed, degrees: rows 1–8 identification, 9–13 verification.
-pub const SEED_TABLE_I_DEG: [[f64; 7]; 13] = [
+pub const PAPER_TABLE_I_DEG: [[f64; 7]; 13] = [
     [-30.0, 30.0, -30.0, -100.0, -160.0, 110.0, 0.0],
     [60.0, 30.0, 30.0, 100.0, -140.0, -100.0, 0.0],
     [80.0, -30.0, -20.0, 110.0, 0.0, 110.0, 0.0],
@@ -35,7 +35,7 @@ pub const SEED_TABLE_I_DEG: [[f64; 7]; 13] = [
 /// The two wrenches applied at each configuration, base frame `[N; N·m]`. The first is the
 /// seed's Section IV-B load; the seed does not list its second identification load, so the
 /// second is our choice: a load of the same size pointing elsewhere.
-pub const SEED_WRENCHES: [[f64; 6]; 2] = [
+pub const PAPER_WRENCHES: [[f64; 6]; 2] = [
     [25.0, 35.0, 15.0, 6.0, 8.0, 9.0],
     [-30.0, 20.0, -25.0, -5.0, 7.0, -4.0],
 ];
@@ -53,11 +53,11 @@ pub struct ClippedAngle {
     pub used: f64,
 }
 
-/// What the seed paper reports for the quantities [`SeedStudy`] measures (Section IV-A, Fig. 4,
+/// What the seed paper reports for the quantities [`PaperStudy`] measures (Section IV-A, Fig. 4,
 /// and Section IV-B), as fractions. Its metric is the error of the deflection's magnitude
 /// ("on the total deformation"), i.e. [`magnitude_error`].
 #[derive(Debug, Clone, Copy, Serialize)]
-pub struct SeedPaperFigures {
+pub struct PaperFigures {
     /// Traditional model, mean magnitude error over the 26 tests: 7.75 %.
     pub traditional_all: f64,
     /// Extended model, mean magnitude error over the 26 tests: 3.74 %.
@@ -72,8 +72,8 @@ pub struct SeedPaperFigures {
     pub torsion_share: f64,
 }
 
-/// The seed paper's figures (see [`SeedPaperFigures`]).
-pub const SEED_PAPER: SeedPaperFigures = SeedPaperFigures {
+/// The seed paper's figures (see [`PaperFigures`]).
+pub const PAPER_FIGURES: PaperFigures = PaperFigures {
     traditional_all: 0.0775,
     extended_all: 0.0374,
     extended_verification_max: 0.109,
@@ -83,8 +83,8 @@ pub const SEED_PAPER: SeedPaperFigures = SeedPaperFigures {
 };
 
 /// The seed's torsion share, Section IV-B: over the 13 configurations under the load
-/// [`SEED_WRENCHES`]`[0]`, the torsional springs carry 76.5 % of the deflection on average.
-pub const SEED_TORSION_SHARE: f64 = SEED_PAPER.torsion_share;
+/// [`PAPER_WRENCHES`]`[0]`, the torsional springs carry 76.5 % of the deflection on average.
+pub const PAPER_TORSION_SHARE: f64 = PAPER_FIGURES.torsion_share;
 
 /// Error of the deflection's magnitude, |‖pred‖ − ‖meas‖| / ‖meas‖ (the seed's metric: it
 /// compares "the total deformation", Fig. 4). Blind to direction.
@@ -104,12 +104,12 @@ fn norm3(v: &[f64; 3]) -> f64 {
 
 /// One of the 26 tests: a Table I configuration under one of the two loads.
 #[derive(Debug, Clone, Serialize)]
-pub struct SeedStudyRow {
+pub struct PaperStudyRow {
     /// The seed's test number, 1–26: configuration c under load l is test 2(c − 1) + l.
     pub test: usize,
     /// 1-based Table I configuration.
     pub configuration: usize,
-    /// 1-based load ([`SEED_WRENCHES`]).
+    /// 1-based load ([`PAPER_WRENCHES`]).
     pub load: usize,
     /// Whether the row is one of the 16 the models are fitted on (configurations 1–8).
     pub identification: bool,
@@ -151,8 +151,8 @@ pub struct ErrorSummary {
 }
 
 impl ErrorSummary {
-    fn of(rows: &[SeedStudyRow], err: impl Fn(&SeedStudyRow) -> f64) -> Self {
-        let mean = |keep: &dyn Fn(&SeedStudyRow) -> bool| {
+    fn of(rows: &[PaperStudyRow], err: impl Fn(&PaperStudyRow) -> f64) -> Self {
+        let mean = |keep: &dyn Fn(&PaperStudyRow) -> bool| {
             let e: Vec<f64> = rows.iter().filter(|r| keep(r)).map(&err).collect();
             e.iter().sum::<f64>() / e.len() as f64
         };
@@ -182,9 +182,9 @@ pub struct ModelErrors {
 
 impl ModelErrors {
     fn of(
-        rows: &[SeedStudyRow],
-        magnitude: impl Fn(&SeedStudyRow) -> f64,
-        vector: impl Fn(&SeedStudyRow) -> f64,
+        rows: &[PaperStudyRow],
+        magnitude: impl Fn(&PaperStudyRow) -> f64,
+        vector: impl Fn(&PaperStudyRow) -> f64,
     ) -> Self {
         ModelErrors {
             magnitude: ErrorSummary::of(rows, magnitude),
@@ -193,9 +193,9 @@ impl ModelErrors {
     }
 }
 
-/// Result of [`seed_study`]: the three models under both metrics, per row and summarised.
+/// Result of [`paper_study`]: the three models under both metrics, per row and summarised.
 #[derive(Debug, Clone, Serialize)]
-pub struct SeedStudy {
+pub struct PaperStudy {
     /// Traditional model (7 torsional springs).
     pub traditional: ModelErrors,
     /// Extended model (21 springs).
@@ -204,19 +204,19 @@ pub struct SeedStudy {
     /// model) and 21 translations (along each joint's spring axes, m/N).
     pub full: ModelErrors,
     /// The 26 tests in the seed's order.
-    pub rows: Vec<SeedStudyRow>,
+    pub rows: Vec<PaperStudyRow>,
     /// Rank of the extended model's identification matrix (≤ 21).
     pub extended_rank: usize,
     /// Rank of the full model's identification matrix (≤ 42; 16 rows give 48 equations).
     pub full_rank: usize,
-    /// The truth's torsion share, [`seed_torsion_share`].
+    /// The truth's torsion share, [`paper_torsion_share`].
     pub torsion_share: f64,
-    /// The truth's link share, [`seed_link_share`]: 0 for a truth with joint springs only.
+    /// The truth's link share, [`paper_link_share`]: 0 for a truth with joint springs only.
     pub link_share: f64,
     /// Joint angles moved inside the limits.
     pub clipped: Vec<ClippedAngle>,
     /// The seed's figures for the same quantities.
-    pub paper: SeedPaperFigures,
+    pub paper: PaperFigures,
 }
 
 impl TrueModel {
@@ -253,7 +253,7 @@ impl TrueModel {
 }
 
 /// Table I in radians, clipped to `chain`'s limits, and the angles that moved.
-fn seed_configurations(
+fn paper_configurations(
     chain: &SerialChain,
 ) -> Result<(Vec<Vec<f64>>, Vec<ClippedAngle>), TestbedError> {
     let n = chain.n_joints();
@@ -264,7 +264,7 @@ fn seed_configurations(
         });
     }
     let mut clipped = Vec::new();
-    let configurations = SEED_TABLE_I_DEG
+    let configurations = PAPER_TABLE_I_DEG
         .iter()
         .enumerate()
         .map(|(c, row)| {
@@ -291,21 +291,21 @@ fn seed_configurations(
 }
 
 /// The torsion share of `truth` as the seed defines it (Section IV-B): the mean over the 13
-/// Table I configurations (clipped to the limits), under the load [`SEED_WRENCHES`]`[0]`, of
+/// Table I configurations (clipped to the limits), under the load [`PAPER_WRENCHES`]`[0]`, of
 /// ‖d_torsion‖ / ‖d‖, where d is the truth's tip displacement and d_torsion the displacement
 /// of the truth's torsional springs alone (tilts and effects removed).
-pub fn seed_torsion_share(chain: &SerialChain, truth: &TrueModel) -> Result<f64, TestbedError> {
+pub fn paper_torsion_share(chain: &SerialChain, truth: &TrueModel) -> Result<f64, TestbedError> {
     check_truth(chain, truth)?;
-    let (configurations, _) = seed_configurations(chain)?;
+    let (configurations, _) = paper_configurations(chain)?;
     Ok(torsion_share_at(chain, truth, &configurations))
 }
 
-/// The link share of `truth`, defined like [`seed_torsion_share`] with the links'
+/// The link share of `truth`, defined like [`paper_torsion_share`] with the links'
 /// translational springs ([`Effect::LinkTranslation`](super::Effect::LinkTranslation)) alone in
 /// the numerator: how much of the deflection the structure beyond the joints carries.
-pub fn seed_link_share(chain: &SerialChain, truth: &TrueModel) -> Result<f64, TestbedError> {
+pub fn paper_link_share(chain: &SerialChain, truth: &TrueModel) -> Result<f64, TestbedError> {
     check_truth(chain, truth)?;
-    let (configurations, _) = seed_configurations(chain)?;
+    let (configurations, _) = paper_configurations(chain)?;
     Ok(link_share_at(chain, truth, &configurations))
 }
 
@@ -317,7 +317,7 @@ fn share_at(
     part: &TrueModel,
     configurations: &[Vec<f64>],
 ) -> f64 {
-    let w = SEED_WRENCHES[0];
+    let w = PAPER_WRENCHES[0];
     configurations
         .iter()
         .map(|q| {
@@ -353,7 +353,7 @@ fn link_share_at(chain: &SerialChain, truth: &TrueModel, configurations: &[Vec<f
     share_at(chain, truth, &links, configurations)
 }
 
-/// Doublings of the upper bracket and bisection steps of [`seed_tilt_ratio`] (the share is
+/// Doublings of the upper bracket and bisection steps of [`paper_tilt_ratio`] (the share is
 /// solved to ~1e-12 relative in well under 100 steps).
 const CALIBRATION_STEPS: usize = 200;
 
@@ -405,20 +405,20 @@ fn check_share(share: f64, what: &str) -> Result<(), TestbedError> {
 }
 
 /// The tilt ratio r for which [`TrueModel::with_tilts`]`(torsion, r)` has the torsion share
-/// [`seed_torsion_share`] = `share`, solved by bisection on r (the share is 1 at r = 0 and
+/// [`paper_torsion_share`] = `share`, solved by bisection on r (the share is 1 at r = 0 and
 /// falls as the tilts grow; the bracket's upper end is doubled until it is below `share`).
-pub fn seed_tilt_ratio(
+pub fn paper_tilt_ratio(
     chain: &SerialChain,
     torsion: &[f64],
     share: f64,
 ) -> Result<f64, TestbedError> {
     check_share(share, "torsion")?;
     check_truth(chain, &TrueModel::torsion_only(torsion))?;
-    let (configurations, _) = seed_configurations(chain)?;
+    let (configurations, _) = paper_configurations(chain)?;
     tilt_ratio_with(chain, torsion, &[], share, &configurations)
 }
 
-/// [`seed_tilt_ratio`] for a truth that also carries `links` (link translations): the tilts
+/// [`paper_tilt_ratio`] for a truth that also carries `links` (link translations): the tilts
 /// bring the torsion share down to `share` from where the links leave it; an error when the
 /// links alone take it below `share`.
 fn tilt_ratio_with(
@@ -445,10 +445,10 @@ fn tilt_ratio_with(
 }
 
 /// The seed study's truth: [`NOMINAL_TORSION`](super::NOMINAL_TORSION) with tilts calibrated to
-/// the seed's torsion share ([`SEED_TORSION_SHARE`]); returns it and its tilt ratio.
-pub fn seed_truth(chain: &SerialChain) -> Result<(TrueModel, f64), TestbedError> {
+/// the seed's torsion share ([`PAPER_TORSION_SHARE`]); returns it and its tilt ratio.
+pub fn paper_truth(chain: &SerialChain) -> Result<(TrueModel, f64), TestbedError> {
     let torsion = nominal_torsion(chain);
-    let r = seed_tilt_ratio(chain, &torsion, SEED_TORSION_SHARE)?;
+    let r = paper_tilt_ratio(chain, &torsion, PAPER_TORSION_SHARE)?;
     Ok((TrueModel::with_tilts(&torsion, r), r))
 }
 
@@ -465,7 +465,7 @@ fn nominal_torsion(chain: &SerialChain) -> Vec<f64> {
 /// length and e_k the spring axis. A cantilever's tip compliance across its length is
 /// L³/(3EI); along it (L/(EA)) it is orders smaller and taken as 0. A link of zero length
 /// (coincident joint origins) is rigid.
-pub fn seed_link_compliances(chain: &SerialChain, scale: f64) -> Vec<[f64; 3]> {
+pub fn paper_link_compliances(chain: &SerialChain, scale: f64) -> Vec<[f64; 3]> {
     let joints = chain.joints();
     let links: Vec<nalgebra::Vector3<f64>> = (0..joints.len())
         .map(|j| match joints.get(j + 1) {
@@ -502,25 +502,31 @@ pub struct StructuralTruth {
     pub truth: TrueModel,
     /// Tilt compliance / torsion compliance at every joint.
     pub tilt_ratio: f64,
-    /// The `scale` of [`seed_link_compliances`], m/N: the bending compliance of the longest
+    /// The `scale` of [`paper_link_compliances`], m/N: the bending compliance of the longest
     /// link.
     pub link_scale: f64,
 }
 
-/// The seed study's truth with links that bend ([`seed_link_compliances`]): the link scale
-/// chosen so that [`seed_link_share`] is `link_share`, the tilts so that the torsion share is
+/// The seed study's truth with links that bend ([`paper_link_compliances`]): the link scale
+/// chosen so that [`paper_link_share`] is `link_share`, the tilts so that the torsion share is
 /// the seed's 76.5 % with those links in place (nested bisections, each capped).
-pub fn seed_structural_truth(
+pub fn paper_structural_truth(
     chain: &SerialChain,
     link_share: f64,
 ) -> Result<StructuralTruth, TestbedError> {
     check_share(link_share, "link")?;
     let torsion = nominal_torsion(chain);
     check_truth(chain, &TrueModel::torsion_only(&torsion))?;
-    let (configurations, _) = seed_configurations(chain)?;
+    let (configurations, _) = paper_configurations(chain)?;
     let build = |scale: f64| -> Result<(TrueModel, f64), TestbedError> {
-        let links = seed_link_compliances(chain, scale);
-        let r = tilt_ratio_with(chain, &torsion, &links, SEED_TORSION_SHARE, &configurations)?;
+        let links = paper_link_compliances(chain, scale);
+        let r = tilt_ratio_with(
+            chain,
+            &torsion,
+            &links,
+            PAPER_TORSION_SHARE,
+            &configurations,
+        )?;
         Ok((
             TrueModel::with_tilts(&torsion, r).with_link_translations(&links),
             r,
@@ -539,7 +545,7 @@ pub fn seed_structural_truth(
     if (reached - link_share).abs() > 1e-6 {
         return Err(TestbedError::Fit {
             message: format!(
-                "no truth with the seed's torsion share ({SEED_TORSION_SHARE}) has the link share \
+                "no truth with the seed's torsion share ({PAPER_TORSION_SHARE}) has the link share \
                  {link_share}: the most is {reached:.4}"
             ),
         });
@@ -552,20 +558,20 @@ pub fn seed_structural_truth(
 }
 
 /// The link share at which the extended model's noise-free mean magnitude error over the 26
-/// tests of [`seed_structural_truth`] is the seed's 3.74 % ([`SEED_PAPER`]`.extended_all`):
+/// tests of [`paper_structural_truth`] is the seed's 3.74 % ([`PAPER_FIGURES`]`.extended_all`):
 /// the structure beyond the joints that leaves the seed's extended model its residual, with
 /// the seed's torsion share. Bisection on the share (to 1e-6 relative, capped); the error
 /// grows with the share (measured: 0.9 % at 2 %, 2.1 % at 5 %, 4.2 % at 10 %, 6.1 % at 15 %
 /// on the bundled Panda).
-pub fn seed_structural_link_share(chain: &SerialChain) -> Result<f64, TestbedError> {
-    let target = SEED_PAPER.extended_all;
+pub fn paper_structural_link_share(chain: &SerialChain) -> Result<f64, TestbedError> {
+    let target = PAPER_FIGURES.extended_all;
     let error_at = |share: f64| -> Option<f64> {
-        let t = seed_structural_truth(chain, share).ok()?;
-        let s = seed_study(chain, &t.truth, false, 0).ok()?;
+        let t = paper_structural_truth(chain, share).ok()?;
+        let s = paper_study(chain, &t.truth, false, 0).ok()?;
         Some(s.extended.magnitude.all)
     };
     // Chain errors (wrong joint count, bad limits) surface here rather than as "no bracket".
-    seed_structural_truth(chain, 0.01)?;
+    paper_structural_truth(chain, 0.01)?;
     let share = crossing(
         0.01,
         1e-6,
@@ -607,21 +613,21 @@ impl Term {
     }
 }
 
-/// Runs the seed's study on `chain` (7 actuated joints) with `truth` (e.g. [`seed_truth`]);
+/// Runs the seed's study on `chain` (7 actuated joints) with `truth` (e.g. [`paper_truth`]);
 /// `noise` adds the default instrument noise drawn from `seed`.
-pub fn seed_study(
+pub fn paper_study(
     chain: &SerialChain,
     truth: &TrueModel,
     noise: bool,
     seed: u64,
-) -> Result<SeedStudy, TestbedError> {
+) -> Result<PaperStudy, TestbedError> {
     let n = chain.n_joints();
-    let (configurations, clipped) = seed_configurations(chain)?;
+    let (configurations, clipped) = paper_configurations(chain)?;
     let mut q = Vec::new();
     let mut wrenches = Vec::new();
     let mut poses = Vec::new();
     for (c, qc) in configurations.iter().enumerate() {
-        for w in SEED_WRENCHES {
+        for w in PAPER_WRENCHES {
             q.extend_from_slice(qc);
             wrenches.push(w);
             poses.push(c as i64);
@@ -694,9 +700,9 @@ pub fn seed_study(
     let (p_trad, _) = fit(&trad);
     let (p_ext, extended_rank) = fit(&ext);
     let (p_full, full_rank) = fit(&full);
-    let n_loads = SEED_WRENCHES.len();
-    let rows: Vec<SeedStudyRow> = (0..data.len())
-        .map(|i| SeedStudyRow {
+    let n_loads = PAPER_WRENCHES.len();
+    let rows: Vec<PaperStudyRow> = (0..data.len())
+        .map(|i| PaperStudyRow {
             test: i + 1,
             configuration: i / n_loads + 1,
             load: i % n_loads + 1,
@@ -713,7 +719,7 @@ pub fn seed_study(
             full_vector_error: vector_error(&p_full[i], &meas[i]),
         })
         .collect();
-    Ok(SeedStudy {
+    Ok(PaperStudy {
         traditional: ModelErrors::of(
             &rows,
             |r| r.traditional_magnitude_error,
@@ -731,6 +737,6 @@ pub fn seed_study(
         torsion_share: torsion_share_at(chain, truth, &configurations),
         link_share: link_share_at(chain, truth, &configurations),
         clipped,
-        paper: SEED_PAPER,
+        paper: PAPER_FIGURES,
     })
 }
