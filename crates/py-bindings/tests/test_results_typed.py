@@ -178,6 +178,19 @@ def test_a_dict_result_reads_back_as_the_same_diagnosis(vjm_result):
     assert back == vjm_result and back.rows == vjm_result.rows
 
 
+def test_a_csjm_result_saved_before_the_renames_reads_back(csjm_path):
+    # Issue 26 renamed `holdout_seed` to `split_seed` and `z_seed_eq48b` to `z_paper_eq48b`:
+    # a result saved under the former keys reads back as the same diagnosis.
+    d = csjm.diagnose(csjm_path, split_seed=5)
+    doc = d.to_dict(rows=True)
+    assert "split_seed" in doc and "z_paper_eq48b" in doc["connection_term"]
+    doc["holdout_seed"] = doc.pop("split_seed")
+    doc["connection_term"]["z_seed_eq48b"] = doc["connection_term"].pop("z_paper_eq48b")
+    back = Diagnosis._from_dict(doc)
+    assert back == d and back.split_seed == 5
+    assert back.connection_term.z_paper_eq48b == d.connection_term.z_paper_eq48b
+
+
 def test_truth_counts_joints_from_one(panda, campaign, tmp_path):
     # The truth of a campaign names the joint the user gave (1-based), in Python and in the
     # CLI's truth.json.

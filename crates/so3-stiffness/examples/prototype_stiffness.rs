@@ -118,7 +118,7 @@ fn main() -> Result<(), CsjmError> {
         "  asymmetry ‖K_D − K_Dᵀ‖/‖K_D‖ = {:.2e}  (Euclidean)",
         relative_asymmetry(&s.euclidean)
     );
-    let seed = s.seed_eq48b();
+    let seed = s.paper_eq48b();
     println!(
         "  seed eq. 48b (K_D − hat τ₀): asymmetry {:.2e}, ‖K_48b − K‖_F = {:.4} N·m/rad",
         relative_asymmetry(&seed),

@@ -73,6 +73,7 @@ fn main() {
                 .iter()
                 .map(|f| {
                     f.evidence
+                        .selection
                         .cluster_robust
                         .map_or("none".into(), |t| format!("{:.15e}", t.f))
                 })

@@ -50,7 +50,7 @@ fn main() {
                     let axis = f.axis.clone().unwrap_or_default();
                     format!(
                         "{}{joint}{axis} (p = {:.1e})",
-                        f.effect, f.evidence.f_test.p_value
+                        f.effect, f.evidence.selection.f_test.p_value
                     )
                 })
                 .collect();

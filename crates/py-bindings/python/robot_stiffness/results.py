@@ -66,10 +66,21 @@ VJM = "vjm"
 CSJM = "csjm"
 
 
-def _only(model: str, default: object = None, key: Optional[str] = None) -> typing.Any:
+def _only(model: str, default: object = None, key: Optional[str] = None, former: Optional[str] = None) -> typing.Any:
     """A field only one model has: ``None`` (or ``default``) for the other, and left out of its
-    JSON."""
-    return field(default=default, metadata={"model": model, **({"key": key} if key else {})})
+    JSON. ``former``: the key earlier versions wrote it under (read as well)."""
+    meta = {"model": model, **({"key": key} if key else {}), **({"former": former} if former else {})}
+    return field(default=default, metadata=meta)
+
+
+def _value_of(f: "dataclasses.Field[object]", value: Mapping[str, object]) -> Optional[str]:
+    """The key of ``f`` in ``value``: its JSON key, or the key earlier versions wrote it under
+    (``former`` in its metadata: a result saved before a rename reads back); None if neither."""
+    key = _key(f)
+    if key in value:
+        return key
+    former = f.metadata.get("former")
+    return str(former) if former is not None and former in value else None
 
 
 def _key(f: "dataclasses.Field[object]") -> str:
@@ -288,7 +299,7 @@ class ConnectionTest(_Result):
     lambda_: float = field(metadata={"key": "lambda"})
     lambda_stderr: float
     z_levi_civita: float
-    z_seed_eq48b: float
+    z_paper_eq48b: float = field(metadata={"former": "z_seed_eq48b"})
     k: List[List[float]]
     k_d: List[List[float]]
     relative_difference: float
@@ -593,7 +604,7 @@ class Diagnosis(_Result):
     explained_by_springs: Optional[List[str]] = _only(VJM)
     connection_term: Optional[ConnectionTest] = _only(CSJM)
     noise_sigma: Optional[List[float]] = _only(CSJM)
-    split_seed: Optional[int] = _only(CSJM)
+    split_seed: Optional[int] = _only(CSJM, former="holdout_seed")
     rows: Optional[Union[DisplacementRows, MomentRows]] = field(default=None, repr=False, metadata={"json": False})
 
     def to_dict(self, *, rows: bool = False) -> Dict[str, Json]:
@@ -719,8 +730,8 @@ def _build(tp: object, value: object) -> object:
         if not isinstance(value, dict):
             raise TypeError(f"{tp.__name__} expects a mapping, got {type(value).__name__}")
         hints = _hints(tp)
-        kwargs = {f.name: _build(hints[f.name], value[_key(f)])
-                  for f in dataclasses.fields(tp) if _key(f) in value}
+        keys = {f.name: _value_of(f, value) for f in dataclasses.fields(tp)}
+        kwargs = {name: _build(hints[name], value[key]) for name, key in keys.items() if key is not None}
         return tp(**kwargs)
     if origin in (list, List):
         (item,) = typing.get_args(tp)

@@ -52,7 +52,7 @@ impl Stiffness {
 
     /// The seed's printed model `K_D − hat(τ)` (eqs. 45/48b with γ = ±2): kept only to
     /// document the deviation; it is not symmetric for a conservative system.
-    pub fn seed_eq48b(&self) -> Matrix3<f64> {
+    pub fn paper_eq48b(&self) -> Matrix3<f64> {
         self.euclidean - hat(&self.external_moment)
     }
 

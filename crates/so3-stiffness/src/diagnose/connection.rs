@@ -44,7 +44,7 @@ pub struct ConnectionTest {
     /// (λ̂ − 1)/se.
     pub z_levi_civita: f64,
     /// (λ̂ − 2)/se.
-    pub z_seed_eq48b: f64,
+    pub z_paper_eq48b: f64,
     /// K = K_D − ½hat(τ₀), N·m/rad, row-major.
     pub k: [[f64; 3]; 3],
     /// K_D, N·m/rad, row-major.
@@ -145,7 +145,7 @@ pub(crate) fn connection_test(
         lambda,
         lambda_stderr,
         z_levi_civita: (lambda - 1.0) / lambda_stderr,
-        z_seed_eq48b: (lambda - 2.0) / lambda_stderr,
+        z_paper_eq48b: (lambda - 2.0) / lambda_stderr,
         k: rows(&k),
         k_d: rows(&k_d),
         relative_difference,

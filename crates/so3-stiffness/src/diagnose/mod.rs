@@ -63,8 +63,8 @@ use candidates::{labels, Term, BASELINE_COLUMNS};
 pub use connection::ConnectionTest;
 use problem::{CsjmFit, CsjmProblem};
 pub use report::{
-    Alias, CandidateScore, CsjmDiagnosis, Evidence, Finding, ModelSummary, Parameter,
-    ResidualReport, RowResult, SelectionEvidence,
+    Alias, CandidateScore, CsjmDiagnosis, DefectEvidence, Evidence, Finding, ModelSummary,
+    Parameter, ResidualReport, RowResult, SelectionEvidence,
 };
 use stiffness_core::engine::{Compressed, Selected};
 use stiffness_core::{Cancel, Monitor};
@@ -246,8 +246,8 @@ fn parameters(fit: &CsjmFit, cov: &DMatrix<f64>, only: Option<Term>) -> Vec<Para
             if only.is_none_or(|o| o == *t) {
                 out.push(Parameter {
                     label,
-                    value: fit.coef[index],
-                    stderr: cov[(index, index)].max(0.0).sqrt(),
+                    value: Some(fit.coef[index]),
+                    stderr: Some(cov[(index, index)].max(0.0).sqrt()),
                     unit,
                 });
             }
@@ -422,7 +422,7 @@ fn aliases_of(
                 cosine: a.cosine,
                 delta_chi2: a.delta_chi2,
                 p_finding_given_alias: a.p_finding_given_alias,
-                note,
+                note: Some(note),
             }
         })
         .collect();

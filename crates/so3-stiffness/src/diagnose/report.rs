@@ -30,80 +30,16 @@ pub struct ModelSummary {
     pub parameters: Vec<Parameter>,
 }
 
-/// One fitted parameter.
-#[derive(Debug, Clone, Serialize)]
-pub struct Parameter {
-    /// Label, e.g. `K_D[0][1]`, `platform_gravity.alpha`.
-    pub label: String,
-    /// Estimate.
-    pub value: f64,
-    /// Standard error (NaN/null when not estimable).
-    pub stderr: f64,
-    /// Unit.
-    pub unit: &'static str,
-}
+pub use stiffness_core::engine::schema::{Alias, Parameter, SelectionEvidence};
 
-/// A candidate (or the linear model itself) that cannot be told apart from a finding on these
-/// data.
+/// Why a defect effect was named: the engine's [`SelectionEvidence`] (its fields at the top
+/// level of the JSON; the clusters of the cluster-robust test are the samples, whose three
+/// components need not be independent) and what the estimate says.
 #[derive(Debug, Clone, Serialize)]
-pub struct Alias {
-    /// Effect name (`platform_gravity`, `cable_hysteresis`, `cable_nonlinearity`), or
-    /// `linear_stiffness` for the baseline's K_D.
-    pub effect: &'static str,
-    /// Always null for the CSJM (no joints).
-    pub joint: Option<usize>,
-    /// Always null for the CSJM.
-    pub axis: Option<String>,
-    /// |cosine| between the two effects' columns after projecting out the model (one-column
-    /// effects only).
-    pub cosine: Option<f64>,
-    /// (SSE with the alias − SSE with the finding) / σ̂² (whitened units); NaN (null in JSON)
-    /// for an alias that is not a catalogue effect scored against the finding
-    /// (`linear_stiffness`, a curvature found by span).
-    pub delta_chi2: f64,
-    /// p-value of the finding's F test once the alias is in the model (0 when not computed
-    /// because the alias is not significant itself; NaN/null when not a scored effect).
-    pub p_finding_given_alias: f64,
-    /// Why they are aliases.
-    pub note: String,
-}
-
-impl Alias {
-    /// An alias found by span rather than by scoring (no Δχ², no F test).
-    pub(crate) fn not_a_candidate(effect: &'static str, note: String) -> Self {
-        Alias {
-            effect,
-            joint: None,
-            axis: None,
-            cosine: None,
-            delta_chi2: f64::NAN,
-            p_finding_given_alias: f64::NAN,
-            note,
-        }
-    }
-}
-
-/// Why a defect effect was named.
-#[derive(Debug, Clone, Serialize)]
-pub struct SelectionEvidence {
-    /// Forward-selection step (1 = first finding).
-    pub step: usize,
-    /// Nested-model F test of adding the effect to the model of that step (training rows).
-    pub f_test: FTest,
-    /// Candidates tested at that step (the Benjamini–Hochberg family size).
-    pub n_candidates: usize,
-    /// The BH threshold the p-value had to beat: q · rank / m.
-    pub bh_threshold: f64,
-    /// Fraction of the training whitened SSE the effect removed.
-    pub sse_reduction: f64,
-    /// Sample-clustered (CR1 sandwich) Wald test of the effect's parameters in the model of
-    /// that step: valid without assuming the three components of a sample independent
-    /// (reported, not used to select).
-    pub cluster_robust: Option<FTest>,
-    /// Whitened SSE on the held-out rows before adding the effect.
-    pub heldout_sse_before: f64,
-    /// Whitened SSE on the held-out rows after adding it (lower: confirmed).
-    pub heldout_sse_after: f64,
+pub struct DefectEvidence {
+    /// The statistics the selection decided on.
+    #[serde(flatten)]
+    pub selection: SelectionEvidence,
     /// Fraction of the effect's column energy outside the span of the first-order model
     /// (near 0: aliased with the linear stiffness).
     pub fraction_outside_baseline: f64,
@@ -118,7 +54,7 @@ pub struct SelectionEvidence {
 #[serde(untagged)]
 pub enum Evidence {
     /// A defect effect selected by the F tests.
-    Selection(SelectionEvidence),
+    Selection(DefectEvidence),
     /// The connection term.
     Connection(ConnectionTest),
 }

@@ -10,7 +10,7 @@ use stiffness_core::{Cancel, Progress};
 use super::candidates::{Samples, Term, BASELINE_COLUMNS};
 use super::problem::{CsjmFit, CsjmProblem};
 use super::report::{
-    CandidateScore, CsjmDiagnosis, Evidence, Finding, ResidualReport, RowResult, SelectionEvidence,
+    CandidateScore, CsjmDiagnosis, DefectEvidence, Evidence, Finding, ResidualReport, RowResult,
 };
 use super::{
     aliases_of, connection, effect_of, interpretation, parameters, split, structure, summary,
@@ -202,7 +202,6 @@ fn findings_of(
         cancel.check()?;
         let effect = effect_of(f.cand);
         let fraction = problem.fraction_outside(comp, &[Term::Baseline], f.cand);
-        let e = &f.evidence;
         findings.push(Finding {
             effect: effect.name(),
             joint: None,
@@ -215,15 +214,8 @@ fn findings_of(
                 fraction,
                 gravity_note,
             ),
-            evidence: Evidence::Selection(SelectionEvidence {
-                step: e.step,
-                f_test: e.f_test,
-                n_candidates: e.n_candidates,
-                bh_threshold: e.bh_threshold,
-                sse_reduction: e.sse_reduction,
-                cluster_robust: e.cluster_robust,
-                heldout_sse_before: e.heldout_sse_before,
-                heldout_sse_after: e.heldout_sse_after,
+            evidence: Evidence::Selection(DefectEvidence {
+                selection: f.evidence.clone(),
                 fraction_outside_baseline: fraction,
                 estimate: parameters(extended_fit, extended_cov, Some(f.cand)),
                 interpretation: interpretation(problem, extended_fit, extended_cov, effect),

@@ -14,7 +14,7 @@
 //! [`LoadPattern::OneSided`] draws them in [−¼, 1]·m (mostly loading, as with counterweights
 //! and as in the seed's Table 4); there the curvature biases a first-order fit and the
 //! second-order fit removes it. Draws longer than m are clipped radially, so ‖Δτ‖ ≤ m always.
-//! [`LoadPattern::SeedTable4`] keeps every component in the sense of the seed's Table 4
+//! [`LoadPattern::PaperTable4`] keeps every component in the sense of the seed's Table 4
 //! counterweight increments (+x, −y, +z).
 //!
 //! # Seed-like campaign
@@ -101,7 +101,7 @@ pub enum LoadPattern {
     /// The seed's counterweight loading (Table 4, column A): every component keeps the sign
     /// of the seed's increments, Δτ = m·(u₁d₁, u₂d₂, u₃d₃) with u_i uniform in [0, 1] and
     /// d = [`SEED_TABLE4_DIRECTION`] (unit vector, so ‖Δτ‖ ≤ m without clipping).
-    SeedTable4,
+    PaperTable4,
 }
 
 /// Unit direction of the mean load increment of the seed's Table 4 (column A, five cases:
@@ -319,13 +319,13 @@ impl CampaignConfig {
 
     /// The seed's experiment as far as it is printed: Table 3's pre-load, 85 increments up to
     /// `max_increment` N·m in the sense of Table 4's counterweight loads
-    /// ([`LoadPattern::SeedTable4`]), tracker and F/T noise of Tables 1–2. Use with
+    /// ([`LoadPattern::PaperTable4`]), tracker and F/T noise of Tables 1–2. Use with
     /// [`paper_like_simulator`].
     pub fn paper_like(max_increment: f64, seed: u64) -> Self {
         CampaignConfig {
             preload: Vector3::from(SEED_TABLE3_PRELOAD),
             max_increment,
-            pattern: LoadPattern::SeedTable4,
+            pattern: LoadPattern::PaperTable4,
             seed,
             ..CampaignConfig::default()
         }
@@ -477,7 +477,7 @@ pub fn simulate_campaign(
             let d = match config.pattern {
                 LoadPattern::OneSided => Vector3::from_fn(|_, _| rng.random_range(-0.25..=1.0)),
                 LoadPattern::Symmetric => Vector3::from_fn(|_, _| rng.random_range(-1.0..=1.0)),
-                LoadPattern::SeedTable4 => {
+                LoadPattern::PaperTable4 => {
                     Vector3::from_fn(|i, _| rng.random_range(0.0..=1.0) * SEED_TABLE4_DIRECTION[i])
                 }
             } * m;

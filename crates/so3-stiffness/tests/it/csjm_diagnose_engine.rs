@@ -84,18 +84,17 @@ fn baseline_estimates_noise_and_standard_errors_match_a_dense_weighted_fit_of_th
                 .find(|p| p.label == labels(i, j))
                 .unwrap();
             let se = (s2 * xtx_inv[(k, k)]).sqrt();
+            let (value, stderr) = (p.value.expect("a value"), p.stderr.expect("a stderr"));
             assert!(
-                (p.value - beta[k]).abs() <= 1e-7 * beta[k].abs().max(se),
-                "{}: {} vs {}",
+                (value - beta[k]).abs() <= 1e-7 * beta[k].abs().max(se),
+                "{}: {value} vs {}",
                 p.label,
-                p.value,
                 beta[k]
             );
             assert!(
-                (p.stderr - se).abs() <= 1e-6 * se,
-                "{}: stderr {} vs {se}",
+                (stderr - se).abs() <= 1e-6 * se,
+                "{}: stderr {stderr} vs {se}",
                 p.label,
-                p.stderr
             );
         }
     }
@@ -170,6 +169,7 @@ fn the_default_fdr_is_the_shared_engines_and_a_finding_carries_the_robust_test()
     let Evidence::Selection(e) = &f.evidence else {
         panic!("a catalogue finding has selection evidence");
     };
+    let e = &e.selection;
     // 9 parameters, clustered by sample: still far beyond chance for 2 N of friction.
     let robust = e.cluster_robust.expect("≥ 3 training samples");
     assert!(robust.p_value < 1e-4, "{robust:?}");

@@ -82,7 +82,7 @@ proptest! {
         let tau = s.external_moment;
         // Only meaningful when the load is not negligible against the stiffness.
         prop_assume!(tau.norm() > 1e-3 * s.covariant.norm());
-        let seed = s.seed_eq48b();
+        let seed = s.paper_eq48b();
         let fd = covariant_hessian(&potential(&sim), &r, H2);
         // Its error is exactly ½ hat(τ), far above the FD error.
         let expected_gap = 0.5 * hat(&tau).norm();

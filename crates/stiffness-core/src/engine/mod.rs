@@ -21,6 +21,7 @@ pub mod basis;
 pub mod compressed;
 mod exchange;
 pub mod fit;
+pub mod schema;
 pub mod select;
 pub mod verdict;
 pub mod wild_cluster;
@@ -30,6 +31,7 @@ use std::sync::Arc;
 pub use basis::{RANK_TOL, ZERO_COLUMN_RTOL};
 pub use compressed::{Compressed, CompressedAccumulator, RowSet};
 pub use fit::{Fit, Score};
+pub use schema::{Alias, Parameter};
 pub use select::{
     select, AliasOf, DeferredClusterTest, SelectOptions, Selected, Selection, SelectionEvidence,
 };

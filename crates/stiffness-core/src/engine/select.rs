@@ -6,8 +6,10 @@ use super::compressed::RowSet;
 use super::exchange;
 use super::fit::{cluster_robust, fit, score, score_given, sse, Fit, Score};
 use super::Problem;
-use crate::stats::{benjamini_hochberg, FTest};
+use crate::stats::benjamini_hochberg;
 use crate::{Cancelled, Progress};
+
+pub use super::schema::SelectionEvidence;
 
 /// Options of [`select`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,27 +60,6 @@ pub struct AliasOf<T> {
     /// an alias on its own. A joint alias's `delta_chi2` and `p_finding_given_alias` are the
     /// whole group's; its members stay candidates.
     pub group: Vec<T>,
-}
-
-/// The statistics that made a candidate a finding.
-#[derive(Debug, Clone)]
-pub struct SelectionEvidence {
-    /// Selection step (1 = first).
-    pub step: usize,
-    /// Nested F test against the model of that step.
-    pub f_test: FTest,
-    /// Testable candidates in the step's family.
-    pub n_candidates: usize,
-    /// The Benjamini–Hochberg threshold of its rank.
-    pub bh_threshold: f64,
-    /// 1 − SSE_full/SSE_reduced on the training rows.
-    pub sse_reduction: f64,
-    /// Cluster-robust Wald test of its coefficients in the trial fit.
-    pub cluster_robust: Option<FTest>,
-    /// Held-out SSE before and after adding it.
-    pub heldout_sse_before: f64,
-    /// Held-out SSE after adding it.
-    pub heldout_sse_after: f64,
 }
 
 /// One finding of the selection.

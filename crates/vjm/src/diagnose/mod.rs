@@ -915,6 +915,7 @@ fn parameters(fit: &Fit<Term, Linearisation>, n_joints: usize) -> Vec<Parameter>
                 out.push(Parameter {
                     label: format!("J{}{}", s / 3 + 1, axis),
                     value: fit.in_data[k].then_some(fit.coef[k]),
+                    stderr: None,
                     unit: "rad/(N·m)",
                 });
                 k += 1;
@@ -937,6 +938,7 @@ fn parameters(fit: &Fit<Term, Linearisation>, n_joints: usize) -> Vec<Parameter>
                     out.push(Parameter {
                         label: name,
                         value: fit.in_data[k].then_some(fit.coef[k]),
+                        stderr: None,
                         unit: c.unit(),
                     });
                     k += 1;
@@ -947,6 +949,7 @@ fn parameters(fit: &Fit<Term, Linearisation>, n_joints: usize) -> Vec<Parameter>
                     out.push(Parameter {
                         label: format!("{}[{j}]", a.name()),
                         value: fit.in_data[k].then_some(fit.coef[k]),
+                        stderr: None,
                         unit: "",
                     });
                     k += 1;

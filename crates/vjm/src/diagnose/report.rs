@@ -22,59 +22,16 @@ pub struct ModelSummary {
     pub parameters: Vec<Parameter>,
 }
 
-/// One fitted parameter.
-#[derive(Debug, Clone, Serialize)]
-pub struct Parameter {
-    /// Label, e.g. `J3z`, `wrench_bias.fx`, `joint_tilt(J3x)`.
-    pub label: String,
-    /// Estimate; `None` (JSON null) when the parameter does not enter these data at all
-    /// (its column is zero up to rounding, e.g. a torsion about an axis through the tip point).
-    pub value: Option<f64>,
-    /// Unit.
-    pub unit: &'static str,
-}
+pub use stiffness_core::engine::schema::{Alias, Parameter, SelectionEvidence};
 
-/// A candidate that cannot be told apart from a finding on these data.
-#[derive(Debug, Clone, Serialize)]
-pub struct Alias {
-    /// Effect name.
-    pub effect: &'static str,
-    /// 1-based joint or null.
-    pub joint: Option<usize>,
-    /// `x`, `y` or null.
-    pub axis: Option<String>,
-    /// |cosine| between the two candidates' columns after projecting out the model
-    /// (single-column candidates only).
-    pub cosine: Option<f64>,
-    /// (SSE with the alias − SSE with the finding) / σ̂², in units of noise variance.
-    pub delta_chi2: f64,
-    /// p-value of the finding's F test once the alias is in the model (0 when not computed
-    /// because the alias is not significant itself; aliases by collinearity may have any value).
-    pub p_finding_given_alias: f64,
-}
-
-/// Why a finding was named.
+/// Why a finding was named: the engine's [`SelectionEvidence`] (its fields at the top level of
+/// the JSON) and the candidate's estimate.
 #[derive(Debug, Clone, Serialize)]
 pub struct Evidence {
-    /// Forward-selection step (1 = first finding).
-    pub step: usize,
-    /// Nested-model F test of adding the candidate to the model of that step (training rows,
-    /// whitened by the noise model).
-    pub f_test: FTest,
-    /// Candidates tested at that step (the Benjamini–Hochberg family size).
-    pub n_candidates: usize,
-    /// The BH threshold the p-value had to beat: q · rank / m.
-    pub bh_threshold: f64,
-    /// Fraction of the training whitened SSE the candidate removed.
-    pub sse_reduction: f64,
-    /// Pose-clustered (CR1 sandwich) Wald test of the candidate's parameters in the model of
-    /// that step: valid without assuming independence within a pose (reported, not used to
-    /// select).
-    pub cluster_robust: Option<FTest>,
-    /// Whitened SSE on the held-out rows before adding the candidate.
-    pub heldout_sse_before: f64,
-    /// Whitened SSE on the held-out rows after adding it (must be lower to be confirmed).
-    pub heldout_sse_after: f64,
+    /// The statistics the selection decided on (the clusters of the cluster-robust test are
+    /// the poses).
+    #[serde(flatten)]
+    pub selection: SelectionEvidence,
     /// Estimated parameters of the candidate (in the final extended fit).
     pub estimate: Vec<f64>,
     /// Their unit.

@@ -78,7 +78,7 @@ pub(super) fn run_diagnosis<'a>(
         cancel,
     )?;
     for (k, test) in &passes.cluster_tests {
-        findings[*k].evidence.cluster_robust = *test;
+        findings[*k].evidence.selection.cluster_robust = *test;
     }
     let (base_name, ext_name) = model_names(&baseline_model, &selection);
     let summary = |fit: &VjmFit, t: &super::final_pass::FitTotals, model: String| ModelSummary {
@@ -261,21 +261,13 @@ fn findings_report(
         .iter()
         .map(|f| {
             let c = cand_of(f.cand);
-            let e = &f.evidence;
             Finding {
                 effect: c.effect(),
                 joint: c.joint().map(|j| j + 1),
                 axis: c.axis().map(|a| a.to_string()),
                 aliases: f.aliases.iter().map(alias_report).collect(),
                 evidence: Evidence {
-                    step: e.step,
-                    f_test: e.f_test,
-                    n_candidates: e.n_candidates,
-                    bh_threshold: e.bh_threshold,
-                    sse_reduction: e.sse_reduction,
-                    cluster_robust: e.cluster_robust,
-                    heldout_sse_before: e.heldout_sse_before,
-                    heldout_sse_after: e.heldout_sse_after,
+                    selection: f.evidence.clone(),
                     estimate: estimates
                         .iter()
                         .find(|(d, _)| *d == c)
@@ -309,6 +301,7 @@ fn alias_report(a: &stiffness_core::engine::select::AliasOf<Term>) -> Alias {
         cosine: a.cosine,
         delta_chi2: a.delta_chi2,
         p_finding_given_alias: a.p_finding_given_alias,
+        note: None,
     }
 }
 

@@ -91,7 +91,7 @@ fn describe(d: &vjm::diagnose::report::Diagnosis) -> String {
                 f.effect,
                 f.joint,
                 f.axis,
-                f.evidence.f_test.p_value,
+                f.evidence.selection.f_test.p_value,
                 f.aliases
                     .iter()
                     .map(|a| format!("{}{:?}{:?}", a.effect, a.joint, a.axis))
@@ -399,7 +399,7 @@ fn json_follows_the_output_contract() {
     assert!(f["evidence"]["f_test"]["p_value"].is_f64());
     // The pose-clustered Wald test agrees that this strong tilt is real, with G − 1 = 29
     // denominator degrees of freedom (30 training poses).
-    let cr = &d.findings[0].evidence.cluster_robust.unwrap();
+    let cr = &d.findings[0].evidence.selection.cluster_robust.unwrap();
     assert_eq!(cr.df_den, 29.0);
     assert!(cr.p_value < 1e-3, "{cr:?}");
     assert_eq!(v["extended"]["n_params"], 8);

@@ -31,7 +31,7 @@ fn base_points(n: usize, seed: u64) -> Vec<Point3<f64>> {
 
 /// The seed's construction (eq. 51–52): ᴸ_B T = ᴸP_H (ᴮP_H)⁻¹ with 4×4 homogeneous matrices
 /// whose fourth column is the cross product of two edges.
-fn seed_eq51(pb: &[Point3<f64>], pl: &[Point3<f64>]) -> Matrix4<f64> {
+fn paper_eq51(pb: &[Point3<f64>], pl: &[Point3<f64>]) -> Matrix4<f64> {
     let build = |p: &[Point3<f64>]| {
         let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
         let mut m = Matrix4::zeros();
@@ -51,7 +51,7 @@ fn three_exact_points_match_the_seed_construction() {
     let pb = base_points(3, 2);
     let pl: Vec<_> = pb.iter().map(|p| t * p).collect();
     let fit = fit_frame_to_points(&pb, &pl).unwrap();
-    assert!((fit.transform.to_homogeneous() - seed_eq51(&pb, &pl)).norm() < 1e-10);
+    assert!((fit.transform.to_homogeneous() - paper_eq51(&pb, &pl)).norm() < 1e-10);
     assert!((fit.transform.to_homogeneous() - t.to_homogeneous()).norm() < 1e-10);
     assert!(fit.rms_residual < 1e-12);
 }
@@ -80,7 +80,7 @@ fn least_squares_with_more_points_reports_the_residual() {
     );
     assert!(angle < 1e-3, "{angle}");
     // The least-squares fit beats the exact three-point construction on the same data.
-    let seed = seed_eq51(&pb[..3], &pl[..3]);
+    let seed = paper_eq51(&pb[..3], &pl[..3]);
     let seed_sq: f64 = pb
         .iter()
         .zip(&pl)

@@ -1,0 +1,95 @@
+//! The parts of a diagnosis' output that every model writes the same way: a fitted
+//! [`Parameter`], an [`Alias`] of a finding, and the [`SelectionEvidence`] that made a candidate
+//! a finding. The model crates' reports (`vjm::diagnose::Diagnosis`,
+//! `so3_stiffness::diagnose::CsjmDiagnosis`) are built from these, so both serialise them to the
+//! same JSON, and the Python results (`robot_stiffness.results`) read them with one class each.
+//!
+//! Non-finite numbers serialise as JSON `null`; an optional field a model does not have is left
+//! out of the JSON rather than written as `null` (a VJM parameter has no standard error in the
+//! diagnosis, a VJM alias no note).
+
+use serde::Serialize;
+
+use crate::stats::FTest;
+
+/// One fitted parameter.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Parameter {
+    /// Label, e.g. `J3z`, `wrench_bias.fx`, `K_D[0][1]`, `platform_gravity.alpha`.
+    pub label: String,
+    /// Estimate; `None` (JSON null) when the parameter does not enter these data at all (its
+    /// column is zero up to rounding, e.g. a torsion about an axis through the tip point).
+    pub value: Option<f64>,
+    /// Standard error where the model reports one (CSJM; NaN, JSON null, when not estimable);
+    /// `None`: not reported, and absent from the JSON.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stderr: Option<f64>,
+    /// Unit (SI).
+    pub unit: &'static str,
+}
+
+/// A candidate (or a part of the model itself) that cannot be told apart from a finding on
+/// these data.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Alias {
+    /// Effect name; for the CSJM also `linear_stiffness`, the baseline's K_D.
+    pub effect: &'static str,
+    /// 1-based joint (base → tip) or null.
+    pub joint: Option<usize>,
+    /// `x`, `y` (a joint alias of both tilts: `x+y`) or null.
+    pub axis: Option<String>,
+    /// |cosine| between the two candidates' columns after projecting out the model
+    /// (single-column candidates only).
+    pub cosine: Option<f64>,
+    /// (SSE with the alias − SSE with the finding) / σ̂², in units of noise variance; NaN
+    /// (JSON null) for an alias found by span rather than scored against the finding.
+    pub delta_chi2: f64,
+    /// p-value of the finding's F test once the alias is in the model (0 when not computed
+    /// because the alias is not significant itself; NaN/null when not a scored candidate).
+    pub p_finding_given_alias: f64,
+    /// Why they are aliases, where the model says it (CSJM); absent from the JSON otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+impl Alias {
+    /// An alias found by span rather than by scoring: no Δχ², no F test (both NaN), a note
+    /// saying why.
+    pub fn not_a_candidate(effect: &'static str, note: String) -> Self {
+        Alias {
+            effect,
+            joint: None,
+            axis: None,
+            cosine: None,
+            delta_chi2: f64::NAN,
+            p_finding_given_alias: f64::NAN,
+            note: Some(note),
+        }
+    }
+}
+
+/// The statistics that made a candidate a finding, as [`select`](super::select::select) decided on
+/// them (training rows whitened by the model's noise model; held-out rows for the
+/// confirmation).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SelectionEvidence {
+    /// Selection step (1 = first finding).
+    pub step: usize,
+    /// Nested-model F test of adding the candidate to the model of that step.
+    pub f_test: FTest,
+    /// Testable candidates at that step (the Benjamini–Hochberg family size).
+    pub n_candidates: usize,
+    /// The Benjamini–Hochberg threshold the p-value had to beat: q · rank / m.
+    pub bh_threshold: f64,
+    /// 1 − SSE_full/SSE_reduced on the training rows: the fraction of the whitened SSE the
+    /// candidate removed.
+    pub sse_reduction: f64,
+    /// Cluster-robust (CR1 sandwich) Wald test of the candidate's parameters in the model of
+    /// that step, the clusters the model's (a pose, a sample): valid without independence
+    /// within a cluster (reported, not used to select).
+    pub cluster_robust: Option<FTest>,
+    /// Whitened SSE on the held-out rows before adding the candidate.
+    pub heldout_sse_before: f64,
+    /// Whitened SSE on the held-out rows after adding it (lower: confirmed).
+    pub heldout_sse_after: f64,
+}
