@@ -24,7 +24,8 @@ pub fn summary<'py, T: Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<
     native(py, &v)
 }
 
-fn native<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
+/// A JSON value as native Python objects (non-finite floats were already `null`).
+pub fn native<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
     Ok(match v {
         Value::Null => py.None().into_bound(py),
         Value::Bool(b) => b.into_pyobject(py)?.to_owned().into_any(),

@@ -425,14 +425,14 @@ pub fn vjm_simulate<'py>(
         "csv",
         String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))?,
     )?;
-    out.set_item(
-        "truth",
-        serde_json::to_string(&truth).map_err(|e| crate::errors::internal_error(e.to_string()))?,
-    )?;
-    out.set_item(
-        "spec",
-        serde_json::to_string(&spec).map_err(|e| crate::errors::internal_error(e.to_string()))?,
-    )?;
+    // The truth and the spec as native Python objects (their serialised fields).
+    for (key, value) in [
+        ("truth", serde_json::to_value(&truth)),
+        ("spec", serde_json::to_value(&spec)),
+    ] {
+        let value = value.map_err(|e| crate::errors::internal_error(e.to_string()))?;
+        out.set_item(key, crate::results::native(py, &value)?)?;
+    }
     Ok(out)
 }
 
@@ -469,19 +469,20 @@ fn planned_rows(
 /// The seed's study (Table I configurations, two wrenches each). Joints only (`links` false):
 /// tilting springs of `tilt_ratio` × the torsional compliance, or (None) of the ratio
 /// calibrated to the seed's torsion share. With `links`: the structural truth whose links bend,
-/// at `link_share` (None: the share calibrated to the seed's extended-model error). Returns its
-/// JSON with the truth's `tilt_ratio` and `link_scale` (m/N, 0 without links).
+/// at `link_share` (None: the share calibrated to the seed's extended-model error). Returns it
+/// as native Python objects (its serialised fields; `robot_stiffness` builds the typed
+/// `PaperStudy`) with the truth's `tilt_ratio` and `link_scale` (m/N, 0 without links).
 #[pyfunction]
 #[pyo3(signature = (robot, tilt_ratio = None, noise = true, seed = 0, links = false, link_share = None))]
-pub fn vjm_paper_study(
-    py: Python<'_>,
+pub fn vjm_paper_study<'py>(
+    py: Python<'py>,
     robot: &PyRobot,
     tilt_ratio: Option<f64>,
     noise: bool,
     seed: u64,
     links: bool,
     link_share: Option<f64>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let chain = &robot.chain;
     if let Some(r) = tilt_ratio {
         if !(r.is_finite() && r >= 0.0) {
@@ -538,7 +539,7 @@ pub fn vjm_paper_study(
         serde_json::to_value(&study).map_err(|e| crate::errors::internal_error(e.to_string()))?;
     json["tilt_ratio"] = serde_json::json!(ratio);
     json["link_scale"] = serde_json::json!(scale);
-    Ok(json.to_string())
+    crate::results::native(py, &json)
 }
 
 /// Registers the functions on `m`.

@@ -274,7 +274,7 @@ def vjm_paper_study(
     seed: int = 0,
     links: bool = False,
     link_share: Optional[float] = None,
-) -> str: ...
+) -> Dict[str, Any]: ...
 def vjm_diagnose(
     robot: Robot,
     q: _F64,

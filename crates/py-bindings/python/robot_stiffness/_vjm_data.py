@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import warnings
 from dataclasses import dataclass, field
@@ -290,8 +289,8 @@ def simulate(
         true_displacement=d["true_displacement"],
         applied_wrench=d["applied_wrench"],
         tip=d["tip"],
-        truth=json.loads(d["truth"]),
-        spec=json.loads(d["spec"]),
+        truth=d["truth"],
+        spec=d["spec"],
     )
 
 
@@ -480,8 +479,7 @@ class PaperStudy(FieldEq):
     paper: PaperFigures
 
     @classmethod
-    def _from_json(cls, text: str) -> "PaperStudy":
-        d = json.loads(text)
+    def _from_core(cls, d: Dict[str, Any]) -> "PaperStudy":
 
         def model(m: Dict[str, Any]) -> PaperModelErrors:
             return PaperModelErrors(magnitude=PaperErrors(**m["magnitude"]), vector=PaperErrors(**m["vector"]))
@@ -542,7 +540,7 @@ def paper_study(
     seed's 3.74 % noise-free) and the tilts calibrated to 76.5 % torsion around them. Errors
     are the magnitude error (the seed's metric; it reports 7.75 % → 3.74 %) and the vector
     error, per row and as means."""
-    return PaperStudy._from_json(_core.vjm_paper_study(robot._inner, tilt_ratio, noise, seed, links, link_share))
+    return PaperStudy._from_core(_core.vjm_paper_study(robot._inner, tilt_ratio, noise, seed, links, link_share))
 
 
 def seed_study(robot: Robot, **kwargs: Any) -> PaperStudy:

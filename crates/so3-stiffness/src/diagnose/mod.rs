@@ -63,8 +63,8 @@ use candidates::{labels, Term, BASELINE_COLUMNS};
 pub use connection::ConnectionTest;
 use problem::{CsjmFit, CsjmProblem};
 pub use report::{
-    Alias, CandidateScore, CsjmDiagnosis, DefectEvidence, Evidence, Finding, ModelSummary,
-    Parameter, ResidualReport, RowResult, SelectionEvidence,
+    Alias, CandidateScore, CsjmDiagnosis, CsjmModelDetail, DefectEvidence, Evidence, Finding,
+    ModelSummary, Parameter, ResidualReport, RowResult, SelectionEvidence,
 };
 use stiffness_core::engine::{Compressed, Selected};
 use stiffness_core::{Cancel, Monitor};
@@ -266,12 +266,14 @@ fn summary(problem: &CsjmProblem<'_>, fit: &CsjmFit, cov: &DMatrix<f64>) -> Mode
     ModelSummary {
         model: model_name(&fit.terms),
         n_params: fit.coef.len(),
-        rank: fit.rank,
         test_mean_rel_error: problem.mean_rel_error(fit, &problem.test),
         train_mean_rel_error: problem.mean_rel_error(fit, &problem.train),
-        k_d: connection::rows(&k_d),
-        k: connection::rows(&k),
         parameters: parameters(fit, cov, None),
+        detail: CsjmModelDetail {
+            rank: fit.rank,
+            k_d: connection::rows(&k_d),
+            k: connection::rows(&k),
+        },
     }
 }
 

@@ -7,28 +7,27 @@ use super::connection::ConnectionTest;
 use super::stats::FTest;
 use super::structure::ResidualStructure;
 
-/// A fitted model and its errors.
-#[derive(Debug, Clone, Serialize)]
-pub struct ModelSummary {
-    /// Model name, e.g. `first_order_K_D` or `first_order_K_D + cable_hysteresis`.
-    pub model: String,
-    /// Number of parameters (columns; the rank may be lower, see `rank`).
-    pub n_params: usize,
-    /// Rank of the training design.
+/// A fitted model and its errors: the shared summary (model name, parameter count, mean
+/// relative errors of Δζ on held-out and training rows, parameters with standard errors) and
+/// the CSJM's [`CsjmModelDetail`].
+pub type ModelSummary = stiffness_core::engine::schema::ModelSummary<CsjmModelDetail>;
+
+/// What a CSJM model summary adds to the shared one.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CsjmModelDetail {
+    /// Rank of the training design (≤ `n_params`).
     pub rank: usize,
-    /// Mean over held-out rows of ‖Δζ_pred − Δζ_meas‖/‖Δζ_meas‖, Δζ_pred solved from the
-    /// recorded Δτ with the model.
-    pub test_mean_rel_error: f64,
-    /// The same over the training rows (the reference excluded).
-    pub train_mean_rel_error: f64,
     /// The model's K_D (N·m/rad, frame A at R₀, row-major).
     pub k_d: [[f64; 3]; 3],
     /// The covariant K = K_D − ½hat(τ₀) (N·m/rad, row-major; symmetric for a conservative
     /// joint).
     pub k: [[f64; 3]; 3],
-    /// Fitted parameters, in model order.
-    pub parameters: Vec<Parameter>,
 }
+
+/// A named effect (`platform_gravity`, `cable_hysteresis`, `cable_nonlinearity` or
+/// `connection_term`; joint and axis always null): the shared finding with the CSJM's
+/// [`Evidence`].
+pub type Finding = stiffness_core::engine::schema::Finding<Evidence>;
 
 pub use stiffness_core::engine::schema::{Alias, Parameter, SelectionEvidence};
 
@@ -57,21 +56,6 @@ pub enum Evidence {
     Selection(DefectEvidence),
     /// The connection term.
     Connection(ConnectionTest),
-}
-
-/// A named effect.
-#[derive(Debug, Clone, Serialize)]
-pub struct Finding {
-    /// `platform_gravity`, `cable_hysteresis`, `cable_nonlinearity` or `connection_term`.
-    pub effect: &'static str,
-    /// Always null for the CSJM.
-    pub joint: Option<usize>,
-    /// Always null for the CSJM.
-    pub axis: Option<String>,
-    /// Candidates indistinguishable from this one on these data.
-    pub aliases: Vec<Alias>,
-    /// The statistics behind the finding.
-    pub evidence: Evidence,
 }
 
 /// The first-step score of one catalogue effect against the baseline.

@@ -4,6 +4,7 @@
 use nalgebra::DMatrix;
 use stiffness_core::engine::fit::fit;
 use stiffness_core::engine::select::Selection;
+use stiffness_core::engine::NoDetail;
 use stiffness_core::engine::{select, Compressed, SelectOptions};
 use stiffness_core::{Cancel, Progress};
 
@@ -73,6 +74,7 @@ pub(super) fn run_diagnosis(
             axis: None,
             aliases: Vec::new(),
             evidence: Evidence::Connection(connection_term.clone()),
+            detail: NoDetail {},
         });
     }
 
@@ -220,6 +222,7 @@ fn findings_of(
                 estimate: parameters(extended_fit, extended_cov, Some(f.cand)),
                 interpretation: interpretation(problem, extended_fit, extended_cov, effect),
             }),
+            detail: NoDetail {},
         });
     }
     Ok(findings)

@@ -31,7 +31,7 @@ use std::sync::Arc;
 pub use basis::{RANK_TOL, ZERO_COLUMN_RTOL};
 pub use compressed::{Compressed, CompressedAccumulator, RowSet};
 pub use fit::{Fit, Score};
-pub use schema::{Alias, Parameter};
+pub use schema::{Alias, Finding, ModelSummary, NoDetail, Parameter};
 pub use select::{
     select, AliasOf, DeferredClusterTest, SelectOptions, Selected, Selection, SelectionEvidence,
 };

@@ -93,3 +93,48 @@ pub struct SelectionEvidence {
     /// Whitened SSE on the held-out rows after adding it (lower: confirmed).
     pub heldout_sse_after: f64,
 }
+
+/// No detail beyond the shared fields (a model's [`ModelSummary`] or [`Finding`] that adds
+/// nothing); serialises to no JSON keys.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct NoDetail {}
+
+/// A fitted model and its errors; `D`: what the model adds (its fields at the top level of
+/// the JSON, after the shared ones), e.g. the CSJM's rank and 3×3 stiffness matrices.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelSummary<D = NoDetail> {
+    /// Model name, e.g. `traditional + joint_tilt(J3x)` or `first_order_K_D + cable_hysteresis`.
+    pub model: String,
+    /// Number of parameters (columns of the design; the rank may be lower).
+    pub n_params: usize,
+    /// Mean over the held-out rows of the model's relative error (each model's measure: VJM
+    /// ‖d_pred − d_meas‖/‖d_meas‖ of the translation, CSJM the same of Δζ).
+    pub test_mean_rel_error: f64,
+    /// The same over the training rows.
+    pub train_mean_rel_error: f64,
+    /// Fitted parameters, in model order, with labels and units.
+    pub parameters: Vec<Parameter>,
+    /// The model's own fields.
+    #[serde(flatten)]
+    pub detail: D,
+}
+
+/// A named effect: which one, where, what it cannot be told from, and why it was named; `E`:
+/// the model's evidence (embedding [`SelectionEvidence`] for a selected candidate), `D`: what
+/// the model adds (its fields at the top level of the JSON, after the shared ones).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Finding<E, D = NoDetail> {
+    /// Effect name (the model's catalogue).
+    pub effect: &'static str,
+    /// 1-based joint (base → tip) or null (an effect of no joint, and every CSJM effect).
+    pub joint: Option<usize>,
+    /// `x` or `y` (tilts), a link translation's axis, or null.
+    pub axis: Option<String>,
+    /// Candidates indistinguishable from this one on these data.
+    pub aliases: Vec<Alias>,
+    /// The statistics behind the finding.
+    pub evidence: E,
+    /// The model's own fields.
+    #[serde(flatten)]
+    pub detail: D,
+}

@@ -17,7 +17,7 @@ pub const TORSION_KNOTS: [f64; 2] = [0.33, 1.0];
 /// joint's RMS total torsion torque over the training rows, `tau_scale` (N·m; floored at
 /// 1e-12 so that an unloaded joint has distinct knots). The one rule of the candidate's
 /// column and of the gear curve a finding reports
-/// ([`Finding::gear_curve`](super::report::Finding::gear_curve)).
+/// ([`GearFinding::gear_curve`](super::report::GearFinding::gear_curve)).
 pub fn torsion_knots(tau_scale: f64) -> [f64; 2] {
     let s = tau_scale.max(1e-12);
     TORSION_KNOTS.map(|k| k * s)

@@ -7,20 +7,10 @@ use super::stats::FTest;
 use super::structure::ResidualStructure;
 use crate::dataset::SetLabel;
 
-/// A fitted model and its errors.
-#[derive(Debug, Clone, Serialize)]
-pub struct ModelSummary {
-    /// Model name, e.g. `traditional` or `traditional + joint_tilt(J3x)`.
-    pub model: String,
-    /// Number of parameters.
-    pub n_params: usize,
-    /// Mean over held-out rows of ‖d_pred − d_meas‖/‖d_meas‖ (translation only).
-    pub test_mean_rel_error: f64,
-    /// The same over the training rows.
-    pub train_mean_rel_error: f64,
-    /// Fitted parameters, in model order, with labels and units.
-    pub parameters: Vec<Parameter>,
-}
+/// A fitted model and its errors: the shared summary (model name, e.g. `traditional` or
+/// `traditional + joint_tilt(J3x)`; parameter count; mean over held-out and training rows of
+/// ‖d_pred − d_meas‖/‖d_meas‖, translation only; parameters with labels and units).
+pub type ModelSummary = stiffness_core::engine::schema::ModelSummary;
 
 pub use stiffness_core::engine::schema::{Alias, Parameter, SelectionEvidence};
 
@@ -38,26 +28,21 @@ pub struct Evidence {
     pub unit: &'static str,
 }
 
-/// A named effect.
-#[derive(Debug, Clone, Serialize)]
-pub struct Finding {
-    /// One of `joint_tilt`, `joint_torsion_nonlinear`, `joint_backlash`, `wrench_bias`,
-    /// `frame_misalignment`, `geometric_nonlinearity`.
-    pub effect: &'static str,
-    /// 1-based joint (base → tip) or null.
-    pub joint: Option<usize>,
-    /// `x` or `y` (tilts) or null.
-    pub axis: Option<String>,
-    /// Candidates indistinguishable from this one on these data.
-    pub aliases: Vec<Alias>,
-    /// The statistics behind the finding.
-    pub evidence: Evidence,
+/// A named effect (`joint_tilt`, `joint_torsion_nonlinear`, `joint_backlash`, `wrench_bias`,
+/// `frame_misalignment`, `geometric_nonlinearity`, …; 1-based joint and axis where it has
+/// them): the shared finding with the arm's [`Evidence`] and [`GearKnots`].
+pub type Finding = stiffness_core::engine::schema::Finding<Evidence, GearKnots>;
+
+/// What an arm's finding adds to the shared one.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GearKnots {
     /// `joint_torsion_nonlinear`: the knots t_k of its hinges, N·m (the gear curve's, with
-    /// [`Evidence::estimate`] its coefficients; [`Finding::gear_curve`]); null otherwise.
+    /// [`Evidence::estimate`] its coefficients; [`GearFinding::gear_curve`]); null otherwise.
     pub knots: Option<Vec<f64>>,
 }
 
-impl Finding {
+/// A finding read as a gear curve.
+pub trait GearFinding {
     /// A `joint_torsion_nonlinear` or `joint_backlash` finding as the gear curve of its joint
     /// ([`GearCurve`](crate::gear::GearCurve)). Torsion: its hinges' knots (N·m) and the
     /// extended fit's coefficients (rad/(N·m), the change of tangent compliance beyond each
@@ -66,7 +51,11 @@ impl Finding {
     /// the candidate's column `J_jz ½ (s(τ₀ + τ) − sign(τ₀))` times it is the curve's lost
     /// motion under the load). `Ok(None)` for any other effect; an error names the joint when
     /// the estimate is missing or not finite, or a lost motion is negative.
-    pub fn gear_curve(&self) -> Result<Option<crate::gear::GearCurve>, crate::VjmError> {
+    fn gear_curve(&self) -> Result<Option<crate::gear::GearCurve>, crate::VjmError>;
+}
+
+impl GearFinding for Finding {
+    fn gear_curve(&self) -> Result<Option<crate::gear::GearCurve>, crate::VjmError> {
         let Some(joint) = self.joint else {
             return Ok(None);
         };
@@ -86,7 +75,7 @@ impl Finding {
             return crate::gear::GearCurve::with_lost_motion(joint - 1, vec![], vec![], b)
                 .map(Some);
         }
-        let Some(knots) = &self.knots else {
+        let Some(knots) = &self.detail.knots else {
             return Ok(None);
         };
         crate::gear::GearCurve::new(joint - 1, knots.clone(), self.evidence.estimate.clone())
@@ -249,7 +238,7 @@ pub struct BlockTest {
 }
 
 impl Diagnosis {
-    /// The gear curves of the findings ([`Finding::gear_curve`]), one per joint in the order
+    /// The gear curves of the findings ([`GearFinding::gear_curve`]), one per joint in the order
     /// its first finding was found: a joint's `joint_torsion_nonlinear` and `joint_backlash`
     /// findings are one curve (the torsion's knots and coefficients with the backlash's lost
     /// motion).

@@ -8,8 +8,8 @@ use super::candidates::{catalogue, Candidate, Linearisation};
 use super::final_pass::{final_passes, FinalPasses};
 use super::problem::{Term, VjmProblem};
 use super::report::{
-    Alias, CandidateScore, Diagnosis, Evidence, Finding, ModelSummary, PoseError, ResidualReport,
-    RowResult, Verdict,
+    Alias, CandidateScore, Diagnosis, Evidence, Finding, GearKnots, ModelSummary, PoseError,
+    ResidualReport, RowResult, Verdict,
 };
 use super::structure::residual_structure;
 use super::{
@@ -19,6 +19,7 @@ use super::{
 use crate::chain::SerialChain;
 use crate::dataset::{Dataset, SetLabel};
 use crate::model::VirtualJointModel;
+use stiffness_core::engine::NoDetail;
 
 type VjmFit = Fit<Term, Linearisation>;
 type VjmSelection = Selection<Term, Linearisation>;
@@ -87,6 +88,7 @@ pub(super) fn run_diagnosis<'a>(
         test_mean_rel_error: t.test.mean(),
         train_mean_rel_error: t.train.mean(),
         parameters: parameters(fit, chain.n_joints()),
+        detail: NoDetail {},
     };
     let baseline = summary(&base_fit, &passes.base, base_name);
     let extended = summary(&ext_fit, &passes.ext, ext_name);
@@ -275,11 +277,13 @@ fn findings_report(
                         .unwrap_or_default(),
                     unit: c.unit(),
                 },
-                knots: match c {
-                    Candidate::JointTorsionNonlinear { joint } => {
-                        Some(candidates::torsion_knots(problem.tau_scale[joint]).to_vec())
-                    }
-                    _ => None,
+                detail: GearKnots {
+                    knots: match c {
+                        Candidate::JointTorsionNonlinear { joint } => {
+                            Some(candidates::torsion_knots(problem.tau_scale[joint]).to_vec())
+                        }
+                        _ => None,
+                    },
                 },
             }
         })

@@ -2,6 +2,7 @@
 //! model holding the extended fit's springs and that curve predicts what the extended fit
 //! fitted, row by row.
 
+use vjm::diagnose::report::GearFinding;
 use vjm::diagnose::{diagnose, DiagnoseOptions};
 use vjm::gravity::Gravity;
 use vjm::testbed::{simulate, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
@@ -99,7 +100,7 @@ fn a_diagnosed_gear_curve_reproduces_the_extended_fit() {
     let curve = f.gear_curve().unwrap().expect("a gear finding has a curve");
     assert_eq!(curve.joint(), 1);
     assert_eq!(curve.coefficients(), &f.evidence.estimate[..]);
-    let knots = f.knots.clone().unwrap();
+    let knots = f.detail.knots.clone().unwrap();
     assert_eq!(curve.knots(), &knots[..]);
     // The knots are 0.33 and 1 times the RMS torsion torque of the training rows.
     let data = &campaign.dataset;
@@ -284,7 +285,7 @@ fn a_diagnosed_backlash_is_the_saved_models_lost_motion() {
     let mut both = d.clone();
     let mut torsion = f.clone();
     torsion.effect = "joint_torsion_nonlinear";
-    torsion.knots = Some(vec![3.0, 9.0]);
+    torsion.detail.knots = Some(vec![3.0, 9.0]);
     torsion.evidence.estimate = vec![2e-5, -1e-5];
     both.findings.insert(0, torsion);
     let merged = both.gear_curves().unwrap();
