@@ -7,7 +7,8 @@
 //! 3N): since `Z = Q R` with Q orthonormal, every inner product, projection, rank decision and
 //! least-squares solution is the same, and the cost no longer depends on N.
 //!
-//! The rank policy of the diagnosis lives here, once: a column whose norm is below
+//! The diagnosis' rank policy ([`RankPolicy::DIAGNOSIS`]) is applied
+//! here: a column whose norm is below
 //! [`ZERO_COLUMN_RTOL`] of the largest column of the design it is part of is not in the data
 //! ([`zero_norm`]: the fit leaves it out, and a test does not count it); a column whose part
 //! outside a basis is below [`RANK_TOL`] of its own norm is in the basis's span; singular
@@ -15,14 +16,19 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::lsq::RankPolicy;
+
 /// Relative tolerance under which a column's part orthogonal to the basis is treated as zero
-/// (the column lies in the span of the model: not testable on these data).
-pub const RANK_TOL: f64 = 1e-7;
+/// (the column lies in the span of the model: not testable on these data), and singular values
+/// of a column-scaled design relative to the largest: the diagnosis' rank policy
+/// ([`RankPolicy::DIAGNOSIS`]).
+pub const RANK_TOL: f64 = RankPolicy::DIAGNOSIS.rank_rtol;
 
 /// Columns whose norm is below this fraction of the largest column norm are exactly zero (the
 /// parameter does not enter the data; e.g. a torsion about an axis through the tip point, whose
-/// column is ~1e-17 of rounding). The identification solver uses the same value.
-pub const ZERO_COLUMN_RTOL: f64 = 1e-12;
+/// column is ~1e-17 of rounding); the same in every preset of
+/// [`RankPolicy`].
+pub const ZERO_COLUMN_RTOL: f64 = RankPolicy::DIAGNOSIS.zero_column_rtol;
 
 /// The norm at or below which a column of a design is not in the data: [`ZERO_COLUMN_RTOL`]
 /// of the largest of `cols` (the design's columns). A column that is zero in exact arithmetic

@@ -1,11 +1,14 @@
 //! The streaming least-squares factor shared by the identification and the diagnosis: the R of
 //! a tall matrix accumulated block by block (TSQR), mergeable across threads, partitions and
-//! machines; and what an estimate's data determine ([`WeakDirections`]).
+//! machines; what an estimate's data determine ([`WeakDirections`]); and the one rank policy
+//! of every solve, with its named presets ([`RankPolicy`]).
 
 mod accumulator;
+mod rank;
 mod weak;
 
 pub use accumulator::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};
+pub use rank::RankPolicy;
 pub use weak::WeakDirections;
 
 /// A slice or factor has the wrong length.

@@ -15,7 +15,7 @@
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
-use stiffness_core::lsq::WeakDirections;
+use stiffness_core::lsq::{RankPolicy, WeakDirections};
 
 use super::nnls::nnls;
 use super::TriangularFactor;
@@ -47,13 +47,16 @@ pub struct SolveOptions {
 }
 
 impl Default for SolveOptions {
+    /// The identification's rank policy ([`RankPolicy::IDENTIFICATION`]), σ² estimated,
+    /// unconstrained.
     fn default() -> Self {
+        let policy = RankPolicy::IDENTIFICATION;
         Self {
-            rank_rtol: 1e-9,
-            null_tol: 1e-7,
+            rank_rtol: policy.rank_rtol,
+            null_tol: policy.null_tol,
             noise_scale_known: false,
             nonnegative: false,
-            zero_column_rtol: ZERO_COLUMN_RTOL,
+            zero_column_rtol: policy.zero_column_rtol,
         }
     }
 }
