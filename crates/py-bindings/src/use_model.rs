@@ -344,7 +344,7 @@ pub fn vjm_design(
     spec.pool_size = pool_size.max(poses);
     spec.force = force;
     spec.moment = moment;
-    let mut noise = NoiseModel::testbed(&model);
+    let mut noise = NoiseModel::typical(&model);
     noise.gravity = gravity.map(vjm::gravity::Gravity::new).transpose().py()?;
     let plan = crate::interrupt::run_interruptible(py, progress.as_ref(), |monitor| {
         vjm::design_monitored(chain, &model, &spec, &noise, monitor)

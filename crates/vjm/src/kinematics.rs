@@ -580,3 +580,36 @@ pub(crate) fn rotation_minus_identity(
     let ay = a.cross(y);
     ay * sin + a.cross(&ay) * versine
 }
+
+/// Inverse condition number σ_min/σ_max of the actuated Jacobian `[J_lin; L·J_ang]` at `q`
+/// (joint angles, rad), L = 0.5 m so that a rotation of 1 rad weighs as 0.5 m of the tip: 0 at
+/// a singularity, 1 for an isotropic pose; 0 as well when the Jacobian is not finite. Planning
+/// keeps poses above a floor of it. (The virtual testbed computes its own from its independent
+/// kinematics, `testbed::inverse_condition`.)
+pub fn inverse_condition(chain: &SerialChain, q: &[f64]) -> f64 {
+    let model = VirtualJointModel::traditional(chain.n_joints());
+    let Ok(jac) = jacobian(chain, &model, q) else {
+        return 0.0;
+    };
+    inverse_condition_of(jac)
+}
+
+/// σ_min/σ_max of `[J_lin; L·J_ang]` (L = 0.5 m) for the actuated 6×n Jacobian `j`
+/// (`[linear; angular]` rows); 0 when it cannot be decomposed (not finite) or is zero.
+pub(crate) fn inverse_condition_of(mut j: DMatrix<f64>) -> f64 {
+    j.rows_mut(3, 3).scale_mut(0.5);
+    // A pose whose Jacobian cannot be decomposed (non-finite) is unusable: condition 0, so a
+    // pose sampler rejects it (and ends with its attempt cap).
+    let Ok(svd) = stiffness_core::decompose::svd(j, false, false, "SVD of the pose Jacobian")
+    else {
+        return 0.0;
+    };
+    let s = svd.singular_values;
+    let smax = s.iter().copied().fold(0.0, f64::max);
+    let smin = s.iter().copied().fold(f64::INFINITY, f64::min);
+    if smax > 0.0 {
+        smin / smax
+    } else {
+        0.0
+    }
+}

@@ -8,7 +8,8 @@
 //!   `_in_place` variants over a reusable [`Workspace`].
 //! - [`identify`]: rank-revealing weighted least squares of the compliances from N
 //!   measurements, streaming over threads (TSQR); [`identify_dense`] the dense reference.
-//! - [`predict_deflection`], [`select_configurations`], [`dexterity`].
+//! - [`predict_deflection`], [`select_configurations`], [`dexterity`]; planning
+//!   ([`design`](fn@design)) with the default [`instruments`].
 //! - [`StiffnessModel`]: an identification saved as a versioned, hashed model file, and its
 //!   predictions with standard deviations ([`stiffness_model`]).
 //! - [`compensate`]: corrected joint targets so that the loaded tip reaches the nominal pose
@@ -52,6 +53,7 @@ pub mod gravity;
 mod hashing;
 mod identify;
 mod identify_partial;
+pub mod instruments;
 mod kinematics;
 mod lanes;
 pub mod lsq;
@@ -89,10 +91,10 @@ pub use identify::{
 pub use identify_partial::IdentificationPartial;
 pub use kinematics::{
     complementary_stiffness, complementary_stiffness_in_place, forward_kinematics_deflected,
-    jacobian, jacobian_batch_in_place, jacobian_batch_with_layout, jacobian_deflected,
-    jacobian_in_place, JacobianLayout, Workspace,
+    inverse_condition, jacobian, jacobian_batch_in_place, jacobian_batch_with_layout,
+    jacobian_deflected, jacobian_in_place, JacobianLayout, Workspace,
 };
-pub use model::{spring_axes, Spring, SpringAxis, SpringKind, VirtualJointModel};
+pub use model::{spring_axes, Spring, SpringAxis, SpringKind, VirtualJointModel, NOMINAL_TORSION};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};
 pub use stiffness_model::{DataSource, Load, ModelError, PointMass, Prediction, StiffnessModel};

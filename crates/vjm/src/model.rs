@@ -8,6 +8,11 @@ use serde::Serialize;
 use crate::chain::SerialChain;
 use crate::error::VjmError;
 
+/// Nominal torsional compliances of a Panda-class cobot, rad/(N·m), base → tip: stiffness
+/// 10 kN·m/rad at the shoulder down to 2 kN·m/rad at the wrist. The prior of planning
+/// ([`NoiseModel::typical`](crate::NoiseModel::typical)) and the virtual testbed's truth.
+pub const NOMINAL_TORSION: [f64; 7] = [1.0e-4, 1.0e-4, 1.5e-4, 1.5e-4, 3.0e-4, 4.0e-4, 5.0e-4];
+
 /// The axis of a virtual spring, in the child frame of its actuated joint.
 ///
 /// For a joint axis a: `Z` is torsion about a; `X` and `Y` are the tilting springs about

@@ -14,21 +14,24 @@ use crate::chain::SerialChain;
 use crate::error::VjmError;
 use crate::gravity::{GravityWorkspace, RowFrame};
 use crate::identify::{CombinationTerm, IdentifyOptions};
-use crate::kinematics::{jacobian_in_place, Workspace};
+use crate::instruments::{ForceSensorNoise, TrackerNoise};
+use crate::kinematics::{inverse_condition, jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
-use crate::testbed::{inverse_condition, ForceSensorNoise, TrackerNoise, NOMINAL_TORSION};
+use crate::model::NOMINAL_TORSION;
 
 /// The noise of a campaign as the plan assumes it: laser-tracker displacement noise (per axis,
 /// growing with the distance to the tracker) plus force/torque-sensor noise, which enters the
 /// displacement equations as `−(J C Jᵀ)_t δW` and so needs a prior compliance C.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NoiseModel {
-    /// Tracker noise (default: the testbed's, 15 µm + 6 µm/m MPE read as 2σ).
+    /// Tracker noise (default: [`TrackerNoise::default`], 15 µm + 6 µm/m MPE read as 2σ, 2.5 m
+    /// from the robot).
     pub tracker: TrackerNoise,
-    /// Force/torque sensor noise (default: the testbed's, 1 % of 100 N / 10 N·m as 2σ).
+    /// Force/torque sensor noise (default: [`ForceSensorNoise::default`], 1 % of 100 N /
+    /// 10 N·m as 2σ).
     pub force_sensor: ForceSensorNoise,
-    /// Prior compliance per spring of the model, rad/(N·m) (default: the testbed's nominal
-    /// torsions, tilts 0).
+    /// Prior compliance per spring of the model, rad/(N·m) (default: the Panda-class
+    /// [`NOMINAL_TORSION`], tilts 0).
     pub prior_compliance: Vec<f64>,
     /// The gravity the campaign is measured under, base frame (default `None`, weightless, as
     /// [`IdentifyOptions::gravity`]; Python and the CLI default to standard gravity). Under
@@ -40,8 +43,9 @@ pub struct NoiseModel {
 }
 
 impl NoiseModel {
-    /// The testbed's instruments and a Panda-class prior ([`NOMINAL_TORSION`]) for `model`.
-    pub fn testbed(model: &VirtualJointModel) -> Self {
+    /// A typical campaign's instruments ([`TrackerNoise::default`],
+    /// [`ForceSensorNoise::default`]) and a Panda-class prior ([`NOMINAL_TORSION`]) for `model`.
+    pub fn typical(model: &VirtualJointModel) -> Self {
         let prior = model
             .springs()
             .iter()
@@ -60,6 +64,12 @@ impl NoiseModel {
             prior_compliance: prior,
             gravity: None,
         }
+    }
+
+    /// The former name of [`NoiseModel::typical`].
+    #[deprecated(note = "use NoiseModel::typical: planning's defaults are a typical campaign's")]
+    pub fn testbed(model: &VirtualJointModel) -> Self {
+        Self::typical(model)
     }
 }
 

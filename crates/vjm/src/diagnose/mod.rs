@@ -84,7 +84,7 @@ pub struct NoiseAssumption {
 impl Default for NoiseAssumption {
     /// A laser tracker 2.5 m away (√2·(15 µm + 6 µm/m·2.5 m)/2 ≈ 21 µm per axis of a
     /// displacement) and a 1 %-of-full-scale F/T sensor (100 N, 10 N·m, read as 2σ): the
-    /// testbed's default instruments (a test checks the two agree).
+    /// default [`instruments`](crate::instruments) (a test checks the two agree).
     fn default() -> Self {
         NoiseAssumption {
             displacement_sigma: std::f64::consts::SQRT_2 * 0.5 * (15e-6 + 6e-6 * 2.5),

@@ -214,7 +214,7 @@ mod tests {
             .map(|k| (2.0 * uniform() - 1.0) * if k % 6 < 3 { 80.0 } else { 3.0 })
             .collect();
         let data = Dataset::new(7, q, w, vec![1e-4; 3 * n], None, None, None).unwrap();
-        let torsion = crate::testbed::NOMINAL_TORSION;
+        let torsion = crate::model::NOMINAL_TORSION;
         let c: Vec<f64> = (0..21)
             .map(|s| {
                 if s % 3 == 0 {

@@ -583,7 +583,7 @@ mod tests {
         let gravity = Gravity::new([1.2, -0.7, -9.7]).unwrap();
         let rows = 37;
         let q: &'static [f64] = super::super::seeded_configurations(chain, rows, 0x5a6).leak();
-        let torsion = crate::testbed::NOMINAL_TORSION;
+        let torsion = crate::model::NOMINAL_TORSION;
         let partial = VirtualJointModel::from_springs(
             7,
             vec![
@@ -678,7 +678,7 @@ mod tests {
         let gravity = Gravity::default();
         let rows = 37;
         let q: &'static [f64] = super::super::seeded_configurations(chain, rows, 0x50f7).leak();
-        let torsion = crate::testbed::NOMINAL_TORSION;
+        let torsion = crate::model::NOMINAL_TORSION;
         let ws = Box::leak(Box::new(
             crate::kinematics::Workspace::new(chain, &model).unwrap(),
         ));

@@ -288,29 +288,11 @@ fn check_effect(e: &Effect) -> Result<Option<usize>, TestbedError> {
 /// Inverse condition number of the actuated Jacobian `[J_lin; L·J_ang]`, L = 0.5 m.
 pub fn inverse_condition(chain: &SerialChain, q: &[f64]) -> f64 {
     let n = chain.n_joints();
+    // The testbed's own kinematics; the conditioning rule is the library's.
     let pose = deflected_pose(chain, q, &vec![0.0; 3 * n]);
-    let j = DMatrix::from_fn(6, n, |r, c| {
-        let v = pose.jacobian[(r, 3 * c)];
-        if r < 3 {
-            v
-        } else {
-            0.5 * v
-        }
-    });
-    // A pose whose Jacobian cannot be decomposed (non-finite) is unusable: condition 0, so the
-    // sampler rejects it and ends with `NoPose` after its attempt cap.
-    let Ok(svd) = stiffness_core::decompose::svd(j, false, false, "SVD of the pose Jacobian")
-    else {
-        return 0.0;
-    };
-    let s = svd.singular_values;
-    let smax = s.iter().cloned().fold(0.0, f64::max);
-    let smin = s.iter().cloned().fold(f64::INFINITY, f64::min);
-    if smax > 0.0 {
-        smin / smax
-    } else {
-        0.0
-    }
+    crate::kinematics::inverse_condition_of(DMatrix::from_fn(6, n, |r, c| {
+        pose.jacobian[(r, 3 * c)]
+    }))
 }
 
 /// Draws a campaign from `truth` on `chain` following `spec`.

@@ -199,9 +199,7 @@ impl RestUnderGravity {
     }
 }
 
-/// Nominal torsional compliances of a Panda-class cobot, rad/(N·m), base → tip: stiffness
-/// 10 kN·m/rad at the shoulder down to 2 kN·m/rad at the wrist.
-pub const NOMINAL_TORSION: [f64; 7] = [1.0e-4, 1.0e-4, 1.5e-4, 1.5e-4, 3.0e-4, 4.0e-4, 5.0e-4];
+pub use crate::model::NOMINAL_TORSION;
 
 impl TrueModel {
     /// Torsional springs only (the traditional VJM is exactly right): `torsion[j]` is joint j's

@@ -15,7 +15,7 @@ fn default_plan() -> (SerialChain, VirtualJointModel, Plan) {
         &chain,
         &model,
         &PlanSpec::default(),
-        &NoiseModel::testbed(&model),
+        &NoiseModel::typical(&model),
     )
     .unwrap();
     (chain, model, plan)
@@ -73,7 +73,7 @@ fn predicted_standard_errors_match_simulated_campaigns() {
 fn predicted_standard_errors_match_simulated_campaigns_under_gravity() {
     let chain = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
-    let mut noise = NoiseModel::testbed(&model);
+    let mut noise = NoiseModel::typical(&model);
     noise.gravity = Some(Gravity::default());
     let plan = design(&chain, &model, &PlanSpec::default(), &noise).unwrap();
     assert_eq!(plan.rank, 15);
@@ -147,7 +147,7 @@ fn plan_beats_random_poses() {
         .iter()
         .map(|c| c.terms.iter().map(|t| (t.param, t.coefficient)).collect())
         .collect();
-    let noise = NoiseModel::testbed(&model);
+    let noise = NoiseModel::typical(&model);
     for seed in 0..5 {
         let spec = CampaignSpec {
             n_poses: 24,
@@ -185,7 +185,7 @@ fn plan_beats_random_poses() {
 fn plan_errors_name_the_option() {
     let chain = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
-    let noise = NoiseModel::testbed(&model);
+    let noise = NoiseModel::typical(&model);
     let mut spec = PlanSpec::default();
     spec.n_poses = 0;
     let e = design(&chain, &model, &spec, &noise)
@@ -243,7 +243,7 @@ fn short_chains_get_a_plan_or_a_clear_error() {
                 &chain,
                 &model,
                 &PlanSpec::default(),
-                &NoiseModel::testbed(&model),
+                &NoiseModel::typical(&model),
             )
             .unwrap_or_else(|e| panic!("{base}→{tip}: {e}"));
             assert!(
@@ -260,7 +260,7 @@ fn short_chains_get_a_plan_or_a_clear_error() {
         &chain,
         &model,
         &PlanSpec::default(),
-        &NoiseModel::testbed(&model),
+        &NoiseModel::typical(&model),
     )
     .unwrap_err()
     .to_string();
@@ -275,7 +275,7 @@ fn a_tip_below_the_height_filter_is_named() {
     let model = VirtualJointModel::extended(1);
     let mut spec = PlanSpec::default();
     spec.min_tip_height = 1.0;
-    let e = design(&chain, &model, &spec, &NoiseModel::testbed(&model))
+    let e = design(&chain, &model, &spec, &NoiseModel::typical(&model))
         .unwrap_err()
         .to_string();
     assert!(
@@ -296,7 +296,7 @@ fn too_many_measurements_are_refused() {
     spec.n_poses = 10_000;
     spec.wrenches_per_pose = 11;
     spec.pool_size = 10_000;
-    let e = design(&chain, &model, &spec, &NoiseModel::testbed(&model))
+    let e = design(&chain, &model, &spec, &NoiseModel::typical(&model))
         .unwrap_err()
         .to_string();
     assert!(
@@ -312,7 +312,7 @@ fn design_is_cancellable_and_reports_progress() {
     use stiffness_core::{Cancel, Monitor, Progress};
     let chain = SerialChain::bundled();
     let model = VirtualJointModel::extended(7);
-    let noise = NoiseModel::testbed(&model);
+    let noise = NoiseModel::typical(&model);
     let cancel = Cancel::new();
     cancel.cancel();
     let e = vjm::design_monitored(
@@ -341,4 +341,36 @@ fn design_is_cancellable_and_reports_progress() {
     for stage in ["pool", "selection", "check"] {
         assert!(seen.contains(&stage), "{seen:?}");
     }
+}
+
+#[test]
+fn planning_conditions_poses_as_the_testbed_does_from_its_own_kinematics() {
+    // Planning's pose filter (`vjm::inverse_condition`, the library's Jacobian) and the
+    // testbed's (its independent kinematics) are two code paths: they agree on seeded poses,
+    // near a singularity too (q4 → 0 stretches the Panda's elbow).
+    use rand::{Rng, SeedableRng};
+    let chain = SerialChain::bundled();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(26);
+    let mut smallest: f64 = 1.0;
+    for k in 0..200 {
+        let mut q: Vec<f64> = chain
+            .limits()
+            .iter()
+            .map(|&(lo, hi)| rng.random_range(lo.max(-3.0)..hi.min(3.0)))
+            .collect();
+        if k % 4 == 0 {
+            q[3] = -1e-3 * (k as f64 + 1.0);
+        }
+        let (lib, bed) = (
+            vjm::inverse_condition(&chain, &q),
+            vjm::testbed::inverse_condition(&chain, &q),
+        );
+        assert!(
+            (lib - bed).abs() <= 1e-12 * bed.max(1e-3),
+            "{q:?}: {lib} vs {bed}"
+        );
+        assert!(lib > 0.0 && lib <= 1.0);
+        smallest = smallest.min(lib);
+    }
+    assert!(smallest < 0.02, "no pose near a singularity: {smallest}");
 }
