@@ -181,6 +181,10 @@ def test_csjm_simulate_diagnose_and_report(tmp_path):
     assert "cable_hysteresis" in [f["effect"] for f in doc["findings"]]
     assert "Named cause: cable_hysteresis" in proc.stdout
     assert (tmp_path / "rep" / "report.md").read_text().startswith("# CSJM stiffness diagnosis")
+    # --quiet and --split-seed as for the arm: the same split seed gives the same JSON.
+    proc = run_cli(["diagnose", "csjm", "c.csv", "--quiet", "--split-seed", "0", "--json", "d0.json"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "d0.json").read_text()) == doc
     proc = run_cli(["identify", "csjm", "c.csv", "--json", "k.json"], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     k = np.array(json.loads((tmp_path / "k.json").read_text())["K"])

@@ -135,10 +135,15 @@ def cmd_diagnose_csjm(args: argparse.Namespace, out: Outputs) -> int:
     json_out = out.file(args.json, "--json") if args.json is not None else None
     rows_out = out.file(args.rows, "--rows") if args.rows is not None else None
     report_dir = _report_dir(out, args, CSJM_REPORT_FILES)
-    with data_file(args.data):
-        result = in_worker(
-            diagnose_csjm, args.data, fdr=args.fdr, split_seed=args.split_seed, project=args.project
-        )
+    show = show_progress(args)
+    try:
+        with data_file(args.data):
+            result = in_worker(
+                diagnose_csjm, args.data, fdr=args.fdr, split_seed=args.split_seed, project=args.project,
+                progress=progress_reporter(show),
+            )
+    finally:
+        clear_progress(show)
     _write_diagnosis(result, json_out, rows_out)
     if report_dir is not None:
         render_report(result, report_dir, args, title="CSJM stiffness diagnosis", source=str(args.data))
@@ -212,10 +217,11 @@ def register(sub: Any) -> None:
     dc.add_argument("data", metavar="DATA.csv", help="CSJM measurement file")
     dc.add_argument("--fdr", type=T.probability, default=None,
                     help="false discovery rate, between 0 and 1 (default 0.01)")
-    dc.add_argument("--split-seed", type=T.seed, default=None, help="seed of the held-out rows")
+    dc.add_argument("--split-seed", type=T.seed, default=None, help="seed of the held-out rows (default 0)")
     dc.add_argument("--project", action="store_true", help="project orientation matrices onto SO(3)")
     dc.add_argument("--json", metavar="OUT.json", help="write the diagnosis as JSON (a summary: no per-row data)")
     dc.add_argument("--rows", metavar="ROWS.csv", help=ROWS_HELP)
     dc.add_argument("--report", metavar="DIR", help=REPORT_HELP)
     dc.add_argument("--force", action="store_true", help=FORCE_HELP)
+    dc.add_argument("--quiet", action="store_true", help="no progress display")
     dc.set_defaults(func=cmd_diagnose_csjm)

@@ -124,7 +124,7 @@ pub struct CsjmCampaignSpec {
 impl Default for CsjmCampaignSpec {
     fn default() -> Self {
         CsjmCampaignSpec {
-            preload: Vector3::from(crate::identification::campaign::SEED_TABLE3_PRELOAD),
+            preload: Vector3::from(crate::identification::campaign::PAPER_TABLE3_PRELOAD),
             increments: 85,
             max_increment: 1.0,
             pattern: LoadPattern::Symmetric,

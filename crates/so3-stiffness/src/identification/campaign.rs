@@ -100,21 +100,21 @@ pub enum LoadPattern {
     Symmetric,
     /// The seed's counterweight loading (Table 4, column A): every component keeps the sign
     /// of the seed's increments, Δτ = m·(u₁d₁, u₂d₂, u₃d₃) with u_i uniform in [0, 1] and
-    /// d = [`SEED_TABLE4_DIRECTION`] (unit vector, so ‖Δτ‖ ≤ m without clipping).
+    /// d = [`PAPER_TABLE4_DIRECTION`] (unit vector, so ‖Δτ‖ ≤ m without clipping).
     PaperTable4,
 }
 
 /// Unit direction of the mean load increment of the seed's Table 4 (column A, five cases:
 /// mean (2.328, −1.148, 0.638) N·m, norm 2.673 N·m), frame A.
-pub const SEED_TABLE4_DIRECTION: [f64; 3] = [0.870_9, -0.429_5, 0.238_7];
+pub const PAPER_TABLE4_DIRECTION: [f64; 3] = [0.870_9, -0.429_5, 0.238_7];
 
 /// The seed's pre-load ᴬτ₀ of Table 3, N·m, frame A.
-pub const SEED_TABLE3_PRELOAD: [f64; 3] = [-0.06, -3.08, 1.07];
+pub const PAPER_TABLE3_PRELOAD: [f64; 3] = [-0.06, -3.08, 1.07];
 
 /// The seed's reference pose R₀ of Table 3 (ᴮ_A R, row-major) with the sign of r₃₂ restored
 /// (printed +0.300 is not a rotation; see `docs/seed-000-tables.md` §2). Three decimals:
 /// project it with [`paper_reference_pose`].
-pub const SEED_TABLE3_R0: [[f64; 3]; 3] = [
+pub const PAPER_TABLE3_R0: [[f64; 3]; 3] = [
     [0.992, -0.060, -0.111],
     [0.090, 0.952, 0.292],
     [0.088, -0.300, 0.950],
@@ -132,9 +132,9 @@ pub const PAPER_LIKE_TILT_STIFFNESS: f64 = 29.675;
 /// [`paper_like_simulator`]).
 pub const PAPER_LIKE_MEAN_TENSION: f64 = 70.0;
 
-/// [`SEED_TABLE3_R0`] projected onto SO(3) (orthogonality error of the print: 7.1e-4).
+/// [`PAPER_TABLE3_R0`] projected onto SO(3) (orthogonality error of the print: 7.1e-4).
 pub fn paper_reference_pose() -> Rotation3<f64> {
-    let m = nalgebra::Matrix3::from_fn(|i, j| SEED_TABLE3_R0[i][j]);
+    let m = nalgebra::Matrix3::from_fn(|i, j| PAPER_TABLE3_R0[i][j]);
     // The constant is a rotation to print precision; the projection cannot fail.
     so3::project_to_rotation(&m).unwrap_or_else(|_| Rotation3::identity())
 }
@@ -164,7 +164,7 @@ pub fn paper_like_simulator() -> Result<CsjmSimulator, IdentificationError> {
     let kinematics = crate::csjm::CableKinematics::new(&geometry, &r0).map_err(sim_error)?;
     let j = kinematics.jacobian();
     let uniform = nalgebra::Vector6::repeat(PAPER_LIKE_MEAN_TENSION);
-    let preload = Vector3::from(SEED_TABLE3_PRELOAD);
+    let preload = Vector3::from(PAPER_TABLE3_PRELOAD);
     let jtj_inv =
         (j.transpose() * j)
             .try_inverse()
@@ -295,7 +295,7 @@ pub struct CampaignConfig {
 impl Default for CampaignConfig {
     fn default() -> Self {
         CampaignConfig {
-            preload: Vector3::from(SEED_TABLE3_PRELOAD),
+            preload: Vector3::from(PAPER_TABLE3_PRELOAD),
             increments: 85,
             max_increment: 1.0,
             pattern: LoadPattern::Symmetric,
@@ -323,7 +323,7 @@ impl CampaignConfig {
     /// [`paper_like_simulator`].
     pub fn paper_like(max_increment: f64, seed: u64) -> Self {
         CampaignConfig {
-            preload: Vector3::from(SEED_TABLE3_PRELOAD),
+            preload: Vector3::from(PAPER_TABLE3_PRELOAD),
             max_increment,
             pattern: LoadPattern::PaperTable4,
             seed,
@@ -478,7 +478,7 @@ pub fn simulate_campaign(
                 LoadPattern::OneSided => Vector3::from_fn(|_, _| rng.random_range(-0.25..=1.0)),
                 LoadPattern::Symmetric => Vector3::from_fn(|_, _| rng.random_range(-1.0..=1.0)),
                 LoadPattern::PaperTable4 => {
-                    Vector3::from_fn(|i, _| rng.random_range(0.0..=1.0) * SEED_TABLE4_DIRECTION[i])
+                    Vector3::from_fn(|i, _| rng.random_range(0.0..=1.0) * PAPER_TABLE4_DIRECTION[i])
                 }
             } * m;
             // Radial clip onto the ball ‖Δτ‖ ≤ m (keeps the direction).

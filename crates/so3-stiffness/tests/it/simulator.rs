@@ -120,7 +120,7 @@ fn potential_minus_work_is_minimal_at_a_stable_equilibrium() {
 }
 
 #[test]
-fn seed_eq_60_load_increments_in_frame_a_follow_k_d_not_k() {
+fn paper_eq_60_load_increments_in_frame_a_follow_k_d_not_k() {
     // Seed eqs. 57–61 predict Δζ = K⁻¹Δτ for a load increment Δτ measured in A. To first
     // order the A-frame components change by K_D Δζ (K_D = L_j τ_i by definition); the
     // Levi-Civita K differs by −½hat(τ₀), a 7 % effect at the seed's pre-load.

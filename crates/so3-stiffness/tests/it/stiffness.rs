@@ -77,7 +77,7 @@ proptest! {
     }
 
     #[test]
-    fn seed_eq_48b_is_neither_the_hessian_nor_symmetric((sim, r) in loaded_system()) {
+    fn paper_eq_48b_is_neither_the_hessian_nor_symmetric((sim, r) in loaded_system()) {
         let s = sim.stiffness(&r).unwrap();
         let tau = s.external_moment;
         // Only meaningful when the load is not negligible against the stiffness.

@@ -280,8 +280,8 @@ mod paper_like {
     use nalgebra::Vector3;
     use so3_stiffness::csjm::{stiffness_at, CsjmGeometry};
     use so3_stiffness::identification::campaign::{
-        paper_like_simulator, paper_reference_pose, PAPER_LIKE_TILT_STIFFNESS, SEED_TABLE3_PRELOAD,
-        SEED_TABLE3_R0, SEED_TABLE4_DIRECTION,
+        paper_like_simulator, paper_reference_pose, PAPER_LIKE_TILT_STIFFNESS,
+        PAPER_TABLE3_PRELOAD, PAPER_TABLE3_R0, PAPER_TABLE4_DIRECTION,
     };
     use so3_stiffness::so3;
 
@@ -302,9 +302,9 @@ mod paper_like {
         let sim = paper_like_simulator().unwrap();
         let r0 = paper_reference_pose();
         // The projection stays within print precision of Table 3's R₀ (r₃₂ = −0.300).
-        let printed = nalgebra::Matrix3::from_fn(|i, j| SEED_TABLE3_R0[i][j]);
+        let printed = nalgebra::Matrix3::from_fn(|i, j| PAPER_TABLE3_R0[i][j]);
         assert!((r0.matrix() - printed).amax() < 2e-3);
-        let preload = Vector3::from(SEED_TABLE3_PRELOAD);
+        let preload = Vector3::from(PAPER_TABLE3_PRELOAD);
         // The seed's R₀ is an equilibrium under the seed's pre-load.
         assert!((sim.holding_moment(&r0).unwrap() - preload).norm() < 1e-9);
         let c = paper_like(1.0, 1, false);
@@ -317,7 +317,7 @@ mod paper_like {
         // 7 N·m/rad is out of reach of the printed dimensions.
         assert!(k[(2, 2)] > 7.9 && k[(2, 2)] < 20.0, "K_zz = {}", k[(2, 2)]);
         // Table 4's increments all point into the (+x, −y, +z) octant.
-        assert!((Vector3::from(SEED_TABLE4_DIRECTION).norm() - 1.0).abs() < 1e-3);
+        assert!((Vector3::from(PAPER_TABLE4_DIRECTION).norm() - 1.0).abs() < 1e-3);
         let d: Vec<_> = c.applied.iter().map(|t| t - preload).collect();
         assert!(d
             .iter()
