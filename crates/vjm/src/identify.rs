@@ -278,10 +278,14 @@ pub fn identify(
     opts: &IdentifyOptions,
 ) -> Result<Identification, VjmError> {
     // Without a row check nothing abandons the pass, so `None` cannot happen.
-    identify_inner(chain, model, q, wrench, displacement, rotation, opts, None)?.ok_or_else(|| {
-        VjmError::Numerical {
-            message: "the identification was abandoned without a row check".into(),
-        }
+    let data = Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    };
+    identify_inner(chain, model, data, opts, None)?.ok_or_else(|| VjmError::Numerical {
+        message: "the identification was abandoned without a row check".into(),
     })
 }
 
@@ -305,40 +309,24 @@ pub fn identify_checking_rows(
     opts: &IdentifyOptions,
     rows_ok: RowCheck<'_>,
 ) -> Result<Option<Identification>, VjmError> {
-    identify_inner(
-        chain,
-        model,
+    let data = Measurements {
         q,
         wrench,
         displacement,
         rotation,
-        opts,
-        Some(rows_ok),
-    )
+    };
+    identify_inner(chain, model, data, opts, Some(rows_ok))
 }
 
-#[allow(clippy::too_many_arguments)]
 fn identify_inner(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
     rows_ok: Option<RowCheck<'_>>,
 ) -> Result<Option<Identification>, VjmError> {
     let Some(gravity) = opts.gravity else {
-        return identify_pass(
-            chain,
-            model,
-            q,
-            wrench,
-            displacement,
-            rotation,
-            opts,
-            rows_ok,
-        );
+        return identify_pass(chain, model, data, opts, rows_ok);
     };
     // Before any pass: a chain without masses is refused naming the link.
     let weight = GravityWorkspace::new(chain, model, &gravity, None)?;
@@ -347,27 +335,17 @@ fn identify_inner(
         ..*opts
     };
     // The first pass checks the rows; the refits read the same rows again.
-    let Some(first) = identify_pass(
-        chain,
-        model,
-        q,
-        wrench,
-        displacement,
-        rotation,
-        &unconstrained(&weightless),
-        rows_ok,
-    )?
+    let Some(first) = identify_pass(chain, model, data, &unconstrained(&weightless), rows_ok)?
     else {
         return Ok(None);
     };
-    let inputs = Measurements {
-        q,
-        wrench,
-        displacement,
-        rotation,
-    };
-    refit_under_gravity(chain, &inputs, &weightless, &weight, first, |d, r, o| {
-        identify_pass(chain, model, q, wrench, d, r, o, None)?.ok_or_else(|| VjmError::Numerical {
+    refit_under_gravity(chain, &data, &weightless, &weight, first, |d, r, o| {
+        let corrected = Measurements {
+            displacement: d,
+            rotation: r,
+            ..data
+        };
+        identify_pass(chain, model, corrected, o, None)?.ok_or_else(|| VjmError::Numerical {
             message: "the identification was abandoned without a row check".into(),
         })
     })
@@ -381,7 +359,9 @@ pub const MAX_GRAVITY_REFITS: usize = 20;
 /// largest compliance.
 pub const GRAVITY_TOLERANCE: f64 = 1e-10;
 
-/// A measurement set as [`identify`] takes it (row-major, base frame, SI).
+/// A measurement set as [`identify`] takes it (row-major, base frame, SI): joint angles (N·n,
+/// rad), applied wrenches (N·6, N and N·m), tip displacements (N·3, m), rotations (N·3, rad).
+#[derive(Clone, Copy)]
 struct Measurements<'a> {
     q: &'a [f64],
     wrench: &'a [f64],
@@ -581,17 +561,19 @@ fn correct_for_gravity(
         )
 }
 
-#[allow(clippy::too_many_arguments)]
 fn identify_pass(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
     rows_ok: Option<RowCheck<'_>>,
 ) -> Result<Option<Identification>, VjmError> {
+    let Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    } = data;
     if opts.method == SolveMethod::Qr {
         if let Some(check) = rows_ok {
             let rows = q.len() / chain.n_joints().max(1);
@@ -605,17 +587,8 @@ fn identify_pass(
         let factor = accumulate(chain, model, q, wrench, displacement, rotation, opts)?;
         return finish(chain, model, &factor, opts, SolveMethod::Qr).map(Some);
     }
-    let inputs = validate_inner(chain, model, q, wrench, displacement, rotation, opts, false)?;
-    let Some(gram) = accumulate_gram(
-        chain,
-        model,
-        q,
-        wrench,
-        displacement,
-        rotation,
-        &inputs,
-        rows_ok,
-    ) else {
+    let inputs = validate_inner(chain, model, data, opts, false)?;
+    let Some(gram) = accumulate_gram(chain, model, data, &inputs, rows_ok) else {
         return Ok(None);
     };
     if !gram.iter().all(|v| v.is_finite()) {
@@ -658,25 +631,21 @@ fn identify_pass(
 /// The whitened Gram matrix `[A b]ᵀ[A b]` ((m+1)×(m+1), row-major) of validated inputs,
 /// lane-wise over rayon tasks; `None` when `rows_ok` refused a chunk (checked just before the
 /// chunk is read).
-#[allow(clippy::too_many_arguments)]
 fn accumulate_gram(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     inputs: &Inputs,
     rows_ok: Option<RowCheck<'_>>,
 ) -> Option<Vec<f64>> {
     let lanes = ChainLanes::new(chain, model);
     let problem = GramProblem {
         chain: &lanes,
-        q,
-        wrench,
-        displacement,
+        q: data.q,
+        wrench: data.wrench,
+        displacement: data.displacement,
         rotation: if inputs.measured == Measured::Full {
-            rotation
+            data.rotation
         } else {
             None
         },
@@ -795,7 +764,13 @@ fn validate(
     rotation: Option<&[f64]>,
     opts: &IdentifyOptions,
 ) -> Result<Inputs, VjmError> {
-    validate_inner(chain, model, q, wrench, displacement, rotation, opts, true)
+    let data = Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    };
+    validate_inner(chain, model, data, opts, true)
 }
 
 /// Every input value finite, or an error naming the first bad row and column.
@@ -828,17 +803,19 @@ fn check_all_finite(
 /// Shapes and options; the values too when `check_values` (the normal-equations path
 /// skips that pass over the data: a non-finite value makes the Gram matrix non-finite, and
 /// only then are the values searched for the row and column to report).
-#[allow(clippy::too_many_arguments)]
 fn validate_inner(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
     check_values: bool,
 ) -> Result<Inputs, VjmError> {
+    let Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    } = data;
     model.check_chain(chain)?;
     let n = chain.n_joints();
     for (i, s) in opts.noise_sigma.iter().enumerate() {
