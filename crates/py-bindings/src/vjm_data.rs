@@ -103,7 +103,6 @@ pub fn vjm_read_csv<'py>(
 /// Validates arrays as a measurement table and returns the CSV text (full precision).
 #[pyfunction]
 #[pyo3(signature = (n_joints, q, wrench, displacement, rotation = None, pose = None, set = None))]
-#[allow(clippy::too_many_arguments)]
 pub fn vjm_to_csv(
     n_joints: usize,
     q: PyReadonlyArrayDyn<'_, f64>,

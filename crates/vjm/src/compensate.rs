@@ -817,7 +817,6 @@ fn compensate_rows(
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 fn compensate_row(
     chain: &SerialChain,
     springs: &ModelSprings<'_>,
