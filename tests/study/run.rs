@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use serde::Serialize;
-use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
+use so3_stiffness::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 use vjm::diagnose::report::Diagnosis;
 use vjm::diagnose::{diagnose, DiagnoseOptions};
 use vjm::testbed::{simulate, CampaignSpec, ForceSensorNoise, TrackerNoise, TrueModel};

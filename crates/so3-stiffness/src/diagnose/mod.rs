@@ -27,7 +27,7 @@
 //!
 //! ```
 //! use so3_stiffness::diagnose::{diagnose, DiagnoseOptions};
-//! use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
+//! use so3_stiffness::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 //! let campaign = simulate_campaign(&CsjmCampaignSpec::new(CsjmEffects::friction(2.0), 1))?;
 //! let diagnosis = diagnose(&campaign.dataset, &DiagnoseOptions::default())?;
 //! assert!(diagnosis.names("cable_hysteresis"));
@@ -47,7 +47,8 @@ pub mod report;
 pub use crate::stats;
 mod run;
 pub mod structure;
-pub mod testbed;
+/// The virtual testbed, now [`crate::testbed`] (kept here under its former path).
+pub use crate::testbed;
 use run::run_diagnosis;
 
 use std::path::Path;

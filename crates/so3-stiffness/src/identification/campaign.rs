@@ -499,29 +499,9 @@ pub fn simulate_campaign(
         previous_pose = eq.pose;
     }
 
-    let angle_sigma = config.tracker.angular_sigma();
-    let moment_sigma = config.moment_noise.sigma();
-    let gaussian = |sigma: f64| {
-        Normal::new(0.0, sigma).map_err(|e| IdentificationError::InvalidSetting {
-            field: "noise",
-            message: e.to_string(),
-        })
-    };
-    let angle_noise = gaussian(angle_sigma)?;
-    let moment_noise = [
-        gaussian(moment_sigma.x)?,
-        gaussian(moment_sigma.y)?,
-        gaussian(moment_sigma.z)?,
-    ];
-    let mut measure = |pose: &Rotation3<f64>, external: &Vector3<f64>| {
-        let n = Vector3::from_fn(|_, _| angle_noise.sample(&mut rng));
-        let measured_pose = pose * so3::exp(&n);
-        let mut moment = external + Vector3::from_fn(|i, _| moment_noise[i].sample(&mut rng));
-        if let GravityRecording::Recorded(w) = config.gravity {
-            moment += gravity_moment(&measured_pose, &w.force_in_b(), &w.point_in_a());
-        }
-        CsjmMeasurement::new(measured_pose, moment)
-    };
+    let recorder = Recorder::new(&config.tracker, &config.moment_noise, config.gravity)?;
+    let mut measure =
+        |pose: &Rotation3<f64>, external: &Vector3<f64>| recorder.record(&mut rng, pose, external);
     let reference_row = measure(&true_r0, &config.preload);
     let rows: Vec<CsjmMeasurement> = true_poses
         .iter()
@@ -536,4 +516,54 @@ pub fn simulate_campaign(
         applied,
         true_poses,
     })
+}
+
+/// What the instruments record of a true pose under a true external moment (both simulated
+/// campaigns read their rows through it): the tracker's pose `R · exp(hat n)`, n ~ N(0, σ_θ²)
+/// per axis of A, and the F/T sensor's moment plus N(0, σ²) per channel, with the platform
+/// weight's moment added when the campaign records it ([`GravityRecording::Recorded`]).
+/// Draws three angles, then three moments, from the caller's RNG per row.
+pub(crate) struct Recorder {
+    angle: Normal<f64>,
+    moment: [Normal<f64>; 3],
+    gravity: GravityRecording,
+}
+
+impl Recorder {
+    /// The recorder of `tracker` and `moment_noise`; an error names a σ that is not a valid
+    /// standard deviation.
+    pub(crate) fn new(
+        tracker: &TrackerNoise,
+        moment_noise: &MomentNoise,
+        gravity: GravityRecording,
+    ) -> Result<Self, IdentificationError> {
+        let gaussian = |sigma: f64| {
+            Normal::new(0.0, sigma).map_err(|e| IdentificationError::InvalidSetting {
+                field: "noise",
+                message: e.to_string(),
+            })
+        };
+        let ms = moment_noise.sigma();
+        Ok(Recorder {
+            angle: gaussian(tracker.angular_sigma())?,
+            moment: [gaussian(ms.x)?, gaussian(ms.y)?, gaussian(ms.z)?],
+            gravity,
+        })
+    }
+
+    /// The recorded row of true `pose` under the true `external` moment (N·m, frame A).
+    pub(crate) fn record(
+        &self,
+        rng: &mut impl Rng,
+        pose: &Rotation3<f64>,
+        external: &Vector3<f64>,
+    ) -> CsjmMeasurement {
+        let n = Vector3::from_fn(|_, _| self.angle.sample(rng));
+        let measured_pose = pose * so3::exp(&n);
+        let mut moment = external + Vector3::from_fn(|i, _| self.moment[i].sample(rng));
+        if let GravityRecording::Recorded(w) = self.gravity {
+            moment += gravity_moment(&measured_pose, &w.force_in_b(), &w.point_in_a());
+        }
+        CsjmMeasurement::new(measured_pose, moment)
+    }
 }

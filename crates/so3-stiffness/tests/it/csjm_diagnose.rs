@@ -8,9 +8,6 @@
 use nalgebra::{Rotation3, Vector3};
 use so3_stiffness::csjm::{CsjmGeometry, CsjmSimulator, PointLoad, CABLES};
 use so3_stiffness::diagnose::stats::{benjamini_hochberg, chi2_sf, f_sf, t_two_sided};
-use so3_stiffness::diagnose::testbed::{
-    simulate_campaign, CsjmCampaignSpec, CsjmEffects, EffectSimulator, PathState,
-};
 use so3_stiffness::diagnose::{
     diagnose, diagnose_file, CsjmDiagnosis, DiagnoseError, DiagnoseOptions, CONNECTION_TERM,
 };
@@ -19,6 +16,9 @@ use so3_stiffness::identification::campaign::{
 };
 use so3_stiffness::identification::{identify, CsjmDataset, CsjmMeasurement, FitOptions};
 use so3_stiffness::so3;
+use so3_stiffness::testbed::{
+    simulate_campaign, CsjmCampaignSpec, CsjmEffects, EffectSimulator, PathState,
+};
 
 fn run(spec: &CsjmCampaignSpec) -> CsjmDiagnosis {
     let campaign = simulate_campaign(spec).expect("campaign");

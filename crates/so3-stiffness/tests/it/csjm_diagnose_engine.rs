@@ -5,10 +5,10 @@
 //! All randomness is seeded (campaign seeds below; the split seed is the options' default).
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 use so3_stiffness::diagnose::{
     diagnose, diagnose_monitored, diagnose_with_progress, DiagnoseError, DiagnoseOptions, Evidence,
 };
+use so3_stiffness::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 use stiffness_core::{Cancel, Monitor, Progress};
 
 fn campaign(effects: CsjmEffects, seed: u64) -> so3_stiffness::identification::CsjmDataset {

@@ -1,4 +1,4 @@
-//! A virtual CSJM testbed for diagnosis: the seed's experiment (a pre-loaded pose and load
+//! A virtual CSJM testbed for the diagnosis: the seed's experiment (a pre-loaded pose and load
 //! increments applied one after another, in measurement order) on a simulator that carries
 //! the effects the diagnosis looks for.
 //!
@@ -25,17 +25,14 @@
 use nalgebra::{Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use rand_distr::{Distribution, Normal};
 
 use crate::csjm::{CsjmSimulator, EquilibriumOptions, PointLoad, Stiffness, CABLES};
-use crate::identification::campaign::prototype_simulator;
+use crate::identification::campaign::{prototype_simulator, Recorder};
 // Re-exported so that a campaign spec can be built from this module alone (e.g. by bindings).
 pub use crate::identification::campaign::{
     GravityRecording, LoadPattern, MomentNoise, TrackerNoise,
 };
-use crate::identification::load::gravity_moment;
 use crate::identification::{CsjmDataset, CsjmMeasurement, IdentificationError};
-use crate::so3;
 
 /// Largest load increment a simulated CSJM campaign accepts, N·m: far beyond what a
 /// cable-driven joint of the prototype's size carries (its weight makes ≈ 1 N·m).
@@ -329,7 +326,7 @@ impl EffectSimulator {
 /// hidden `spec.effects`.
 ///
 /// ```
-/// use so3_stiffness::diagnose::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
+/// use so3_stiffness::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 /// let mut spec = CsjmCampaignSpec::new(CsjmEffects::friction(1.0), 3);
 /// spec.increments = 10;
 /// let campaign = simulate_campaign(&spec).unwrap();
@@ -391,24 +388,9 @@ pub fn simulate_campaign_on(
         sliding.push(state.sliding);
     }
 
-    let gaussian = |sigma: f64| {
-        Normal::new(0.0, sigma).map_err(|e| IdentificationError::InvalidSetting {
-            field: "noise",
-            message: e.to_string(),
-        })
-    };
-    let angle_noise = gaussian(spec.tracker.angular_sigma())?;
-    let ms = spec.moment_noise.sigma();
-    let moment_noise = [gaussian(ms.x)?, gaussian(ms.y)?, gaussian(ms.z)?];
-    let mut measure = |pose: &Rotation3<f64>, external: &Vector3<f64>| {
-        let n = Vector3::from_fn(|_, _| angle_noise.sample(&mut rng));
-        let measured_pose = pose * so3::exp(&n);
-        let mut moment = external + Vector3::from_fn(|i, _| moment_noise[i].sample(&mut rng));
-        if let GravityRecording::Recorded(w) = spec.effects.gravity {
-            moment += gravity_moment(&measured_pose, &w.force_in_b(), &w.point_in_a());
-        }
-        CsjmMeasurement::new(measured_pose, moment)
-    };
+    let recorder = Recorder::new(&spec.tracker, &spec.moment_noise, spec.effects.gravity)?;
+    let mut measure =
+        |pose: &Rotation3<f64>, external: &Vector3<f64>| recorder.record(&mut rng, pose, external);
     let reference = measure(&true_r0, &spec.preload);
     let rows: Vec<CsjmMeasurement> = true_poses
         .iter()
