@@ -177,35 +177,17 @@ pub enum DiagnoseError {
 
 impl DiagnoseOptions {
     fn validate(&self) -> Result<(), DiagnoseError> {
-        if !(self.fdr > 0.0 && self.fdr < 1.0) {
-            return Err(DiagnoseError::InvalidOption {
-                option: "fdr",
-                value: self.fdr,
-                requirement: "in (0, 1)",
-            });
-        }
-        if !(self.test_fraction > 0.0 && self.test_fraction < 1.0) {
-            return Err(DiagnoseError::InvalidOption {
-                option: "test_fraction",
-                value: self.test_fraction,
-                requirement: "in (0, 1)",
-            });
-        }
-        if !(self.alias_cosine > 0.0 && self.alias_cosine <= 1.0) {
-            return Err(DiagnoseError::InvalidOption {
-                option: "alias_cosine",
-                value: self.alias_cosine,
-                requirement: "in (0, 1]",
-            });
-        }
-        if !(self.alias_alpha > 0.0 && self.alias_alpha < 1.0) {
-            return Err(DiagnoseError::InvalidOption {
-                option: "alias_alpha",
-                value: self.alias_alpha,
-                requirement: "in (0, 1)",
-            });
-        }
-        Ok(())
+        stiffness_core::engine::schema::check_selection_options(
+            self.fdr,
+            self.test_fraction,
+            self.alias_cosine,
+            self.alias_alpha,
+        )
+        .map_err(|e| DiagnoseError::InvalidOption {
+            option: e.option,
+            value: e.value,
+            requirement: e.requirement,
+        })
     }
 }
 

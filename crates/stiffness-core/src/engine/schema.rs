@@ -138,3 +138,51 @@ pub struct Finding<E, D = NoDetail> {
     #[serde(flatten)]
     pub detail: D,
 }
+
+/// An option of a diagnosis outside its range: which one, its value, the range it needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OptionOutOfRange {
+    /// The option's name, e.g. `fdr`.
+    pub option: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// The range it needs, e.g. `in (0, 1)`.
+    pub requirement: &'static str,
+}
+
+/// Checks the options every model's diagnosis shares (NaN fails every check): the false
+/// discovery rate `fdr` and the held-out `test_fraction` in (0, 1), the alias threshold
+/// `alias_cosine` in (0, 1], the alias level `alias_alpha` in (0, 1).
+pub fn check_selection_options(
+    fdr: f64,
+    test_fraction: f64,
+    alias_cosine: f64,
+    alias_alpha: f64,
+) -> Result<(), OptionOutOfRange> {
+    let open = |x: f64| x > 0.0 && x < 1.0;
+    for (option, value, ok, requirement) in [
+        ("fdr", fdr, open(fdr), "in (0, 1)"),
+        (
+            "test_fraction",
+            test_fraction,
+            open(test_fraction),
+            "in (0, 1)",
+        ),
+        (
+            "alias_cosine",
+            alias_cosine,
+            alias_cosine > 0.0 && alias_cosine <= 1.0,
+            "in (0, 1]",
+        ),
+        ("alias_alpha", alias_alpha, open(alias_alpha), "in (0, 1)"),
+    ] {
+        if !ok {
+            return Err(OptionOutOfRange {
+                option,
+                value,
+                requirement,
+            });
+        }
+    }
+    Ok(())
+}

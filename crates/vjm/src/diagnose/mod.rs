@@ -269,24 +269,22 @@ pub fn diagnose_monitored(
 fn check_options(opts: &DiagnoseOptions) -> Result<(), DiagnoseError> {
     let bad =
         |name: &'static str, message: String| Err(DiagnoseError::InvalidOption { name, message });
-    if !(opts.fdr > 0.0 && opts.fdr < 1.0) {
-        return bad(
-            "fdr",
+    stiffness_core::engine::schema::check_selection_options(
+        opts.fdr,
+        opts.test_fraction,
+        opts.alias_cosine,
+        opts.alias_alpha,
+    )
+    .or_else(|e| {
+        bad(
+            e.option,
             format!(
-                "must be in (0, 1), got {}",
-                stiffness_core::num::Short(opts.fdr)
+                "must be {}, got {}",
+                e.requirement,
+                stiffness_core::num::Short(e.value)
             ),
-        );
-    }
-    if !(opts.test_fraction > 0.0 && opts.test_fraction < 1.0) {
-        return bad(
-            "test_fraction",
-            format!(
-                "must be in (0, 1), got {}",
-                stiffness_core::num::Short(opts.test_fraction)
-            ),
-        );
-    }
+        )
+    })?;
     opts.noise.check()
 }
 

@@ -448,6 +448,27 @@ fn bad_input_is_rejected_with_a_clear_error() {
     )
     .unwrap_err();
     assert!(e.to_string().contains("fdr"), "{e}");
+    // The alias options are checked as the CSJM's are (they were not before issue 26): the
+    // message names the option, the range and the value.
+    for (opts, expect) in [
+        (
+            DiagnoseOptions {
+                alias_cosine: 1.5,
+                ..Default::default()
+            },
+            "option `alias_cosine`: must be in (0, 1], got 1.5",
+        ),
+        (
+            DiagnoseOptions {
+                alias_alpha: f64::NAN,
+                ..Default::default()
+            },
+            "option `alias_alpha`: must be in (0, 1), got NaN",
+        ),
+    ] {
+        let e = diagnose(&chain, &c.dataset, &opts).unwrap_err();
+        assert!(e.to_string().contains(expect), "{e}");
+    }
     let e = diagnose(
         &chain,
         &c.dataset,
