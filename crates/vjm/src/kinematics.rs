@@ -588,10 +588,22 @@ pub(crate) fn rotation_minus_identity(
 /// kinematics, `testbed::inverse_condition`.)
 pub fn inverse_condition(chain: &SerialChain, q: &[f64]) -> f64 {
     let model = VirtualJointModel::traditional(chain.n_joints());
-    let Ok(jac) = jacobian(chain, &model, q) else {
+    let (Ok(mut ws), Ok(())) = (Workspace::new(chain, &model), chain.check_q(q, 0)) else {
         return 0.0;
     };
-    inverse_condition_of(jac)
+    ws.evaluate(chain, q);
+    inverse_condition_at(&mut ws)
+}
+
+/// [`inverse_condition`] at the pose `ws` was last evaluated at (a workspace of the chain's
+/// traditional model, [`Workspace::evaluate`] done): a loop over poses reuses one workspace
+/// and the frames it already evaluated.
+pub(crate) fn inverse_condition_at(ws: &mut Workspace) -> f64 {
+    let mut jac = std::mem::take(&mut ws.jac);
+    ws.write_jacobian(&mut jac);
+    let j = DMatrix::from_column_slice(6, jac.len() / 6, &jac);
+    ws.jac = jac;
+    inverse_condition_of(j)
 }
 
 /// σ_min/σ_max of `[J_lin; L·J_ang]` (L = 0.5 m) for the actuated 6×n Jacobian `j`

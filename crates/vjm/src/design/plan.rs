@@ -15,7 +15,7 @@ use crate::error::VjmError;
 use crate::gravity::{GravityWorkspace, RowFrame};
 use crate::identify::{CombinationTerm, IdentifyOptions};
 use crate::instruments::{ForceSensorNoise, TrackerNoise};
-use crate::kinematics::{inverse_condition, jacobian_in_place, Workspace};
+use crate::kinematics::{inverse_condition_at, jacobian_in_place, Workspace};
 use crate::model::VirtualJointModel;
 use crate::model::NOMINAL_TORSION;
 
@@ -434,6 +434,8 @@ fn sample_poses(
     let (mut low_tip, mut low_condition) = (0usize, 0usize);
     let (mut highest_tip, mut best_condition) = (f64::NEG_INFINITY, 0.0f64);
     let mut attempts = 0usize;
+    let mut ws = Workspace::new(chain, &VirtualJointModel::traditional(n))?;
+    let mut q = Vec::with_capacity(n);
     while out.len() < spec.pool_size * n {
         let accepted = out.len() / n;
         // Acceptance so far, projected to the cap: stop as soon as the pool cannot be filled.
@@ -466,21 +468,20 @@ fn sample_poses(
                 total: spec.pool_size,
             })?;
         }
-        let q: Vec<f64> = chain
-            .limits()
-            .iter()
-            .map(|&(lo, hi)| {
-                let (lo, hi) = (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI));
-                rng.random_range(lo + spec.limit_margin..hi - spec.limit_margin)
-            })
-            .collect();
-        let tip = chain.forward_kinematics(&q)?.translation.vector;
-        highest_tip = highest_tip.max(tip.z);
-        if tip.z < spec.min_tip_height {
+        q.clear();
+        q.extend(chain.limits().iter().map(|&(lo, hi)| {
+            let (lo, hi) = (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI));
+            rng.random_range(lo + spec.limit_margin..hi - spec.limit_margin)
+        }));
+        // One evaluation of the frames per draw: the tip height, then the Jacobian there.
+        ws.evaluate(chain, &q);
+        let tip_z = ws.p.z;
+        highest_tip = highest_tip.max(tip_z);
+        if tip_z < spec.min_tip_height {
             low_tip += 1;
             continue;
         }
-        let condition = inverse_condition(chain, &q);
+        let condition = inverse_condition_at(&mut ws);
         best_condition = best_condition.max(condition);
         if condition < spec.min_inverse_condition {
             low_condition += 1;
