@@ -14,7 +14,6 @@ from ._cli_context import (
     check_input,
     robot_of,
 )
-from .model import BUNDLED_URDF_PATH, recorded_urdf
 
 #: The core's name of a bad payload, as the command line spells it (predict and compensate).
 PAYLOAD_NAMES = {"invalid payload:": "--payload:"}
@@ -85,6 +84,8 @@ def named_inputs(args: argparse.Namespace) -> List[Tuple[str, str]]:
     model_file = getattr(args, "model_file", None)
     if not model_file:
         return []
+    from .model import recorded_urdf
+
     robot = _recorded_robot(model_file)
     if robot is None:
         return []
@@ -97,6 +98,7 @@ def robot_for(args: argparse.Namespace) -> Any:
     """The robot of ``predict``/``compensate``: the one the model file records (its URDF found
     as :func:`_recorded_robot` says), ``--urdf`` alone with the recorded base and tip, or
     ``--urdf/--base/--tip`` (``--base``/``--tip`` without ``--urdf``: the bundled arm)."""
+    from .model import BUNDLED_URDF_PATH, recorded_urdf
     from .vjm import Robot
 
     if args.base is not None or args.tip is not None:

@@ -401,3 +401,52 @@ fn a_hashing_read_fingerprints_every_byte_of_the_file() {
     }
     std::fs::remove_dir(&dir).unwrap();
 }
+
+/// Cells a measurement file may hold, and cells it should not: decimals of every shape (signs,
+/// a bare point, exponents, mantissas longer than 19 digits, overflow and underflow), `f64`
+/// written shortest and in scientific form, words, padding, quotes, and junk.
+fn cell() -> impl Strategy<Value = String> {
+    let decimal = "[-+]?[0-9]{0,24}(\\.[0-9]{0,24})?([eE][-+]?[0-9]{0,4})?";
+    let padded = ("[ \t]{0,2}", decimal, "[ \t]{0,2}").prop_map(|(a, d, b)| format!("{a}{d}{b}"));
+    prop_oneof![
+        4 => decimal,
+        2 => any::<f64>().prop_map(|v| format!("{v}")),
+        2 => any::<f64>().prop_map(|v| format!("{v:e}")),
+        1 => padded,
+        1 => "[-+]?(inf|Inf|INF|infinity|Infinity|nan|NaN)",
+        1 => proptest::sample::select(vec!["\"2.5\"", "\" -1e3 \"", "1_0", "0x1p3", "1.5.2", "1e", "--1", "."])
+            .prop_map(str::to_string),
+        1 => "[-+.eE0-9a-z_ ]{0,6}",
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2048, ..ProptestConfig::default() })]
+
+    /// Whichever path reads a row (the one-pass path of plain rows or the general one), a
+    /// number cell is what std's `f64::from_str` makes of it, trimmed of spaces and tabs and
+    /// unquoted, bit for bit; a cell std refuses is the error, named by its column.
+    #[test]
+    fn a_number_cell_reads_as_std_parses_it(cells in proptest::collection::vec(cell(), 3)) {
+        let text = format!("a,b,c\n{}\n", cells.join(","));
+        let expected: Vec<Result<f64, ()>> = cells
+            .iter()
+            .map(|c| {
+                let c = c.trim_matches([' ', '\t']);
+                let c = c.strip_prefix('"').and_then(|c| c.strip_suffix('"')).unwrap_or(c);
+                c.trim_matches([' ', '\t']).parse::<f64>().map_err(|_| ())
+            })
+            .collect();
+        match (floats(&text, 3), expected.iter().position(Result::is_err)) {
+            (Ok((values, _)), None) => {
+                let want: Vec<u64> = expected.iter().map(|v| v.unwrap().to_bits()).collect();
+                let got: Vec<u64> = values.iter().map(|v| v.to_bits()).collect();
+                prop_assert_eq!(got, want, "{:?}", cells);
+            }
+            (Err(TableError::Parse { line: 2, column, .. }), Some(k)) => {
+                prop_assert_eq!(column, format!("c{k}"), "{:?}", cells);
+            }
+            (got, first_bad) => prop_assert!(false, "{:?}: read {:?}, std refuses cell {:?}", cells, got, first_bad),
+        }
+    }
+}
