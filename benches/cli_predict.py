@@ -8,7 +8,9 @@ identified from it in memory (weightless, the reference of every ratio, median o
 and saved. Then, each in a fresh interpreter, median of ``--repeat`` runs:
 
 * ``robot-stiffness predict vjm MODEL.json POSES.csv --out PRED.csv`` (default: the sag columns
-  too, under standard gravity: the model records none) and with ``--no-gravity``;
+  too, under standard gravity: the model records none) into a new PRED.csv (the previous run's
+  is removed before each run, untimed); the same with ``--force`` over the previous run's file
+  (the file system's cost of replacing 0.5 GB comes on top); and with ``--no-gravity``;
 * with ``--parquet``, the same from a Parquet POSES file to a Parquet PRED file.
 
 Peak memory is the child's own high-water mark, ``VmHWM`` of ``/proc/self/status`` read as it
@@ -74,8 +76,15 @@ def run_child(argv: List[str]) -> Tuple[float, float]:
         return wall, int(peak_file.read_text()) * 1024 / 1e6
 
 
-def median_child(repeat: int, argv: List[str]) -> Tuple[float, float]:
-    runs = [run_child(argv) for _ in range(repeat)]
+def median_child(repeat: int, argv: List[str], fresh: Optional[Path] = None) -> Tuple[float, float]:
+    """Median wall time and largest peak of ``repeat`` runs; with ``fresh``, that output file is
+    removed before each run (untimed), so that the command writes a new file rather than
+    replacing the previous run's."""
+    runs = []
+    for _ in range(repeat):
+        if fresh is not None:
+            fresh.unlink(missing_ok=True)
+        runs.append(run_child(argv))
     return statistics.median(t for t, _ in runs), max(m for _, m in runs)
 
 
@@ -120,11 +129,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
         cli = ["predict", "vjm", str(model_path)]
         runs: List[Tuple[str, float, float]] = []
-        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(work / "pred.csv"), "--force"])
-        runs.append(("CLI `predict vjm MODEL.json POSES.csv --out PRED.csv` (with the sag)", t, mem))
-        t, mem = median_child(
-            args.repeat, cli + [str(poses), "--out", str(work / "pred.csv"), "--force", "--no-gravity"])
-        runs.append(("  the same with `--no-gravity` (no sag columns)", t, mem))
+        pred = work / "pred.csv"
+        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred)], fresh=pred)
+        runs.append(("CLI `predict vjm MODEL.json POSES.csv --out PRED.csv` (with the sag), a new PRED.csv", t, mem))
+        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred), "--force"])
+        runs.append(("  the same with `--force` over the previous run's PRED.csv", t, mem))
+        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred), "--no-gravity"], fresh=pred)
+        runs.append(("  the same with `--no-gravity` (no sag columns), a new PRED.csv", t, mem))
         if args.parquet:
             from robot_stiffness._columnar import write_columns
 
@@ -132,8 +143,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             cols = [data.q[:, j] for j in range(robot.n_joints)] + [data.wrench[:, k] for k in range(6)]
             pq_poses = work / "poses.parquet"
             write_columns(pq_poses, names, cols)
-            t, mem = median_child(
-                args.repeat, cli + [str(pq_poses), "--out", str(work / "pred.parquet"), "--force"])
+            pred_pq = work / "pred.parquet"
+            t, mem = median_child(args.repeat, cli + [str(pq_poses), "--out", str(pred_pq)], fresh=pred_pq)
             runs.append(("CLI `predict vjm MODEL.json POSES.parquet --out PRED.parquet` (with the sag)", t, mem))
         t_start = median_time(
             args.repeat, lambda: subprocess.run([sys.executable, "-c", "import robot_stiffness.cli"], check=True))

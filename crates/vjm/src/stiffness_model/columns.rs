@@ -16,6 +16,53 @@ pub(crate) type BlockFn<'a> =
 pub(crate) trait Collect: Sized {
     /// Runs `block` over `rows` rows in blocks of [`PREDICTION_BLOCK_ROWS`] on every core.
     fn collect(rows: usize, block: &BlockFn<'_>) -> Result<Self, ModelError>;
+
+    /// `rows` rows from these, one per run: row `k` repeated over rows `runs[k]..runs[k + 1]`
+    /// (the last run to `rows`).
+    fn repeat_runs(self, runs: &[usize], rows: usize) -> Self;
+}
+
+/// `solve` (a per-row computation whose row depends on its configuration alone) over the N
+/// configurations `q` (rows of `n`), solving each run of consecutive equal rows (bit for bit)
+/// once and repeating its result over the run; the first error names the row of `q` (its
+/// run's first). Without repeated rows, `solve(q)` itself (nothing copied).
+pub(crate) fn share_runs<R: Collect>(
+    q: &[f64],
+    n: usize,
+    solve: impl FnOnce(&[f64]) -> Result<R, ModelError>,
+) -> Result<R, ModelError> {
+    let rows = q.len().checked_div(n).unwrap_or(0);
+    let same = |i: usize| {
+        q[(i - 1) * n..i * n]
+            .iter()
+            .zip(&q[i * n..(i + 1) * n])
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    };
+    if !(1..rows).any(same) {
+        return solve(q);
+    }
+    let runs: Vec<usize> = std::iter::once(0)
+        .chain((1..rows).filter(|&i| !same(i)))
+        .collect();
+    let distinct: Vec<f64> = runs
+        .iter()
+        .flat_map(|&r| q[r * n..(r + 1) * n].iter().copied())
+        .collect();
+    solve(&distinct)
+        .map(|once| once.repeat_runs(&runs, rows))
+        .map_err(|e| e.at_first_rows(&runs))
+}
+
+/// `values` (rows of `width`) with row `k` repeated over rows `runs[k]..runs[k + 1]`.
+fn repeat_rows<T: Copy>(values: &[T], width: usize, runs: &[usize], rows: usize) -> Vec<T> {
+    let mut out = Vec::with_capacity(rows * width);
+    for (k, row) in values.chunks_exact(width).enumerate() {
+        let end = runs.get(k + 1).copied().unwrap_or(rows);
+        for _ in runs[k]..end {
+            out.extend_from_slice(row);
+        }
+    }
+    out
 }
 
 impl Collect for Vec<Prediction> {
@@ -23,6 +70,10 @@ impl Collect for Vec<Prediction> {
         let mut out = vec![Prediction::UNSET; rows];
         fill_row_blocks(&mut out, PREDICTION_BLOCK_ROWS, block)?;
         Ok(out)
+    }
+
+    fn repeat_runs(self, runs: &[usize], rows: usize) -> Self {
+        repeat_rows(&self, 1, runs, rows)
     }
 }
 
@@ -119,5 +170,15 @@ impl Collect for PredictionColumns {
             Ok::<_, ModelError>(())
         })?;
         Ok(out)
+    }
+
+    fn repeat_runs(self, runs: &[usize], rows: usize) -> Self {
+        PredictionColumns {
+            deflection: repeat_rows(&self.deflection, 6, runs, rows),
+            stddev: repeat_rows(&self.stddev, 6, runs, rows),
+            wrench: repeat_rows(&self.wrench, 6, runs, rows),
+            identified: repeat_rows(&self.identified, 1, runs, rows),
+            excitation: repeat_rows(&self.excitation, 1, runs, rows),
+        }
     }
 }

@@ -101,3 +101,24 @@ pub enum ModelError {
     #[error(transparent)]
     Vjm(#[from] VjmError),
 }
+
+impl ModelError {
+    /// The error of a computation over distinct rows (`runs[k]` the first original row of
+    /// distinct row `k`), naming the original row.
+    pub(crate) fn at_first_rows(self, runs: &[usize]) -> Self {
+        match self {
+            ModelError::Vjm(VjmError::NonFinite {
+                what,
+                row,
+                column,
+                value,
+            }) => ModelError::Vjm(VjmError::NonFinite {
+                what,
+                row: runs.get(row).copied().unwrap_or(row),
+                column,
+                value,
+            }),
+            other => other,
+        }
+    }
+}

@@ -5,7 +5,7 @@ use std::ops::Range;
 
 use pulp::{Simd, WithSimd};
 
-use super::columns::{Collect, PredictionColumns};
+use super::columns::{share_runs, Collect, PredictionColumns};
 use super::uncertainty::Uncertainty;
 use super::{ModelError, PointMass, Prediction, StiffnessModel};
 use crate::chain::{check_finite, SerialChain};
@@ -79,6 +79,22 @@ impl StiffnessModel {
             }
             .into());
         }
+        // A campaign applies several loads at each pose, so a pose table repeats each
+        // configuration over consecutive rows, and the weight's sag does not depend on the load.
+        // A row's equilibrium, lanes included, does not depend on its neighbours: the same
+        // values bit for bit.
+        share_runs(q, n, |q| self.sag_each_row(chain, q, gravity, payload))
+    }
+
+    /// [`sag_rows`](Self::sag_rows) solving every row (`q` of checked shape).
+    fn sag_each_row<R: Collect>(
+        &self,
+        chain: &SerialChain,
+        q: &[f64],
+        gravity: &Gravity,
+        payload: Option<&PointMass>,
+    ) -> Result<R, ModelError> {
+        let rows = q.len() / chain.n_joints();
         let model = self.spring_model()?;
         let m = model.n_params();
         // What the data determine; an aliased family's minimum-norm member may have negative

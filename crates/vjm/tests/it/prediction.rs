@@ -98,6 +98,40 @@ fn zero_compliance_no_deflection() {
     assert_eq!(d, [0.0; 6]);
 }
 
+/// A noise-free 30-pose campaign on the bundled Panda (nominal true springs; the Panda carries
+/// inertials) and `model` identified from it, as a stiffness model with default options.
+fn model_from_noise_free_campaign(
+    model: &VirtualJointModel,
+) -> (
+    SerialChain,
+    vjm::dataset::Dataset<'static>,
+    vjm::StiffnessModel,
+) {
+    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+    use vjm::{identify, DataSource, IdentifyOptions, StiffnessModel};
+    let chain = SerialChain::bundled();
+    let spec = CampaignSpec {
+        n_poses: 30,
+        noise: false,
+        ..Default::default()
+    };
+    let data = simulate(&chain, &TrueModel::nominal(7), &spec)
+        .unwrap()
+        .dataset;
+    let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
+    let opts = IdentifyOptions::default();
+    let id = identify(&chain, model, q, w, d, None, &opts).unwrap();
+    let sm = StiffnessModel::from_identification(
+        &id,
+        &chain,
+        model,
+        &opts,
+        DataSource::in_memory(data.len()),
+    )
+    .unwrap();
+    (chain, data, sm)
+}
+
 /// A model identified from noise-free data (traditional springs on the bundled Panda, which
 /// carries inertials) predicts the tip's sag under its own weight: equal to the exact static
 /// equilibrium with the true compliances (`gravity::gravity_sag`, independent of the file) to
@@ -108,28 +142,13 @@ fn zero_compliance_no_deflection() {
 #[test]
 fn a_model_predicts_the_sag_under_its_own_weight() {
     use vjm::gravity::{gravity_sag, Gravity};
-    use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+    use vjm::testbed::TrueModel;
     use vjm::{identify, DataSource, IdentifyOptions, PointMass, StiffnessModel};
-    let chain = SerialChain::bundled();
     let truth = TrueModel::nominal(7);
-    let spec = CampaignSpec {
-        n_poses: 30,
-        noise: false,
-        ..Default::default()
-    };
-    let data = simulate(&chain, &truth, &spec).unwrap().dataset;
+    let traditional = VirtualJointModel::traditional(7);
+    let (chain, data, sm) = model_from_noise_free_campaign(&traditional);
     let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
     let opts = IdentifyOptions::default();
-    let traditional = VirtualJointModel::traditional(7);
-    let id = identify(&chain, &traditional, q, w, d, None, &opts).unwrap();
-    let sm = StiffnessModel::from_identification(
-        &id,
-        &chain,
-        &traditional,
-        &opts,
-        DataSource::in_memory(data.len()),
-    )
-    .unwrap();
     let c_true: Vec<f64> = (0..7).map(|j| truth.compliance[3 * j]).collect();
     let g = Gravity::default();
     let payload = PointMass::new(3.0, [0.0, 0.0, 0.1]).unwrap();
@@ -209,6 +228,59 @@ fn a_model_predicts_the_sag_under_its_own_weight() {
         identified, 0,
         "the weight excites the aliased J1x − J2z direction"
     );
+}
+
+/// A campaign's pose table repeats each configuration over several rows (one per load); the
+/// sag is solved once per run of equal rows and repeated. Whatever the runs (a pose recurring
+/// later, runs of every length, rows and columns alike), every row's prediction is bit for bit
+/// the one of that configuration predicted alone, and a bad configuration is named by its own
+/// row, not by its run's place among the distinct ones.
+#[test]
+fn a_configuration_repeated_over_rows_sags_as_it_does_alone() {
+    use vjm::gravity::Gravity;
+    use vjm::{ModelError, VjmError};
+    let (chain, _, sm) = model_from_noise_free_campaign(&VirtualJointModel::traditional(7));
+    let g = Gravity::default();
+    let poses = random_configurations(&chain, 4, 23);
+    let pose = |k: usize| &poses[7 * k..7 * k + 7];
+    // Runs of 3, 1, 2, 17 (over two lane batches), 1, and pose 0 again after the others.
+    let order = [0, 0, 0, 1, 2, 2]
+        .into_iter()
+        .chain([3; 17])
+        .chain([1, 0])
+        .collect::<Vec<_>>();
+    let q: Vec<f64> = order.iter().flat_map(|&k| pose(k).to_vec()).collect();
+    let rows = sm.predict_sag(&chain, &q, &g, None).unwrap();
+    let columns = sm.predict_sag_columns(&chain, &q, &g, None).unwrap();
+    assert_eq!((rows.len(), columns.rows()), (order.len(), order.len()));
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (i, &k) in order.iter().enumerate() {
+        let alone = sm.predict_sag(&chain, pose(k), &g, None).unwrap()[0];
+        for got in [rows[i], columns.row(i)] {
+            assert_eq!(bits(&got.deflection), bits(&alone.deflection), "row {i}");
+            assert_eq!(bits(&got.stddev), bits(&alone.stddev), "row {i}");
+            assert_eq!(
+                (got.identified, got.excitation.to_bits()),
+                (alone.identified, alone.excitation.to_bits()),
+                "row {i}"
+            );
+        }
+    }
+    // A non-finite configuration repeated over rows 3 and 4, after a run of two.
+    let mut bad = [pose(0), pose(0), pose(1), pose(2), pose(2)].concat();
+    bad[3 * 7 + 5] = f64::NAN;
+    bad[4 * 7 + 5] = f64::NAN;
+    for err in [
+        sm.predict_sag(&chain, &bad, &g, None).unwrap_err(),
+        sm.predict_sag_columns(&chain, &bad, &g, None).unwrap_err(),
+    ] {
+        match err {
+            ModelError::Vjm(VjmError::NonFinite { row, column, .. }) => {
+                assert_eq!((row, column), (3, 5), "{err}")
+            }
+            other => panic!("expected the non-finite q at row 3, got {other}"),
+        }
+    }
 }
 
 /// Under gravity a model predicts what a measurement records (loaded − unloaded, both at rest
