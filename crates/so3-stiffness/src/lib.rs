@@ -10,8 +10,8 @@
 //! - [`identification`]: stiffness identification from measured poses and loads.
 //! - [`diagnose`]: what the first-order model gets wrong, the cause, the gain (the shared
 //!   engine of `stiffness_core::engine`).
-//! - [`testbed`]: the virtual campaigns with hidden effects that the diagnosis is tested on
-//!   (outside the model code: the diagnosis never imports it).
+//! - `testbed` (feature `testbed`, off by default): the virtual campaigns with hidden effects
+//!   that the diagnosis is tested on (outside the model code: the diagnosis never imports it).
 //!
 //! Units are SI (m, rad, N, N·m). Frames: B base, A platform, common origin at the joint centre;
 //! poses `R = ᴮ_A R`; displacements in the body frame, `R = R₀·exp(hat Δζ)`; τ is the external
@@ -41,6 +41,7 @@ pub mod csjm;
 pub mod diagnose;
 pub mod error;
 pub mod identification;
+#[cfg(feature = "testbed")]
 pub mod testbed;
 pub use stiffness_core::so3;
 pub use stiffness_core::stats;

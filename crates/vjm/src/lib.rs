@@ -65,6 +65,7 @@ mod regressor;
 pub mod screening;
 pub mod stiffness_model;
 pub use stiffness_core::stats;
+#[cfg(feature = "testbed")]
 pub mod testbed;
 
 pub use chain::{

@@ -47,7 +47,9 @@ pub mod report;
 pub use crate::stats;
 mod run;
 pub mod structure;
-/// The virtual testbed, now [`crate::testbed`] (kept here under its former path).
+/// The virtual testbed, now `crate::testbed` (kept here under its former path; feature
+/// `testbed`).
+#[cfg(feature = "testbed")]
 pub use crate::testbed;
 use run::run_diagnosis;
 
@@ -69,6 +71,7 @@ pub use report::{
 };
 use stiffness_core::engine::{Compressed, Selected};
 use stiffness_core::{Cancel, Monitor};
+#[cfg(feature = "testbed")]
 pub use testbed::{simulate_campaign, CsjmCampaign, CsjmCampaignSpec, CsjmEffects};
 
 /// Progress of a long diagnosis (the workspace-wide record).
