@@ -74,13 +74,7 @@ pub struct CandidateScore {
 }
 
 /// Residual structure before and after the extension (all loaded rows).
-#[derive(Debug, Clone, Serialize)]
-pub struct ResidualReport {
-    /// Baseline residuals.
-    pub baseline: ResidualStructure,
-    /// Extended-model residuals.
-    pub extended: ResidualStructure,
-}
+pub type ResidualReport = stiffness_core::engine::schema::ResidualReport<ResidualStructure>;
 
 /// Measured and predicted quantities of one row, for residual plots.
 #[derive(Debug, Clone, Serialize)]

@@ -119,6 +119,16 @@ pub struct ModelSummary<D = NoDetail> {
     pub detail: D,
 }
 
+/// The residuals' structure before and after the extension; `S`: the model's own statistics
+/// of it (the arm's per-pose ANOVA and correlations, the CSJM's loading/unloading split).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResidualReport<S> {
+    /// The baseline model's residuals.
+    pub baseline: S,
+    /// The extended model's residuals.
+    pub extended: S,
+}
+
 /// A named effect: which one, where, what it cannot be told from, and why it was named; `E`:
 /// the model's evidence (embedding [`SelectionEvidence`] for a selected candidate), `D`: what
 /// the model adds (its fields at the top level of the JSON, after the shared ones).

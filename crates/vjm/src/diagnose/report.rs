@@ -156,14 +156,8 @@ pub struct RowResult {
     pub extended: [f64; 3],
 }
 
-/// Residual structure before and after the extension.
-#[derive(Debug, Clone, Serialize)]
-pub struct ResidualReport {
-    /// Baseline residuals on the training rows.
-    pub baseline: ResidualStructure,
-    /// Extended-model residuals on the training rows.
-    pub extended: ResidualStructure,
-}
+/// Residual structure before and after the extension, on the training rows.
+pub type ResidualReport = stiffness_core::engine::schema::ResidualReport<ResidualStructure>;
 
 /// The full result of [`diagnose`](super::diagnose).
 #[derive(Debug, Clone, Serialize)]
