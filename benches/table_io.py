@@ -89,7 +89,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         del text
         t_read = median_time(args.repeat, lambda: _core.vjm_read_csv(str(path), robot.n_joints))
         read = _core.vjm_read_csv(str(path), robot.n_joints)
-        assert np.array_equal(read["q"], data.q) and np.array_equal(read["displacement"], data.displacement)
+        assert np.array_equal(read.q, data.q) and np.array_equal(read.displacement, data.displacement)
         robot.identify(data.q[:1000], data.wrench[:1000], data.displacement[:1000], **gravity_kw)  # warm-up
         t_identify = median_time(
             args.repeat, lambda: robot.identify(data.q, data.wrench, data.displacement, **gravity_kw)

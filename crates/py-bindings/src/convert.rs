@@ -379,6 +379,11 @@ pub fn to_numpy<'py>(
     Ok(PyArrayDyn::from_owned_array(py, arr))
 }
 
+/// [`to_numpy`] as an owned Python object: a field of a typed result class.
+pub fn numpy_field(py: Python<'_>, data: Vec<f64>, shape: &[usize]) -> PyResult<Py<PyAny>> {
+    Ok(to_numpy(py, data, shape)?.into_any().unbind())
+}
+
 /// A new numpy bool array of shape `shape` owning `data`.
 pub fn to_numpy_bool<'py>(
     py: Python<'py>,

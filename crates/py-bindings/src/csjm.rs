@@ -4,14 +4,13 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use so3_stiffness::identification::{
     dataset::DEFAULT_ORTHOGONALITY_TOL, identify, CsjmDataset, CsjmMeasurement, FitOptions,
     FitOrder, ReadOptions, StiffnessEstimate,
 };
 use so3_stiffness::so3;
 
-use crate::convert::{batch, check_finite, to_numpy};
+use crate::convert::{batch, check_finite, numpy_field, to_numpy};
 use crate::errors::{run, shape_error, value_error, PyResultExt};
 
 fn mat_to_vec(m: &Matrix3<f64>) -> Vec<f64> {
@@ -32,51 +31,96 @@ fn fit_options(order: u8, convergence: bool) -> PyResult<FitOptions> {
     Ok(opts)
 }
 
-/// The estimate as a dict: matrices (3, 3) row-major in N·m/rad, frame A at R₀.
-fn estimate_to_dict<'py>(py: Python<'py>, est: &StiffnessEstimate) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("K", to_numpy(py, mat_to_vec(&est.k), &[3, 3])?)?;
-    d.set_item("K_D", to_numpy(py, mat_to_vec(&est.k_d), &[3, 3])?)?;
-    d.set_item("K_L", to_numpy(py, mat_to_vec(&est.k_l), &[3, 3])?)?;
-    d.set_item(
-        "K_stderr",
-        to_numpy(py, mat_to_vec(&est.k_stderr), &[3, 3])?,
-    )?;
-    d.set_item("tau0", to_numpy(py, est.tau0.as_slice().to_vec(), &[3])?)?;
-    d.set_item(
-        "offset",
-        to_numpy(py, est.offset.as_slice().to_vec(), &[3])?,
-    )?;
-    d.set_item("n", est.n)?;
-    d.set_item("order", est.order)?;
-    d.set_item("dof", est.dof)?;
-    d.set_item(
-        "residual_rms",
-        to_numpy(py, est.residual_rms.as_slice().to_vec(), &[3])?,
-    )?;
-    d.set_item(
-        "omega_singular_values",
-        to_numpy(py, est.omega_singular_values.to_vec(), &[3])?,
-    )?;
-    d.set_item("omega_condition", est.omega_condition)?;
-    d.set_item("regressor_condition", est.regressor_condition)?;
-    d.set_item("asymmetry", est.asymmetry())?;
-    let (ns, dets): (Vec<f64>, Vec<f64>) = est
-        .det_convergence
-        .iter()
-        .map(|p| (p.n as f64, p.det))
-        .unzip();
-    let len = ns.len();
-    d.set_item("det_convergence_n", to_numpy(py, ns, &[len])?)?;
-    d.set_item("det_convergence_det", to_numpy(py, dets, &[len])?)?;
-    match &est.curvature {
-        Some(h) => {
-            let flat: Vec<f64> = h.iter().flat_map(mat_to_vec).collect();
-            d.set_item("curvature", to_numpy(py, flat, &[3, 3, 3])?)?;
-        }
-        None => d.set_item("curvature", py.None())?,
+/// A CSJM stiffness estimate as a typed class (all in frame A at R₀): `K`, `K_D`, `K_L`,
+/// `K_stderr` (3, 3) N·m/rad, `tau0`, `offset` (3,) N·m, `n` increments, `order`, `dof`,
+/// `residual_rms`, `omega_singular_values` (3,), `omega_condition`, `regressor_condition`,
+/// `asymmetry`, the det(K) series `det_convergence_n`/`det_convergence_det`, and `curvature`
+/// (3, 3, 3) N·m/rad² or None.
+#[derive(Debug)]
+#[pyclass(module = "robot_stiffness._core", name = "CsjmEstimate", frozen)]
+pub struct PyCsjmEstimate {
+    /// (3, 3) N·m/rad.
+    #[pyo3(get, name = "K")]
+    k: Py<PyAny>,
+    /// (3, 3) N·m/rad, the slope ∂τ/∂Δζ.
+    #[pyo3(get, name = "K_D")]
+    k_d: Py<PyAny>,
+    /// (3, 3) N·m/rad, the connection term.
+    #[pyo3(get, name = "K_L")]
+    k_l: Py<PyAny>,
+    /// (3, 3) N·m/rad, standard errors of K.
+    #[pyo3(get, name = "K_stderr")]
+    k_stderr: Py<PyAny>,
+    /// (3,) N·m, the pre-load.
+    #[pyo3(get)]
+    tau0: Py<PyAny>,
+    /// (3,) N·m, the fitted moment offset.
+    #[pyo3(get)]
+    offset: Py<PyAny>,
+    /// Load increments used.
+    #[pyo3(get)]
+    n: usize,
+    /// 1 or 2.
+    #[pyo3(get)]
+    order: u8,
+    /// Residual degrees of freedom.
+    #[pyo3(get)]
+    dof: usize,
+    /// (3,) N·m.
+    #[pyo3(get)]
+    residual_rms: Py<PyAny>,
+    /// (3,).
+    #[pyo3(get)]
+    omega_singular_values: Py<PyAny>,
+    #[pyo3(get)]
+    omega_condition: f64,
+    #[pyo3(get)]
+    regressor_condition: f64,
+    #[pyo3(get)]
+    asymmetry: f64,
+    /// (k,) increments of the det(K) series.
+    #[pyo3(get)]
+    det_convergence_n: Py<PyAny>,
+    /// (k,) det(K), (N·m/rad)³.
+    #[pyo3(get)]
+    det_convergence_det: Py<PyAny>,
+    /// (3, 3, 3) N·m/rad², or None for order 1.
+    #[pyo3(get)]
+    curvature: Py<PyAny>,
+}
+
+impl PyCsjmEstimate {
+    fn new(py: Python<'_>, est: &StiffnessEstimate) -> PyResult<Self> {
+        let f = |v: Vec<f64>, shape: &[usize]| numpy_field(py, v, shape);
+        let (ns, dets): (Vec<f64>, Vec<f64>) = est
+            .det_convergence
+            .iter()
+            .map(|p| (p.n as f64, p.det))
+            .unzip();
+        let len = ns.len();
+        Ok(Self {
+            k: f(mat_to_vec(&est.k), &[3, 3])?,
+            k_d: f(mat_to_vec(&est.k_d), &[3, 3])?,
+            k_l: f(mat_to_vec(&est.k_l), &[3, 3])?,
+            k_stderr: f(mat_to_vec(&est.k_stderr), &[3, 3])?,
+            tau0: f(est.tau0.as_slice().to_vec(), &[3])?,
+            offset: f(est.offset.as_slice().to_vec(), &[3])?,
+            n: est.n,
+            order: est.order,
+            dof: est.dof,
+            residual_rms: f(est.residual_rms.as_slice().to_vec(), &[3])?,
+            omega_singular_values: f(est.omega_singular_values.to_vec(), &[3])?,
+            omega_condition: est.omega_condition,
+            regressor_condition: est.regressor_condition,
+            asymmetry: est.asymmetry(),
+            det_convergence_n: f(ns, &[len])?,
+            det_convergence_det: f(dets, &[len])?,
+            curvature: match &est.curvature {
+                Some(h) => f(h.iter().flat_map(mat_to_vec).collect(), &[3, 3, 3])?,
+                None => py.None(),
+            },
+        })
     }
-    Ok(d)
 }
 
 /// A CSJM dataset from arrays: `r` (N, 3, 3) orientations ᴮ_A R, `tau` (N, 3) moments in A
@@ -146,11 +190,11 @@ pub fn csjm_identify<'py>(
     project: bool,
     tol: Option<f64>,
     convergence: bool,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyCsjmEstimate> {
     let data = dataset_from_arrays(&r, &tau, reference, project, tol)?;
     let opts = fit_options(order, convergence)?;
     let est = run(py, || identify(&data, &opts))?.py()?;
-    estimate_to_dict(py, &est)
+    PyCsjmEstimate::new(py, &est)
 }
 
 /// (R (N, 3, 3), tau (N, 3), index of the reference row).
@@ -206,7 +250,7 @@ pub fn csjm_identify_csv<'py>(
     path: std::path::PathBuf,
     order: u8,
     project: bool,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyCsjmEstimate> {
     let read = if project {
         ReadOptions::projecting()
     } else {
@@ -217,11 +261,12 @@ pub fn csjm_identify_csv<'py>(
         CsjmDataset::from_csv_path(&path, &read).and_then(|data| identify(&data, &opts))
     })?
     .py()?;
-    estimate_to_dict(py, &est)
+    PyCsjmEstimate::new(py, &est)
 }
 
 /// Registers the functions on `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyCsjmEstimate>()?;
     m.add_function(wrap_pyfunction!(csjm_identify, m)?)?;
     m.add_function(wrap_pyfunction!(csjm_read_csv, m)?)?;
     m.add_function(wrap_pyfunction!(csjm_identify_csv, m)?)?;

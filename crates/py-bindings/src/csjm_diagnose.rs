@@ -12,7 +12,7 @@ use so3_stiffness::diagnose::{
 use so3_stiffness::identification::campaign::GravityRecording;
 use so3_stiffness::identification::ReadOptions;
 
-use crate::convert::{check_effect_keys, to_numpy};
+use crate::convert::{check_effect_keys, numpy_field};
 use crate::errors::{internal_error, run, value_error, IntoPyErr, PyResultExt};
 use crate::interrupt::run_interruptible;
 use crate::results::{csjm_rows, summary};
@@ -79,7 +79,7 @@ pub fn csjm_simulate<'py>(
     seed: u64,
     increments: Option<usize>,
     max_increment: Option<f64>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyCsjmCampaign> {
     let mut spec = CsjmCampaignSpec::new(effects(effects_list)?, seed);
     if let Some(n) = increments {
         spec.increments = n;
@@ -90,24 +90,38 @@ pub fn csjm_simulate<'py>(
     let campaign = run(py, || simulate_campaign(&spec))?.py()?;
     let mut buf = Vec::new();
     campaign.dataset.write_csv(&mut buf).py()?;
-    let out = PyDict::new(py);
-    out.set_item(
-        "csv",
-        String::from_utf8(buf).map_err(|e| internal_error(e.to_string()))?,
-    )?;
-    let m = |x: &nalgebra::Matrix3<f64>| -> Vec<f64> {
-        (0..3)
+    let m = |x: &nalgebra::Matrix3<f64>| -> PyResult<Py<PyAny>> {
+        let v: Vec<f64> = (0..3)
             .flat_map(|r| (0..3).map(move |c| x[(r, c)]))
-            .collect()
+            .collect();
+        numpy_field(py, v, &[3, 3])
     };
     let k = &campaign.true_stiffness;
-    out.set_item("true_K", to_numpy(py, m(&k.covariant), &[3, 3])?)?;
-    out.set_item("true_K_D", to_numpy(py, m(&k.euclidean), &[3, 3])?)?;
-    out.set_item(
-        "true_R0",
-        to_numpy(py, m(campaign.true_r0.matrix()), &[3, 3])?,
-    )?;
-    Ok(out)
+    Ok(PyCsjmCampaign {
+        csv: String::from_utf8(buf).map_err(|e| internal_error(e.to_string()))?,
+        true_k: m(&k.covariant)?,
+        true_k_d: m(&k.euclidean)?,
+        true_r0: m(campaign.true_r0.matrix())?,
+    })
+}
+
+/// A simulated CSJM campaign: the measurement file's text and the hidden truth at R₀ (frame A):
+/// `true_K`, `true_K_D` (3, 3) N·m/rad and `true_R0` (3, 3) ᴮ_A R₀.
+#[derive(Debug)]
+#[pyclass(module = "robot_stiffness._core", name = "CsjmCampaign", frozen)]
+pub struct PyCsjmCampaign {
+    /// The measurement file's text.
+    #[pyo3(get)]
+    csv: String,
+    /// (3, 3) N·m/rad, the covariant stiffness.
+    #[pyo3(get, name = "true_K")]
+    true_k: Py<PyAny>,
+    /// (3, 3) N·m/rad, the slope ∂τ/∂Δζ.
+    #[pyo3(get, name = "true_K_D")]
+    true_k_d: Py<PyAny>,
+    /// (3, 3), the reference orientation.
+    #[pyo3(get, name = "true_R0")]
+    true_r0: Py<PyAny>,
 }
 
 fn options(
@@ -190,6 +204,7 @@ fn typed(
 
 /// Registers the functions on `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyCsjmCampaign>()?;
     m.add_function(wrap_pyfunction!(csjm_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(csjm_diagnose_csv, m)?)?;
     m.add_function(wrap_pyfunction!(csjm_diagnose, m)?)?;

@@ -7,6 +7,7 @@
 
 use pyo3::prelude::*;
 
+pub mod columns;
 pub mod convert;
 pub mod csjm;
 pub mod csjm_diagnose;
@@ -53,6 +54,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     acquire_numpy_api(m.py())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(errors::_panic_for_tests, m)?)?;
+    columns::register(m)?;
     so3::register(m)?;
     csjm::register(m)?;
     csjm_diagnose::register(m)?;

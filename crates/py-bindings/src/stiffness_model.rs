@@ -5,10 +5,10 @@ use std::sync::Arc;
 
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use vjm::{SerialChain, StiffnessModel};
 
-use crate::convert::{batch, to_numpy, to_numpy_bool};
+use crate::columns::PyPredictionColumns;
+use crate::convert::{batch, to_numpy};
 use crate::errors::{run, PyResultExt};
 use crate::vjm::{IdentifyArgs, PyRobot};
 
@@ -222,7 +222,7 @@ impl PyStiffnessModel {
         payload: Option<(f64, f64, f64, f64)>,
         allow_outside_limits: bool,
         gravity: Option<[f64; 3]>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<PyPredictionColumns> {
         let n = self.chain.n_joints();
         let q = batch(&q, "q", &[n])?;
         let w = wrench
@@ -238,7 +238,7 @@ impl PyStiffnessModel {
             model.predict_columns(chain, &q.data, load, gravity.as_ref())
         })?
         .py()?;
-        predictions_dict(py, pred)
+        PyPredictionColumns::new(py, pred)
     }
 
     /// The tip's static sag under the arm's weight at q (N, n) under `gravity` (m/s², base
@@ -252,7 +252,7 @@ impl PyStiffnessModel {
         gravity: [f64; 3],
         payload: Option<(f64, f64, f64, f64)>,
         allow_outside_limits: bool,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<PyPredictionColumns> {
         let n = self.chain.n_joints();
         let q = batch(&q, "q", &[n])?;
         let g = vjm::gravity::Gravity::new(gravity).py()?;
@@ -266,7 +266,7 @@ impl PyStiffnessModel {
             model.predict_sag_columns(chain, &q.data, &g, payload.as_ref())
         })?
         .py()?;
-        predictions_dict(py, pred)
+        PyPredictionColumns::new(py, pred)
     }
 
     fn __repr__(&self) -> String {
@@ -397,20 +397,4 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vjm_read_poses, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_model_file_robot, m)?)?;
     Ok(())
-}
-
-/// Predictions as a dict of numpy arrays, which take over the columns' memory: deflection
-/// (N, 6), stddev (N, 6), wrench (N, 6), identified (N,), excitation (N,).
-fn predictions_dict<'py>(
-    py: Python<'py>,
-    pred: vjm::stiffness_model::PredictionColumns,
-) -> PyResult<Bound<'py, PyDict>> {
-    let rows = pred.rows();
-    let out = PyDict::new(py);
-    out.set_item("deflection", to_numpy(py, pred.deflection, &[rows, 6])?)?;
-    out.set_item("stddev", to_numpy(py, pred.stddev, &[rows, 6])?)?;
-    out.set_item("wrench", to_numpy(py, pred.wrench, &[rows, 6])?)?;
-    out.set_item("identified", to_numpy_bool(py, pred.identified, &[rows])?)?;
-    out.set_item("excitation", to_numpy(py, pred.excitation, &[rows])?)?;
-    Ok(out)
 }

@@ -307,7 +307,7 @@ pub(crate) fn compensate_with_model<'py>(
     arrays(py, out, chain.n_joints())
 }
 
-/// Plans a VJM campaign (JSON of `vjm::Plan`): `poses` poses × `wrenches_per_pose` wrenches,
+/// Plans a VJM campaign (`vjm::Plan`'s fields as native Python objects): `poses` poses × `wrenches_per_pose` wrenches,
 /// noise of the testbed's instruments with its nominal compliances as the prior, measured
 /// under `gravity` (base frame, m/s²; None weightless). Runs on a
 /// worker thread: Ctrl-C stops it within [`crate::interrupt::POLL_INTERVAL`] (the core checks
@@ -329,7 +329,7 @@ pub fn vjm_design(
     moment: f64,
     progress: Option<Py<PyAny>>,
     gravity: Option<[f64; 3]>,
-) -> PyResult<String> {
+) -> PyResult<Py<PyAny>> {
     let chain = &robot.chain;
     let model = parse_model(chain.n_joints(), model)?;
     if gravity.is_some() {
@@ -350,8 +350,10 @@ pub fn vjm_design(
         vjm::design_monitored(chain, &model, &spec, &noise, monitor)
     })?
     .py()?;
-    serde_json::to_string(&plan)
-        .map_err(|e| crate::errors::internal_error(format!("cannot serialise the plan: {e}")))
+    // The plan as native Python objects (its serialised fields), not JSON text.
+    let value = serde_json::to_value(&plan)
+        .map_err(|e| crate::errors::internal_error(format!("cannot convert the plan: {e}")))?;
+    Ok(crate::results::native(py, &value)?.unbind())
 }
 
 /// Registers the functions on `m`.

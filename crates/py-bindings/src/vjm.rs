@@ -209,42 +209,6 @@ impl PyRobot {
         jacobian_into_numpy(py, &self.chain, &model, &q.data, q.rows)
     }
 
-    /// Rank-revealing identification; returns the result as JSON text (the core's serde form).
-    #[pyo3(signature = (q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", allow_outside_limits = false))]
-    #[allow(clippy::too_many_arguments)]
-    fn identify<'py>(
-        &self,
-        py: Python<'py>,
-        q: PyReadonlyArrayDyn<'py, f64>,
-        wrench: PyReadonlyArrayDyn<'py, f64>,
-        displacement: PyReadonlyArrayDyn<'py, f64>,
-        model: &Bound<'py, PyAny>,
-        rotation: Option<PyReadonlyArrayDyn<'py, f64>>,
-        noise_sigma: Option<PyReadonlyArrayDyn<'py, f64>>,
-        noise_scale_known: bool,
-        nonnegative: bool,
-        dense: bool,
-        method: &str,
-        allow_outside_limits: bool,
-    ) -> PyResult<String> {
-        let args = IdentifyArgs {
-            q,
-            wrench,
-            displacement,
-            rotation,
-            noise_sigma,
-            noise_scale_known,
-            nonnegative,
-            dense,
-            method,
-            allow_outside_limits,
-            gravity: None,
-        };
-        let (id, _, _) = self.identify_with(py, model, args, None, false)?;
-        serde_json::to_string(&id)
-            .map_err(|e| crate::errors::internal_error(format!("cannot serialise the result: {e}")))
-    }
-
     /// Predicted tip deflections (N, 6) `[dx, dy, dz, rx, ry, rz]` (m, rad; base frame).
     ///
     /// The poses and wrenches get identify's plausibility checks (angles inside the URDF limits

@@ -4,47 +4,15 @@
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use vjm::dataset::{Dataset, SetLabel};
+use vjm::dataset::Dataset;
 use vjm::testbed::{self, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
 use vjm::SpringAxis;
 
-use crate::convert::{batch, check_effect_keys, fixed, pose_ids, set_labels, to_numpy};
+use crate::columns::PyMeasurementColumns;
+use crate::convert::{batch, check_effect_keys, fixed, numpy_field, pose_ids, set_labels};
 use crate::errors::{run, value_error, IntoPyErr, PyResultExt};
 use crate::interrupt::run_interruptible;
 use crate::vjm::PyRobot;
-
-/// The dataset as a dict: `q` (N, n), `wrench` (N, 6), `displacement` (N, 3), `rotation`
-/// (N, 3) or None, `pose` (N,) int64 or None, `set` `list[str]` or None. The columns are moved
-/// into the arrays (a 10⁶-row file is not copied again); `set` holds two shared strings.
-pub fn dataset_to_dict<'py>(py: Python<'py>, d: Dataset<'_>) -> PyResult<Bound<'py, PyDict>> {
-    let n = d.len();
-    let c = d.into_columns();
-    let out = PyDict::new(py);
-    out.set_item("q", to_numpy(py, c.q, &[n, c.n_joints])?)?;
-    out.set_item("wrench", to_numpy(py, c.wrench, &[n, 6])?)?;
-    out.set_item("displacement", to_numpy(py, c.displacement, &[n, 3])?)?;
-    match c.rotation {
-        Some(r) => out.set_item("rotation", to_numpy(py, r, &[n, 3])?)?,
-        None => out.set_item("rotation", py.None())?,
-    }
-    match c.pose {
-        Some(p) => out.set_item("pose", numpy::PyArray1::from_vec(py, p))?,
-        None => out.set_item("pose", py.None())?,
-    }
-    match c.set {
-        Some(labels) => {
-            let train = pyo3::types::PyString::new(py, SetLabel::Train.as_str());
-            let test = pyo3::types::PyString::new(py, SetLabel::Test.as_str());
-            let items = labels.iter().map(|l| match l {
-                SetLabel::Train => &train,
-                SetLabel::Test => &test,
-            });
-            out.set_item("set", PyList::new(py, items)?)?
-        }
-        None => out.set_item("set", py.None())?,
-    }
-    Ok(out)
-}
 
 /// A dataset over the caller's arrays, validated exactly as the file reader validates (row i =
 /// line i + 2). Contiguous float64 and int64 columns are borrowed, not copied (a campaign of 10⁶
@@ -78,15 +46,15 @@ pub fn dataset_from_arrays<'a>(
 }
 
 /// Reads and validates a VJM measurement file for a chain of `n_joints` joints; with `sha256`,
-/// the dict's `sha256` is that of the bytes read (taken in the same pass), else None.
+/// the table's `sha256` is that of the bytes read (taken in the same pass), else None.
 #[pyfunction]
 #[pyo3(signature = (path, n_joints, sha256 = true))]
-pub fn vjm_read_csv<'py>(
-    py: Python<'py>,
+pub fn vjm_read_csv(
+    py: Python<'_>,
     path: std::path::PathBuf,
     n_joints: usize,
     sha256: bool,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyMeasurementColumns> {
     let (data, hash) = run(py, || {
         if sha256 {
             Dataset::read_csv_with_sha256(&path, n_joints).map(|(d, h)| (d, Some(h)))
@@ -95,9 +63,7 @@ pub fn vjm_read_csv<'py>(
         }
     })?
     .py()?;
-    let out = dataset_to_dict(py, data)?;
-    out.set_item("sha256", hash)?;
-    Ok(out)
+    PyMeasurementColumns::new(py, data, hash)
 }
 
 /// Validates arrays as a measurement table and returns the CSV text (full precision).
@@ -344,8 +310,8 @@ fn true_model(
     Ok(truth)
 }
 
-/// Simulates a measurement campaign; returns a dict with the dataset arrays, the CSV text and
-/// the hidden truth (`true_displacement`, `applied_wrench`, `truth` as JSON).
+/// Simulates a measurement campaign: the measurements, the CSV text and the hidden truth
+/// ([`PyVjmCampaign`]).
 ///
 /// With `plan` = `(q (N, n), wrench (N, 6), pose (N,))` the rows are measured at those joint
 /// angles and wrenches (a plan of `design`) instead of random ones; `n_poses`,
@@ -371,7 +337,7 @@ pub fn vjm_simulate<'py>(
         PyReadonlyArrayDyn<'py, f64>,
         PyReadonlyArrayDyn<'py, i64>,
     )>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyVjmCampaign> {
     let chain = &robot.chain;
     let truth = true_model(chain.n_joints(), torsion, effects)?;
     let mut spec = CampaignSpec {
@@ -410,29 +376,49 @@ pub fn vjm_simulate<'py>(
     let n = campaign.dataset.len();
     let mut buf = Vec::new();
     campaign.dataset.to_writer(&mut buf).py()?;
-    let out = dataset_to_dict(py, campaign.dataset)?;
-    out.set_item(
-        "true_displacement",
-        to_numpy(py, campaign.true_displacement.concat(), &[n, 3])?,
-    )?;
-    out.set_item(
-        "applied_wrench",
-        to_numpy(py, campaign.applied_wrench.concat(), &[n, 6])?,
-    )?;
-    out.set_item("tip", to_numpy(py, campaign.tip.concat(), &[n, 3])?)?;
-    out.set_item(
-        "csv",
-        String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))?,
-    )?;
     // The truth and the spec as native Python objects (their serialised fields).
-    for (key, value) in [
-        ("truth", serde_json::to_value(&truth)),
-        ("spec", serde_json::to_value(&spec)),
-    ] {
+    let native = |value: serde_json::Result<serde_json::Value>| -> PyResult<Py<PyAny>> {
         let value = value.map_err(|e| crate::errors::internal_error(e.to_string()))?;
-        out.set_item(key, crate::results::native(py, &value)?)?;
-    }
-    Ok(out)
+        Ok(crate::results::native(py, &value)?.unbind())
+    };
+    let f = |v: Vec<f64>, shape: &[usize]| numpy_field(py, v, shape);
+    Ok(PyVjmCampaign {
+        true_displacement: f(campaign.true_displacement.concat(), &[n, 3])?,
+        applied_wrench: f(campaign.applied_wrench.concat(), &[n, 6])?,
+        tip: f(campaign.tip.concat(), &[n, 3])?,
+        measurements: Py::new(py, PyMeasurementColumns::new(py, campaign.dataset, None)?)?,
+        csv: String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))?,
+        truth: native(serde_json::to_value(&truth))?,
+        spec: native(serde_json::to_value(&spec))?,
+    })
+}
+
+/// A simulated VJM campaign: what was measured (`measurements`, and `csv`, the same rows as a
+/// measurement file) and the hidden truth: `true_displacement` (N, 3) m without noise,
+/// `applied_wrench` (N, 6) N and N·m, `tip` (N, 3) m the rigid tip position (base frame), the
+/// true model `truth` and the campaign `spec` (their serialised fields).
+#[derive(Debug)]
+#[pyclass(
+    module = "robot_stiffness._core",
+    name = "VjmCampaign",
+    frozen,
+    get_all
+)]
+pub struct PyVjmCampaign {
+    /// The measured rows.
+    pub measurements: Py<PyMeasurementColumns>,
+    /// The rows as a measurement file.
+    pub csv: String,
+    /// (N, 3) m, noise-free.
+    pub true_displacement: Py<PyAny>,
+    /// (N, 6) N and N·m.
+    pub applied_wrench: Py<PyAny>,
+    /// (N, 3) m, base frame.
+    pub tip: Py<PyAny>,
+    /// The true model (a dict of its fields).
+    pub truth: Py<PyAny>,
+    /// The campaign's spec (a dict of its fields).
+    pub spec: Py<PyAny>,
 }
 
 /// A plan's rows, checked for shape and row count: joint angles (N·n), wrenches, pose ids.
@@ -545,6 +531,7 @@ pub fn vjm_paper_study<'py>(
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vjm_read_csv, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_to_csv, m)?)?;
+    m.add_class::<PyVjmCampaign>()?;
     m.add_function(wrap_pyfunction!(vjm_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_paper_study, m)?)?;
     Ok(())

@@ -108,7 +108,7 @@ def test_binned_report_is_deterministic(diagnosis, tmp_path, monkeypatch):
 
 def test_csjm_report_within_budget(tmp_path, drawn, monkeypatch):
     path = tmp_path / "c.csv"
-    path.write_text(_core.csjm_simulate([], seed=1)["csv"])
+    path.write_text(_core.csjm_simulate([], seed=1).csv)
     d = csjm.diagnose(path)
     monkeypatch.setattr(report, "MAX_POINTS", 30)
     out = tmp_path / "rep"
@@ -169,7 +169,7 @@ def test_cli_writes_rows_only_on_request(campaign, tmp_path):
 
 def test_csjm_rows_csv(tmp_path):
     path = tmp_path / "c.csv"
-    path.write_text(_core.csjm_simulate([], seed=1)["csv"])
+    path.write_text(_core.csjm_simulate([], seed=1).csv)
     d = csjm.diagnose(path)
     out = tmp_path / "rows.csv"
     assert cli.main(["diagnose", "csjm", str(path), "--rows", str(out)]) == 0

@@ -61,7 +61,7 @@ def vjm_result(panda, campaign):
 @pytest.fixture(scope="module")
 def csjm_path(tmp_path_factory):
     path = tmp_path_factory.mktemp("csjm") / "c.csv"
-    path.write_text(_core.csjm_simulate([{"effect": "cable_hysteresis", "friction": 2.0}], seed=0)["csv"])
+    path.write_text(_core.csjm_simulate([{"effect": "cable_hysteresis", "friction": 2.0}], seed=0).csv)
     return path
 
 
@@ -208,8 +208,8 @@ def test_csjm_fit_is_typed_and_pickles(csjm_path):
     fit = csjm.identify_csv(csjm_path, order=2)
     core = _core.csjm_identify_csv(csjm_path, order=2)
     assert not hasattr(fit, "raw")
-    assert fit.to_dict()["regressor_condition"] == core["regressor_condition"]
-    assert fit.dof == core["dof"] and fit.curvature is not None and fit.curvature.shape == (3, 3, 3)
+    assert fit.to_dict()["regressor_condition"] == core.regressor_condition
+    assert fit.dof == core.dof and fit.curvature is not None and fit.curvature.shape == (3, 3, 3)
     back = pickle.loads(pickle.dumps(fit))
     np.testing.assert_array_equal(back.K, fit.K)
     assert back.to_dict() == fit.to_dict()

@@ -6,7 +6,6 @@ See ``docs/use-the-model.md`` for the methods, the stopping rule and the noise m
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
@@ -266,12 +265,12 @@ def design(
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     inner = _robot_inner(robot)
-    text = _core.vjm_design(inner, model_spec(model), int(poses), int(wrenches_per_pose), int(seed), float(margin),
-                            int(pool_size), progress=progress,
-                            gravity=None if gravity is None else gravity_vector(gravity))
-    doc = json.loads(text)
+    doc: Dict[str, Any] = _core.vjm_design(
+        inner, model_spec(model), int(poses), int(wrenches_per_pose), int(seed), float(margin), int(pool_size),
+        progress=progress, gravity=None if gravity is None else gravity_vector(gravity))
     labels = robot.labels(model)
     n = robot.n_joints
+    ws = doc["worst_stderr"]
     combos = tuple(
         PlannedCombination(
             label=c["label"],
@@ -287,7 +286,8 @@ def design(
         pose=np.asarray(doc["pose"], dtype=np.int64),
         rank=int(doc["rank"]),
         combinations=combos,
-        worst_stderr=float(doc["worst_stderr"]) if math.isfinite(doc["worst_stderr"]) else math.inf,
+        # A non-finite value arrives as None (the plan's serialised form).
+        worst_stderr=float(ws) if isinstance(ws, (int, float)) and math.isfinite(ws) else math.inf,
         noise=doc["noise"],
         pose_compliance_wrenches=int(doc["pose_compliance_wrenches"]),
     )

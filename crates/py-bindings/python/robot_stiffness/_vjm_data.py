@@ -58,15 +58,15 @@ class Measurements(FieldEq):
     source: Optional[DataFile] = field(default=None, compare=False)
 
     @classmethod
-    def _from_core(cls, d: Dict[str, Any], path: Optional[PathLike] = None) -> "Measurements":
-        sha = d.get("sha256")
+    def _from_core(cls, d: "_core.MeasurementColumns", path: Optional[PathLike] = None) -> "Measurements":
+        sha = d.sha256
         return cls(
-            q=d["q"],
-            wrench=d["wrench"],
-            displacement=d["displacement"],
-            rotation=d["rotation"],
-            pose=None if d["pose"] is None else np.asarray(d["pose"], dtype=np.int64),
-            set=None if d["set"] is None else list(d["set"]),
+            q=d.q,
+            wrench=d.wrench,
+            displacement=d.displacement,
+            rotation=d.rotation,
+            pose=None if d.pose is None else np.asarray(d.pose, dtype=np.int64),
+            set=None if d.set is None else list(d.set),
             source=None if path is None or sha is None else DataFile(os.fspath(path), str(sha)),
         )
 
@@ -284,13 +284,13 @@ def simulate(
         plan=None if plan is None else _planned_rows(plan),
     )
     return Campaign(
-        measurements=Measurements._from_core(d),
-        csv=d["csv"],
-        true_displacement=d["true_displacement"],
-        applied_wrench=d["applied_wrench"],
-        tip=d["tip"],
-        truth=d["truth"],
-        spec=d["spec"],
+        measurements=Measurements._from_core(d.measurements),
+        csv=d.csv,
+        true_displacement=d.true_displacement,
+        applied_wrench=d.applied_wrench,
+        tip=d.tip,
+        truth=d.truth,
+        spec=d.spec,
     )
 
 

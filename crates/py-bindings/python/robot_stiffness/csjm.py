@@ -91,25 +91,25 @@ class StiffnessFit(FieldEq):
     curvature: Optional[Array] = field(default=None, repr=False, compare=False)
 
     @classmethod
-    def _from_core(cls, d: Dict[str, Any]) -> "StiffnessFit":
-        conv = np.column_stack([d["det_convergence_n"], d["det_convergence_det"]]).reshape(-1, 2)
+    def _from_core(cls, d: "_core.CsjmEstimate") -> "StiffnessFit":
+        conv = np.column_stack([d.det_convergence_n, d.det_convergence_det]).reshape(-1, 2)
         return cls(
-            K=d["K"],
-            K_D=d["K_D"],
-            K_L=d["K_L"],
-            K_stderr=d["K_stderr"],
-            tau0=d["tau0"],
-            n=int(d["n"]),
-            order=int(d["order"]),
-            residual_rms=d["residual_rms"],
-            omega_condition=float(d["omega_condition"]),
-            asymmetry=float(d["asymmetry"]),
+            K=d.K,
+            K_D=d.K_D,
+            K_L=d.K_L,
+            K_stderr=d.K_stderr,
+            tau0=d.tau0,
+            n=int(d.n),
+            order=int(d.order),
+            residual_rms=d.residual_rms,
+            omega_condition=float(d.omega_condition),
+            asymmetry=float(d.asymmetry),
             det_convergence=conv,
-            regressor_condition=float(d["regressor_condition"]),
-            dof=int(d["dof"]),
-            offset=d["offset"],
-            omega_singular_values=d["omega_singular_values"],
-            curvature=d["curvature"],
+            regressor_condition=float(d.regressor_condition),
+            dof=int(d.dof),
+            offset=d.offset,
+            omega_singular_values=d.omega_singular_values,
+            curvature=d.curvature,
         )
 
     def to_dict(self) -> Dict[str, Any]:
@@ -278,7 +278,7 @@ def simulate(
         increments=None if increments is None else int(increments),
         max_increment=None if max_increment is None else float(max_increment),
     )
-    return Campaign(csv=d["csv"], true_K=d["true_K"], true_K_D=d["true_K_D"], true_R0=d["true_R0"])
+    return Campaign(csv=d.csv, true_K=d.true_K, true_K_D=d.true_K_D, true_R0=d.true_R0)
 
 
 def _split_seed(split_seed: Optional[int], holdout_seed: Optional[int]) -> Optional[int]:

@@ -111,6 +111,17 @@ class Prediction(FieldEq):
     excitation: Array
 
 
+def _prediction(columns: "_core.PredictionColumns") -> Prediction:
+    """The core's prediction columns as a :class:`Prediction` (the same arrays, not copied)."""
+    return Prediction(
+        deflection=columns.deflection,
+        stddev=columns.stddev,
+        wrench=columns.wrench,
+        identified=columns.identified,
+        excitation=columns.excitation,
+    )
+
+
 _PAYLOAD_NAMES = ("payload mass (kg)", "payload cx (m)", "payload cy (m)", "payload cz (m)")
 
 
@@ -320,13 +331,7 @@ class StiffnessModel:
         p = None if payload is None else _payload(payload)
         d = self._inner.predict(arr, wrench=w, payload=p, allow_outside_limits=bool(allow_outside_limits),
                                 gravity=g)
-        return Prediction(
-            deflection=d["deflection"],
-            stddev=d["stddev"],
-            wrench=d["wrench"],
-            identified=d["identified"],
-            excitation=d["excitation"],
-        )
+        return _prediction(d)
 
     @checked
     def predict_sag(
@@ -358,13 +363,7 @@ class StiffnessModel:
             raise InvalidValueError("predict_sag() needs a gravity vector: a weightless arm does not sag")
         d = self._inner.predict_sag(arr, g, payload=p,
                                     allow_outside_limits=bool(allow_outside_limits))
-        return Prediction(
-            deflection=d["deflection"],
-            stddev=d["stddev"],
-            wrench=d["wrench"],
-            identified=d["identified"],
-            excitation=d["excitation"],
-        )
+        return _prediction(d)
 
     @checked
     def compensate(
