@@ -21,8 +21,10 @@ from measurement files.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any, List
+import importlib as _importlib
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
+from typing import List as _List
 
 from ._interrupt import leave_quietly_while_starting
 
@@ -56,17 +58,17 @@ __version__: str = _core.__version__
 # script pays only for the modules it uses (the five took ≈ 35 ms of every start-up).
 _SUBMODULES = ("csjm", "model", "results", "so3", "vjm")
 
-if TYPE_CHECKING:
+if _TYPE_CHECKING:
     from . import csjm, model, results, so3, vjm  # noqa: F401
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     if name in _SUBMODULES:
-        return importlib.import_module(f".{name}", __name__)
+        return _importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def __dir__() -> List[str]:
+def __dir__() -> _List[str]:
     return sorted(set(globals()) | set(_SUBMODULES))
 
 __all__ = [

@@ -103,12 +103,13 @@ pub enum ModelError {
 }
 
 impl ModelError {
-    /// The error of a computation over distinct rows (`runs[k]` the first original row of
-    /// distinct row `k`), naming the original row.
+    /// The error of a computation over distinct configurations (`runs[k]` the first original
+    /// row of distinct row `k`), naming the original row. Only a configuration's own error is
+    /// remapped: another input's row (a spring's offset, say) is not a row of `q`.
     pub(crate) fn at_first_rows(self, runs: &[usize]) -> Self {
         match self {
             ModelError::Vjm(VjmError::NonFinite {
-                what,
+                what: what @ "q",
                 row,
                 column,
                 value,
