@@ -24,6 +24,14 @@ pub fn summary<'py, T: Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<
     native(py, &v)
 }
 
+/// A serialisable core value's fields as native Python objects, owned: a field of a typed
+/// result class (non-finite floats become `None`).
+pub fn native_field<T: Serialize>(py: Python<'_>, value: &T) -> PyResult<Py<PyAny>> {
+    let v = serde_json::to_value(value)
+        .map_err(|e| internal_error(format!("the result could not be converted: {e}")))?;
+    Ok(native(py, &v)?.unbind())
+}
+
 /// A JSON value as native Python objects (non-finite floats were already `null`).
 pub fn native<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
     Ok(match v {

@@ -5,8 +5,9 @@ use numpy::{PyArrayDyn, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use vjm::{CompensateOptions, Load, NoiseModel, PlanSpec, PointMass};
 
-use crate::convert::{batch, fixed, to_numpy, Rows};
+use crate::convert::{batch, fixed, numpy_field, to_numpy, Rows};
 use crate::errors::{run, value_error, PyResultExt};
+use crate::results::native_field;
 use crate::vjm::{parse_model, PyRobot};
 
 /// The per-row numbers of a compensation, columns of the (N, 7) array returned.
@@ -307,7 +308,7 @@ pub(crate) fn compensate_with_model<'py>(
     arrays(py, out, chain.n_joints())
 }
 
-/// Plans a VJM campaign (`vjm::Plan`'s fields as native Python objects): `poses` poses × `wrenches_per_pose` wrenches,
+/// Plans a VJM campaign ([`PyDesignPlan`]): `poses` poses × `wrenches_per_pose` wrenches,
 /// noise of the testbed's instruments with its nominal compliances as the prior, measured
 /// under `gravity` (base frame, m/s²; None weightless). Runs on a
 /// worker thread: Ctrl-C stops it within [`crate::interrupt::POLL_INTERVAL`] (the core checks
@@ -329,7 +330,7 @@ pub fn vjm_design(
     moment: f64,
     progress: Option<Py<PyAny>>,
     gravity: Option<[f64; 3]>,
-) -> PyResult<Py<PyAny>> {
+) -> PyResult<PyDesignPlan> {
     let chain = &robot.chain;
     let model = parse_model(chain.n_joints(), model)?;
     if gravity.is_some() {
@@ -350,14 +351,54 @@ pub fn vjm_design(
         vjm::design_monitored(chain, &model, &spec, &noise, monitor)
     })?
     .py()?;
-    // The plan as native Python objects (its serialised fields), not JSON text.
-    let value = serde_json::to_value(&plan)
-        .map_err(|e| crate::errors::internal_error(format!("cannot convert the plan: {e}")))?;
-    Ok(crate::results::native(py, &value)?.unbind())
+    PyDesignPlan::new(py, plan, chain.n_joints())
+}
+
+/// A planned campaign: `q` (N, n) rad, `wrench` (N, 6) N and N·m (base frame), `pose` (N,)
+/// int64 pose ids, the `rank` the plan reaches, its `combinations` (their fields: `label`,
+/// `stderr`, `terms` of `param` and `coefficient`, `weak`), `worst_stderr` (None when not
+/// finite), the `noise` model assumed (its fields) and `pose_compliance_wrenches`.
+#[derive(Debug)]
+#[pyclass(module = "robot_stiffness._core", name = "DesignPlan", frozen, get_all)]
+pub struct PyDesignPlan {
+    /// (N, n) float64, rad.
+    pub q: Py<PyAny>,
+    /// (N, 6) float64, N and N·m.
+    pub wrench: Py<PyAny>,
+    /// (N,) int64.
+    pub pose: Py<PyAny>,
+    /// Rank reached.
+    pub rank: usize,
+    /// The planned combinations (a list of dicts of their fields).
+    pub combinations: Py<PyAny>,
+    /// The largest predicted standard error, or None when it is not finite.
+    pub worst_stderr: Option<f64>,
+    /// The noise model assumed (a dict of its fields).
+    pub noise: Py<PyAny>,
+    /// Wrenches per pose of the pose-compliance rows.
+    pub pose_compliance_wrenches: usize,
+}
+
+impl PyDesignPlan {
+    fn new(py: Python<'_>, plan: vjm::Plan, n_joints: usize) -> PyResult<Self> {
+        let rows = plan.pose.len();
+        let pose: Vec<i64> = plan.pose.iter().map(|&p| p as i64).collect();
+        Ok(Self {
+            q: numpy_field(py, plan.q, &[rows, n_joints])?,
+            wrench: numpy_field(py, plan.wrench.concat(), &[rows, 6])?,
+            pose: numpy::PyArray1::from_vec(py, pose).into_any().unbind(),
+            rank: plan.rank,
+            combinations: native_field(py, &plan.combinations)?,
+            worst_stderr: plan.worst_stderr.is_finite().then_some(plan.worst_stderr),
+            noise: native_field(py, &plan.noise)?,
+            pose_compliance_wrenches: plan.pose_compliance_wrenches,
+        })
+    }
 }
 
 /// Registers the functions on `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyDesignPlan>()?;
     m.add_function(wrap_pyfunction!(vjm_compensate, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_design, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_compensate_model_file, m)?)?;

@@ -376,11 +376,6 @@ pub fn vjm_simulate<'py>(
     let n = campaign.dataset.len();
     let mut buf = Vec::new();
     campaign.dataset.to_writer(&mut buf).py()?;
-    // The truth and the spec as native Python objects (their serialised fields).
-    let native = |value: serde_json::Result<serde_json::Value>| -> PyResult<Py<PyAny>> {
-        let value = value.map_err(|e| crate::errors::internal_error(e.to_string()))?;
-        Ok(crate::results::native(py, &value)?.unbind())
-    };
     let f = |v: Vec<f64>, shape: &[usize]| numpy_field(py, v, shape);
     Ok(PyVjmCampaign {
         true_displacement: f(campaign.true_displacement.concat(), &[n, 3])?,
@@ -388,8 +383,9 @@ pub fn vjm_simulate<'py>(
         tip: f(campaign.tip.concat(), &[n, 3])?,
         measurements: Py::new(py, PyMeasurementColumns::new(py, campaign.dataset, None)?)?,
         csv: String::from_utf8(buf).map_err(|e| crate::errors::internal_error(e.to_string()))?,
-        truth: native(serde_json::to_value(&truth))?,
-        spec: native(serde_json::to_value(&spec))?,
+        // The truth and the spec as native Python objects (their serialised fields).
+        truth: crate::results::native_field(py, &truth)?,
+        spec: crate::results::native_field(py, &spec)?,
     })
 }
 

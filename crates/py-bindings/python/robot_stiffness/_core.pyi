@@ -19,6 +19,7 @@ _CoreDiagnosis = Tuple[Dict[str, _CoreValue], Dict[str, npt.NDArray[np.generic]]
 __all__ = [
     "CsjmCampaign",
     "CsjmEstimate",
+    "DesignPlan",
     "IdentificationPartial",
     "MeasurementColumns",
     "PredictionColumns",
@@ -271,7 +272,7 @@ def vjm_design(
     moment: float = 3.0,
     progress: Optional[Callable[[str, int, int], Any]] = None,
     gravity: Optional[Tuple[float, float, float]] = None,
-) -> Dict[str, _CoreValue]: ...
+) -> DesignPlan: ...
 def vjm_paper_study(
     robot: Robot,
     tilt_ratio: Optional[float] = None,
@@ -301,6 +302,27 @@ def vjm_diagnose(
     per_row: bool = True,
     gravity: Optional[Tuple[float, float, float]] = None,
 ) -> _CoreDiagnosis: ...
+
+@final
+class DesignPlan:
+    """A planned VJM campaign: rows (rad, N, N·m, base frame) and what the plan determines."""
+
+    @property
+    def q(self) -> _F64: ...
+    @property
+    def wrench(self) -> _F64: ...
+    @property
+    def pose(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def rank(self) -> int: ...
+    @property
+    def combinations(self) -> List[Dict[str, Any]]: ...
+    @property
+    def worst_stderr(self) -> Optional[float]: ...
+    @property
+    def noise(self) -> Dict[str, Any]: ...
+    @property
+    def pose_compliance_wrenches(self) -> int: ...
 
 @final
 class CsjmCampaign:

@@ -265,29 +265,27 @@ def design(
     if progress is not None and not callable(progress):
         raise ArgumentTypeError(f"progress must be callable as progress(stage, done, total), got {type(progress).__name__}")
     inner = _robot_inner(robot)
-    doc: Dict[str, Any] = _core.vjm_design(
+    plan = _core.vjm_design(
         inner, model_spec(model), int(poses), int(wrenches_per_pose), int(seed), float(margin), int(pool_size),
         progress=progress, gravity=None if gravity is None else gravity_vector(gravity))
     labels = robot.labels(model)
-    n = robot.n_joints
-    ws = doc["worst_stderr"]
+    # Non-finite standard errors arrive as None (their serialised form): an unbounded one.
     combos = tuple(
         PlannedCombination(
             label=c["label"],
-            stderr=float(c["stderr"]),
+            stderr=math.inf if c["stderr"] is None else float(c["stderr"]),
             terms=tuple((labels[t["param"]], float(t["coefficient"])) for t in c["terms"]),
             weak=bool(c["weak"]),
         )
-        for c in doc["combinations"]
+        for c in plan.combinations
     )
     return Plan(
-        q=np.asarray(doc["q"], dtype=np.float64).reshape(-1, n),
-        wrench=np.asarray(doc["wrench"], dtype=np.float64).reshape(-1, 6),
-        pose=np.asarray(doc["pose"], dtype=np.int64),
-        rank=int(doc["rank"]),
+        q=plan.q,
+        wrench=plan.wrench,
+        pose=plan.pose,
+        rank=int(plan.rank),
         combinations=combos,
-        # A non-finite value arrives as None (the plan's serialised form).
-        worst_stderr=float(ws) if isinstance(ws, (int, float)) and math.isfinite(ws) else math.inf,
-        noise=doc["noise"],
-        pose_compliance_wrenches=int(doc["pose_compliance_wrenches"]),
+        worst_stderr=math.inf if plan.worst_stderr is None else float(plan.worst_stderr),
+        noise=plan.noise,
+        pose_compliance_wrenches=int(plan.pose_compliance_wrenches),
     )
