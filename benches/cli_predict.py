@@ -76,10 +76,14 @@ def run_child(argv: List[str]) -> Tuple[float, float]:
         return wall, int(peak_file.read_text()) * 1024 / 1e6
 
 
-def median_child(repeat: int, argv: List[str], fresh: Optional[Path] = None) -> Tuple[float, float]:
+def median_child(repeat: int, argv: List[str], fresh: Optional[Path] = None,
+                 scratch: Optional[Path] = None) -> Tuple[float, float]:
     """Median wall time and largest peak of ``repeat`` runs; with ``fresh``, that output file is
     removed before each run (untimed), so that the command writes a new file rather than
-    replacing the previous run's."""
+    replacing the previous run's. ``fresh`` must lie directly in ``scratch``, the bench's own
+    temporary directory: nothing else is ever removed."""
+    if fresh is not None and (scratch is None or fresh.resolve().parent != scratch.resolve()):
+        raise ValueError(f"{fresh} is not in the bench's temporary directory {scratch}: not removing it")
     runs = []
     for _ in range(repeat):
         if fresh is not None:
@@ -130,11 +134,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         cli = ["predict", "vjm", str(model_path)]
         runs: List[Tuple[str, float, float]] = []
         pred = work / "pred.csv"
-        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred)], fresh=pred)
+        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred)], fresh=pred, scratch=work)
         runs.append(("CLI `predict vjm MODEL.json POSES.csv --out PRED.csv` (with the sag), a new PRED.csv", t, mem))
         t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred), "--force"])
         runs.append(("  the same with `--force` over the previous run's PRED.csv", t, mem))
-        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred), "--no-gravity"], fresh=pred)
+        t, mem = median_child(args.repeat, cli + [str(poses), "--out", str(pred), "--no-gravity"], fresh=pred, scratch=work)
         runs.append(("  the same with `--no-gravity` (no sag columns), a new PRED.csv", t, mem))
         if args.parquet:
             from robot_stiffness._columnar import write_columns
@@ -144,7 +148,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             pq_poses = work / "poses.parquet"
             write_columns(pq_poses, names, cols)
             pred_pq = work / "pred.parquet"
-            t, mem = median_child(args.repeat, cli + [str(pq_poses), "--out", str(pred_pq)], fresh=pred_pq)
+            t, mem = median_child(args.repeat, cli + [str(pq_poses), "--out", str(pred_pq)], fresh=pred_pq, scratch=work)
             runs.append(("CLI `predict vjm MODEL.json POSES.parquet --out PRED.parquet` (with the sag)", t, mem))
         t_start = median_time(
             args.repeat, lambda: subprocess.run([sys.executable, "-c", "import robot_stiffness.cli"], check=True))

@@ -25,29 +25,26 @@ pub(crate) trait Collect: Sized {
 /// `solve` (a per-row computation whose row depends on its configuration alone) over the N
 /// configurations `q` (rows of `n`), solving each run of consecutive equal rows (bit for bit)
 /// once and repeating its result over the run; the first error names the row of `q` (its
-/// run's first). Without repeated rows, `solve(q)` itself (nothing copied).
+/// run's first). Without repeated rows, `solve(q)` itself (`q` is not copied).
 pub(crate) fn share_runs<R: Collect>(
     q: &[f64],
     n: usize,
     solve: impl FnOnce(&[f64]) -> Result<R, ModelError>,
 ) -> Result<R, ModelError> {
     let rows = q.len().checked_div(n).unwrap_or(0);
-    let same = |i: usize| {
-        q[(i - 1) * n..i * n]
-            .iter()
-            .zip(&q[i * n..(i + 1) * n])
-            .all(|(a, b)| a.to_bits() == b.to_bits())
+    let row = |i: usize| &q[i * n..(i + 1) * n];
+    let repeats = |i: usize| {
+        i > 0
+            && row(i - 1)
+                .iter()
+                .zip(row(i))
+                .all(|(a, b)| a.to_bits() == b.to_bits())
     };
-    if !(1..rows).any(same) {
+    let runs: Vec<usize> = (0..rows).filter(|&i| !repeats(i)).collect();
+    if runs.len() == rows {
         return solve(q);
     }
-    let runs: Vec<usize> = std::iter::once(0)
-        .chain((1..rows).filter(|&i| !same(i)))
-        .collect();
-    let distinct: Vec<f64> = runs
-        .iter()
-        .flat_map(|&r| q[r * n..(r + 1) * n].iter().copied())
-        .collect();
+    let distinct: Vec<f64> = runs.iter().flat_map(|&r| row(r).iter().copied()).collect();
     solve(&distinct)
         .map(|once| once.repeat_runs(&runs, rows))
         .map_err(|e| e.at_first_rows(&runs))
