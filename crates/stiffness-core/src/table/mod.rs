@@ -4,7 +4,7 @@
 //! - [`CsvReader`]: the header on opening, then [`CsvReader::read`] parses the rows into the
 //!   arrays a [`Layout`] asks for, a chunk at a time, on every core, with errors naming the line
 //!   and the column; with [`CsvReader::open_hashing`] also the SHA-256 of the bytes read, in the
-//!   same pass. Memory: the arrays plus two [`read::CHUNK_BYTES`] buffers and one chunk's rows.
+//!   same pass. Memory: the arrays plus two [`read::CHUNK_BYTES`] buffers.
 //! - [`write_csv`]: row-major [`Column`] groups side by side, numbers in their shortest
 //!   round-trip form, formatted on every core a bounded window at a time.
 //!

@@ -1,11 +1,11 @@
 //! The CSV reader: a header, then chunks of complete lines parsed on every core.
 //!
-//! Memory is bounded by the output columns plus two chunks ([`CHUNK_BYTES`]) and one chunk's
-//! parsed rows: the file is read a chunk at a time, each chunk's complete lines are split into
-//! a few pieces per thread at line boundaries and parsed on the pool, while the calling thread
-//! reads the next chunk, appends the previous chunk's rows in file order (and hashes, when
-//! asked). The result does not depend on the thread count: pieces are concatenated in order,
-//! their lines counted from their own start and made the file's in that order, and the error
+//! Memory is bounded by the output arrays plus two chunks ([`CHUNK_BYTES`]): the file is read a
+//! chunk at a time, each chunk's complete lines are split into a few pieces per thread at line
+//! boundaries and parsed on the pool straight into the output arrays (each piece into its own
+//! part of them, `columns`), while the calling thread reads the next chunk (and hashes, when
+//! asked). The result does not depend on the thread count: pieces own consecutive parts, their
+//! lines are counted from their own start and made the file's in file order, and the error
 //! reported is the first one in file order.
 
 use std::io::Read;
@@ -17,7 +17,10 @@ use sha2::{Digest, Sha256};
 use super::error::TableError;
 use crate::Cancel;
 
+mod columns;
 mod plain_row;
+
+use columns::{Cells, Values};
 
 /// Bytes read per chunk; also the longest line accepted (a measurement row is well under 1 kB).
 pub const CHUNK_BYTES: usize = 8 << 20;
@@ -69,39 +72,6 @@ impl Layout {
     pub fn group(&mut self, kind: CellKind, columns: Vec<(usize, String)>) -> Group {
         self.groups.push(GroupSpec { kind, columns });
         Group(self.groups.len() - 1)
-    }
-}
-
-/// One group's values.
-#[derive(Debug, Clone, PartialEq)]
-enum Values {
-    Float(Vec<f64>),
-    Integer(Vec<i64>),
-    Label(Vec<u8>),
-}
-
-impl Values {
-    fn new(kind: CellKind) -> Self {
-        match kind {
-            CellKind::Float => Values::Float(Vec::new()),
-            CellKind::Integer => Values::Integer(Vec::new()),
-            CellKind::Label(_) => Values::Label(Vec::new()),
-        }
-    }
-    fn reserve(&mut self, n: usize) {
-        match self {
-            Values::Float(v) => v.reserve(n),
-            Values::Integer(v) => v.reserve(n),
-            Values::Label(v) => v.reserve(n),
-        }
-    }
-    fn append(&mut self, other: &mut Values) {
-        match (self, other) {
-            (Values::Float(a), Values::Float(b)) => a.append(b),
-            (Values::Integer(a), Values::Integer(b)) => a.append(b),
-            (Values::Label(a), Values::Label(b)) => a.append(b),
-            _ => unreachable!("groups keep their kind"),
-        }
     }
 }
 
@@ -263,9 +233,8 @@ impl<R: Read> CsvReader<R> {
             if end == 0 {
                 return Err(TableError::NoHeader);
             }
-            let text = utf8(&data[..end], reader.line)?;
-            let text = strip_eol(text);
-            if is_blank(text) {
+            let text = utf8(strip_eol(&data[..end]), reader.line)?;
+            if is_blank(text.as_bytes()) {
                 reader.consume(end, 1);
                 continue;
             }
@@ -327,24 +296,22 @@ impl<R: Read> CsvReader<R> {
             slots,
             groups: &layout.groups,
         };
-        let mut merged = Merged {
-            table: Table {
-                rows: 0,
-                values: layout.groups.iter().map(|g| Values::new(g.kind)).collect(),
-                breaks: vec![(0, self.line)],
-                sha256: None,
-            },
-            line: self.line,
-            bytes: self.consumed,
-            size: self.size,
-            reserved: false,
+        let widths: Vec<usize> = layout.groups.iter().map(|g| g.columns.len()).collect();
+        let mut table = Table {
+            rows: 0,
+            values: layout.groups.iter().map(|g| Values::new(g.kind)).collect(),
+            breaks: vec![(0, self.line)],
+            sha256: None,
         };
-        // Chunk k's pieces are parsed on the pool while this thread reads chunk k + 1 into
-        // `spare` and appends chunk k − 1's rows (`pending`): the serial work hides behind
-        // the parallel work. Pieces count their lines themselves (relative to their start);
-        // the merge, in file order, makes them the file's lines.
+        // File line of the next chunk's first line; rows the file is expected to hold (from its
+        // size and the first chunk's lines), once known.
+        let mut line = self.line;
+        let mut expected_rows: Option<usize> = None;
+        // Chunk k's pieces are parsed on the pool, straight into the table's arrays, while this
+        // thread reads chunk k + 1 into `spare` (and hashes chunk k, when asked): the serial
+        // work hides behind the parallel work. Pieces count their lines themselves (relative
+        // to their start); `Table::commit`, in file order, makes them the file's.
         let mut spare = vec![0; CHUNK_BYTES];
-        let mut pending: Option<(Vec<Piece>, usize)> = None;
         self.fill()?;
         loop {
             if cancel.is_cancelled() {
@@ -358,11 +325,8 @@ impl<R: Read> CsvReader<R> {
                 Some(k) => k + 1,
                 None if self.eof => data.len(),
                 None => {
-                    if let Some((pieces, bytes)) = pending.take() {
-                        merged.append(pieces, bytes, &layout.groups)?;
-                    }
                     return Err(TableError::Malformed {
-                        line: merged.line,
+                        line,
                         message: format!("a line longer than {CHUNK_BYTES} bytes"),
                     });
                 }
@@ -371,17 +335,30 @@ impl<R: Read> CsvReader<R> {
                 &data[..end],
                 PIECES_PER_THREAD * rayon::current_num_threads(),
             );
+            // Every line may be a row: room for that many, from the table's current end.
+            let lines: Vec<usize> = pieces.par_iter().map(|p| count_lines(p)).collect();
+            let room = table.rows + lines.iter().sum::<usize>();
+            let expected = *expected_rows.get_or_insert_with(|| {
+                self.size.map_or(0, |size| {
+                    expected_rows_of(size, self.consumed + end as u64, room, width)
+                })
+            });
+            for (values, &w) in table.values.iter_mut().zip(&widths) {
+                values.grow_to(room * w, expected * w);
+            }
             // The incomplete last line starts the next chunk.
             let tail = data.len() - end;
             spare[..tail].copy_from_slice(&data[end..]);
             let (mut spare_filled, mut spare_eof) = (tail, self.eof);
-            let mut parsed: Vec<Piece> = Vec::new();
+            let mut parsed: Vec<PieceRows> = Vec::new();
+            let parts = columns::piece_parts(&mut table.values, &widths, table.rows, &lines);
             // The source need not be `Send`: it stays on this thread.
-            let (next, earlier) = rayon::in_place_scope(|scope| {
+            let next = rayon::in_place_scope(|scope| {
                 scope.spawn(|_| {
                     parsed = pieces
                         .par_iter()
-                        .map(|piece| parse_piece(piece, &plan))
+                        .zip(parts)
+                        .map(|(piece, mut cells)| parse_piece(piece, &plan, &mut cells))
                         .collect();
                 });
                 let next = fill_buffer(
@@ -391,87 +368,76 @@ impl<R: Read> CsvReader<R> {
                     &mut spare_filled,
                     &mut spare_eof,
                 );
-                let earlier = match pending.take() {
-                    Some((pieces, bytes)) => merged.append(pieces, bytes, &layout.groups),
-                    None => Ok(()),
-                };
                 if let Some(h) = &mut self.hasher {
                     h.update(&data[..end]);
                 }
-                (next, earlier)
+                next
             });
-            // Errors in file order: the earlier chunk's, this chunk's, then the read's.
-            earlier?;
-            if let Err(e) = next {
-                merged.append(parsed, end, &layout.groups)?;
-                return Err(e);
-            }
-            pending = Some((parsed, end));
+            // Errors in file order: this chunk's, then the read's.
+            table.commit(parsed, &lines, &widths, &mut line)?;
+            next?;
+            self.consumed += end as u64;
             std::mem::swap(&mut self.buf, &mut spare);
             self.filled = spare_filled;
             self.eof = spare_eof;
         }
-        if let Some((pieces, bytes)) = pending {
-            merged.append(pieces, bytes, &layout.groups)?;
+        for (values, &w) in table.values.iter_mut().zip(&widths) {
+            values.truncate(table.rows * w);
         }
-        merged.table.sha256 = self.hasher.map(|h| h.finalize().into());
-        Ok(merged.table)
+        table.sha256 = self.hasher.map(|h| h.finalize().into());
+        Ok(table)
     }
 }
 
-/// The rows read so far, in file order, and where the next piece starts.
-struct Merged {
-    table: Table,
-    /// File line of the next piece's first line.
-    line: u64,
-    /// File bytes up to the next piece (for the row estimate).
-    bytes: u64,
-    /// The file's size, when known.
-    size: Option<u64>,
-    reserved: bool,
+/// Rows a file of `size` bytes is expected to hold, from the `lines` of its first `bytes`
+/// (2 % over, for rows a little shorter than the first ones), and never more than the file
+/// could hold (a row has `width` fields, so at least `width` bytes with its line end): the
+/// arrays are made that long at once, in memory not touched until a row is parsed into it.
+fn expected_rows_of(size: u64, bytes: u64, lines: usize, width: usize) -> usize {
+    let per_line = bytes.max(1) as f64 / lines.max(1) as f64;
+    let estimate = (size as f64 / per_line * 1.02) as u64;
+    estimate.min(size / width.max(1) as u64 + 1) as usize
 }
 
-impl Merged {
-    /// Appends one chunk's pieces (`bytes` long), or returns the first error among them with
-    /// its file line and row.
-    fn append(
+/// Lines in a piece of complete lines (the last one may lack its line end at end of input).
+fn count_lines(piece: &[u8]) -> usize {
+    memchr::memchr_iter(b'\n', piece).count()
+        + usize::from(piece.last().is_some_and(|&b| b != b'\n'))
+}
+
+impl Table {
+    /// Takes one chunk's pieces (piece `j` was given room for `lines[j]` rows, from the table's
+    /// end): closes the gaps their blank lines left, makes their lines the file's, or returns
+    /// the first error among them with its file line and row.
+    fn commit(
         &mut self,
-        mut pieces: Vec<Piece>,
-        bytes: usize,
-        groups: &[GroupSpec],
+        pieces: Vec<PieceRows>,
+        lines: &[usize],
+        widths: &[usize],
+        line: &mut u64,
     ) -> Result<(), TableError> {
-        let table = &mut self.table;
-        for piece in &mut pieces {
-            if let Some(e) = piece.error.take() {
-                return Err(e.after_lines(self.line).after_rows(table.rows));
+        let mut written_at = self.rows;
+        for (piece, &room) in pieces.into_iter().zip(lines) {
+            if let Some(e) = piece.error {
+                return Err(e.after_lines(*line).after_rows(self.rows));
             }
-            for &(row, line) in &piece.breaks {
-                let (row, line) = (table.rows + row, self.line + line);
-                let &(r, l) = table.breaks.last().expect("row 0 has a break");
+            if written_at != self.rows {
+                for (values, &w) in self.values.iter_mut().zip(widths) {
+                    values.move_down(written_at * w, piece.rows * w, self.rows * w);
+                }
+            }
+            for &(row, piece_line) in &piece.breaks {
+                let (row, file_line) = (self.rows + row, *line + piece_line);
+                let &(r, l) = self.breaks.last().expect("row 0 has a break");
                 if row == 0 {
-                    table.breaks[0] = (0, line);
-                } else if l + (row - r) as u64 != line {
-                    table.breaks.push((row, line));
+                    self.breaks[0] = (0, file_line);
+                } else if l + (row - r) as u64 != file_line {
+                    self.breaks.push((row, file_line));
                 }
             }
-            for (all, part) in table.values.iter_mut().zip(piece.values.iter_mut()) {
-                all.append(part);
-            }
-            table.rows += piece.rows;
-            self.line += piece.lines;
-        }
-        self.bytes += bytes as u64;
-        // After the first chunk, reserve for the whole file from its size (no doubling).
-        if !self.reserved {
-            self.reserved = true;
-            if let Some(size) = self.size {
-                let per_row = self.bytes as f64 / table.rows.max(1) as f64;
-                let rows = (size as f64 / per_row * 1.02) as usize;
-                let more = rows.saturating_sub(table.rows);
-                for (values, spec) in table.values.iter_mut().zip(groups) {
-                    values.reserve(more * spec.columns.len());
-                }
-            }
+            self.rows += piece.rows;
+            *line += piece.lines;
+            written_at += room;
         }
         Ok(())
     }
@@ -534,11 +500,10 @@ struct Plan<'a> {
     groups: &'a [GroupSpec],
 }
 
-/// One piece of a chunk, parsed; lines count from the piece's first line (0), the merge
-/// ([`Merged::append`]) makes them the file's.
-struct Piece {
+/// One piece of a chunk, parsed into its part of the table's arrays; lines count from the
+/// piece's first line (0), [`Table::commit`] makes them the file's.
+struct PieceRows {
     rows: usize,
-    values: Vec<Values>,
     /// (row in the piece, line in the piece) of every row whose line is not the previous
     /// row's + 1, and of the piece's first row.
     breaks: Vec<(usize, u64)>,
@@ -547,56 +512,48 @@ struct Piece {
     error: Option<TableError>,
 }
 
-fn parse_piece(piece: &[u8], plan: &Plan<'_>) -> Piece {
-    let mut out = Piece {
+fn parse_piece(piece: &[u8], plan: &Plan<'_>, cells: &mut [Cells<'_>]) -> PieceRows {
+    let mut out = PieceRows {
         rows: 0,
-        values: plan.groups.iter().map(|g| Values::new(g.kind)).collect(),
         breaks: Vec::new(),
         lines: 0,
         error: None,
     };
-    if let Err(e) = parse_lines(piece, 0, plan, &mut out) {
+    if let Err(e) = parse_lines(piece, plan, cells, &mut out) {
         out.error = Some(e);
     }
     out
 }
 
+/// Parses a piece's lines into `cells`, which has room for a row per line.
 fn parse_lines(
     piece: &[u8],
-    first_line: u64,
     plan: &Plan<'_>,
-    out: &mut Piece,
+    cells: &mut [Cells<'_>],
+    out: &mut PieceRows,
 ) -> Result<(), TableError> {
-    let text = utf8(piece, first_line)?;
-    let mut line = first_line;
-    let mut expected = first_line;
+    let mut line = 0;
+    let mut expected = 0;
     let mut start = 0;
-    while start < text.len() {
-        let end =
-            memchr::memchr(b'\n', &text.as_bytes()[start..]).map_or(text.len(), |k| start + k + 1);
-        let row = strip_eol(&text[start..end]);
+    while start < piece.len() {
+        let end = memchr::memchr(b'\n', &piece[start..]).map_or(piece.len(), |k| start + k + 1);
+        let bytes = strip_eol(&piece[start..end]);
         start = end;
-        if is_blank(row) {
+        if is_blank(bytes) {
             line += 1;
             continue;
         }
         if out.rows == 0 || line != expected {
             out.breaks.push((out.rows, line));
         }
-        for (values, spec) in out.values.iter_mut().zip(plan.groups) {
-            let n = spec.columns.len();
-            match values {
-                Values::Float(v) => v.resize(v.len() + n, 0.0),
-                Values::Integer(v) => v.resize(v.len() + n, 0),
-                Values::Label(v) => v.resize(v.len() + n, 0),
-            }
-        }
-        if plain_row::parse_plain_row(row.as_bytes(), plan, &mut out.values, out.rows) {
+        // A plain row is ASCII where it is not parsed, so it is checked as text only here.
+        if plain_row::parse_plain_row(bytes, plan, cells, out.rows) {
             out.rows += 1;
             line += 1;
             expected = line;
             continue;
         }
+        let row = utf8(bytes, line)?;
         let mut fields = 0usize;
         split_fields(row, line, |k, cell| {
             fields = k + 1;
@@ -608,8 +565,8 @@ fn parse_lines(
             let at = out.rows * spec.columns.len() + offset;
             // The piece's own row: `read` adds the rows of the pieces before it.
             let row = out.rows;
-            match &mut out.values[g] {
-                Values::Float(v) => {
+            match &mut cells[g] {
+                Cells::Float(v) => {
                     v[at] = cell.parse().map_err(|_| TableError::Parse {
                         line,
                         row,
@@ -618,7 +575,7 @@ fn parse_lines(
                         expected: "a number",
                     })?;
                 }
-                Values::Integer(v) => {
+                Cells::Integer(v) => {
                     v[at] = cell.parse().map_err(|_| TableError::Parse {
                         line,
                         row,
@@ -627,7 +584,7 @@ fn parse_lines(
                         expected: "an integer",
                     })?;
                 }
-                Values::Label(v) => {
+                Cells::Label(v) => {
                     let CellKind::Label(allowed) = spec.kind else {
                         unreachable!("a label group has label values")
                     };
@@ -659,7 +616,7 @@ fn parse_lines(
         line += 1;
         expected = line;
     }
-    out.lines = line - first_line;
+    out.lines = line;
     Ok(())
 }
 
@@ -773,13 +730,13 @@ fn is_space(c: char) -> bool {
     c == ' ' || c == '\t' || c == '\r'
 }
 
-fn is_blank(s: &str) -> bool {
-    s.bytes().all(|b| b == b' ' || b == b'\t')
+fn is_blank(s: &[u8]) -> bool {
+    s.iter().all(|&b| b == b' ' || b == b'\t')
 }
 
-fn strip_eol(s: &str) -> &str {
-    let s = s.strip_suffix('\n').unwrap_or(s);
-    s.strip_suffix('\r').unwrap_or(s)
+fn strip_eol(s: &[u8]) -> &[u8] {
+    let s = s.strip_suffix(b"\n").unwrap_or(s);
+    s.strip_suffix(b"\r").unwrap_or(s)
 }
 
 fn utf8(bytes: &[u8], first_line: u64) -> Result<&str, TableError> {

@@ -89,6 +89,39 @@ fn a_row_with_a_missing_field_is_malformed_at_its_line() {
     assert!(matches!(floats("\n \n", 1), Err(TableError::NoHeader)));
 }
 
+/// Bytes that are not UTF-8 are refused on their own line, in a cell that is read or in one
+/// that is skipped (the fast path does not check a row as text, so this is its check), and an
+/// earlier row's error still comes first.
+#[test]
+fn a_row_that_is_not_text_is_named_by_its_line() {
+    let read = |bytes: &[u8]| {
+        let reader = CsvReader::from_reader(bytes).unwrap();
+        let mut layout = Layout::new();
+        layout.group(CellKind::Float, vec![(0, "x".into())]);
+        reader.read(&layout, &Cancel::new())
+    };
+    for (bytes, at) in [
+        (&b"x,note\n1,ok\n2,\xffbad\n3,ok\n"[..], 3),
+        (&b"x,note\n1,ok\n\n2\xff,ok\n"[..], 4),
+        (&b"x,note\n1,\xc3\n"[..], 2),
+    ] {
+        match read(bytes) {
+            Err(TableError::Malformed { line, message }) => {
+                assert_eq!(line, at, "{bytes:?}");
+                assert!(message.contains("UTF-8"), "{message}");
+            }
+            other => panic!("{bytes:?}: expected not UTF-8 on line {at}, got {other:?}"),
+        }
+    }
+    assert!(matches!(
+        read(b"x,note\n1,ok\nz,ok\n2,\xff\n"),
+        Err(TableError::Parse { line: 3, .. })
+    ));
+    // Text that is UTF-8 but not ASCII reads, in a skipped cell as in a quoted one.
+    let t = read("x,note\n1,caf\u{e9}\n2,\"\u{b5}m\"\n".as_bytes()).unwrap();
+    assert_eq!(t.rows(), 2);
+}
+
 #[test]
 fn a_label_outside_its_list_is_named() {
     let reader = CsvReader::from_reader("set\ntrain\nTEST\nvalidation\n".as_bytes()).unwrap();
@@ -449,4 +482,78 @@ proptest! {
             (got, first_bad) => prop_assert!(false, "{:?}: read {:?}, std refuses cell {:?}", cells, got, first_bad),
         }
     }
+}
+
+/// Row `i` of a table whose first chunk does not look like the rest: rows 0..`long` have their
+/// `i` padded with zeros to 200 digits (the arrays' first size, taken from the first chunk's
+/// lines, is then far too short), and `blank` blank lines follow the header (then far too long).
+fn uneven_table(rows: usize, long: usize, blank: usize) -> String {
+    let mut text = String::from("i,x\n");
+    text.push_str(&"\n".repeat(blank));
+    for i in 0..rows {
+        let x = (i as f64).ln_1p() - 4.0;
+        if i < long {
+            text.push_str(&format!("{i:0>200},{x:?}\n"));
+        } else {
+            text.push_str(&format!("{i},{x:?}\n"));
+        }
+    }
+    text
+}
+
+/// Integers of column 0, floats of column 1 and the line of every row.
+fn ints_floats_lines<R: std::io::Read>(reader: CsvReader<R>) -> (Vec<i64>, Vec<f64>, Vec<u64>) {
+    let mut layout = Layout::new();
+    let i = layout.group(CellKind::Integer, vec![(0, "i".into())]);
+    let x = layout.group(CellKind::Float, vec![(1, "x".into())]);
+    let mut t = reader.read(&layout, &Cancel::new()).unwrap();
+    let lines: Vec<u64> = (0..t.rows()).map(|r| t.line_of(r)).collect();
+    (t.take_integers(i), t.take_floats(x), lines)
+}
+
+/// A file is read from its path with arrays sized from its first chunk: whether that guess is
+/// right, far too short (long first rows) or far too long (a first chunk of blank lines), every
+/// row of every table reads as the same bytes read from memory do, with its own values and line.
+#[test]
+fn a_file_reads_every_row_however_its_first_chunk_predicts_the_rest() {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos();
+    let dir = std::env::temp_dir().join(format!("table-size-{}-{nanos}", std::process::id()));
+    std::fs::create_dir(&dir).unwrap();
+    let chunk = stiffness_core::table::read::CHUNK_BYTES;
+    let (big, big_rows) = big_table(None);
+    let tables = [
+        ("even", big, big_rows, 0usize),
+        (
+            "long first rows",
+            uneven_table(300_000, chunk / 200 + 1, 0),
+            300_000,
+            0,
+        ),
+        (
+            "blank first chunk",
+            uneven_table(300_000, 0, chunk + 5),
+            300_000,
+            chunk + 5,
+        ),
+    ];
+    for (name, text, rows, blank) in tables {
+        let path = dir.join("t.csv");
+        std::fs::write(&path, &text).unwrap();
+        let from_file = ints_floats_lines(CsvReader::open(&path).unwrap());
+        std::fs::remove_file(&path).unwrap();
+        let from_memory = ints_floats_lines(CsvReader::from_reader(text.as_bytes()).unwrap());
+        assert!(from_file == from_memory, "{name}: the file reads otherwise");
+        let (ids, xs, lines) = from_file;
+        assert_eq!(ids, (0..rows as i64).collect::<Vec<_>>(), "{name}");
+        if name != "even" {
+            for (i, &x) in xs.iter().enumerate() {
+                assert_eq!(x, (i as f64).ln_1p() - 4.0, "{name}: row {i}");
+                assert_eq!(lines[i], (i + 2 + blank) as u64, "{name}: row {i}");
+            }
+        }
+    }
+    std::fs::remove_dir(&dir).unwrap();
 }

@@ -9,15 +9,16 @@
 //! reads it as before or names what is wrong, so the dialect and the errors do not depend on
 //! which path ran.
 
-use super::{CellKind, Plan, Values};
+use super::{CellKind, Cells, Plan};
 
 /// Parses one line (without its line end) into row `row` of `values` if it is plain, and
-/// returns whether it was. A `false` may leave some of the row's cells written: the general
+/// returns whether it was. A plain row is ASCII outside its labels (which are text), so the
+/// caller need not check it is UTF-8. A `false` may leave some of the row's cells written: the general
 /// path writes every one of them again or fails.
 pub(super) fn parse_plain_row(
     line: &[u8],
     plan: &Plan<'_>,
-    values: &mut [Values],
+    values: &mut [Cells<'_>],
     row: usize,
 ) -> bool {
     let Some(last) = plan.width.checked_sub(1) else {
@@ -31,18 +32,18 @@ pub(super) fn parse_plain_row(
                 let spec = &plan.groups[g];
                 let index = row * spec.columns.len() + offset;
                 let parsed = match (&mut values[g], spec.kind) {
-                    (Values::Float(v), _) => number(rest).map(|(x, n)| {
+                    (Cells::Float(v), _) => number(rest).map(|(x, n)| {
                         v[index] = x;
                         n
                     }),
-                    (Values::Integer(v), _) => {
+                    (Cells::Integer(v), _) => {
                         let n = cell_len(rest);
                         integer(&rest[..n]).map(|x| {
                             v[index] = x;
                             n
                         })
                     }
-                    (Values::Label(v), CellKind::Label(allowed)) => {
+                    (Cells::Label(v), CellKind::Label(allowed)) => {
                         let n = cell_len(rest);
                         let cell = &rest[..n];
                         allowed
@@ -60,10 +61,11 @@ pub(super) fn parse_plain_row(
                     None => return false,
                 }
             }
-            // A skipped cell is not read, but a quote in it may hide a comma.
+            // A skipped cell is not read, but a quote in it may hide a comma, and it must be
+            // text: a plain row is not checked as UTF-8 elsewhere.
             None => {
                 let n = cell_len(rest);
-                if memchr::memchr(b'"', &rest[..n]).is_some() {
+                if !rest[..n].is_ascii() || memchr::memchr(b'"', &rest[..n]).is_some() {
                     return false;
                 }
                 n

@@ -1,0 +1,119 @@
+//! The table's arrays while they are read, and the disjoint parts of them each piece writes.
+//!
+//! Pieces parse straight into the final arrays: each chunk's rows get room at the end of every
+//! group's array (as many rows as the chunk has lines, an upper bound), and that room is cut into
+//! one part per piece. Nothing is parsed into a buffer of its own and copied again, and when the
+//! file's size is known the arrays start as zeroed memory the kernel has not handed out yet
+//! (`vec![0; n]` asks the allocator for zeroed pages), so every page is first touched, and
+//! faulted in, by the thread that parses into it.
+
+use super::CellKind;
+
+/// One group's values.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Values {
+    Float(Vec<f64>),
+    Integer(Vec<i64>),
+    Label(Vec<u8>),
+}
+
+/// The part of one group's values a piece writes: its rows, row-major.
+#[derive(Debug)]
+pub(super) enum Cells<'a> {
+    Float(&'a mut [f64]),
+    Integer(&'a mut [i64]),
+    Label(&'a mut [u8]),
+}
+
+impl Values {
+    pub(super) fn new(kind: CellKind) -> Self {
+        match kind {
+            CellKind::Float => Values::Float(Vec::new()),
+            CellKind::Integer => Values::Integer(Vec::new()),
+            CellKind::Label(_) => Values::Label(Vec::new()),
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Values::Float(v) => v.len(),
+            Values::Integer(v) => v.len(),
+            Values::Label(v) => v.len(),
+        }
+    }
+
+    /// Makes the array at least `len` long. An empty array with a larger `expected` length is
+    /// made that long at once in zeroed, untouched memory; otherwise the new values are zeros
+    /// written here.
+    pub(super) fn grow_to(&mut self, len: usize, expected: usize) {
+        if self.len() >= len {
+            return;
+        }
+        let fresh = self.len() == 0 && expected > len;
+        match self {
+            Values::Float(v) if fresh => *v = vec![0.0; expected],
+            Values::Integer(v) if fresh => *v = vec![0; expected],
+            Values::Label(v) if fresh => *v = vec![0; expected],
+            Values::Float(v) => v.resize(len, 0.0),
+            Values::Integer(v) => v.resize(len, 0),
+            Values::Label(v) => v.resize(len, 0),
+        }
+    }
+
+    pub(super) fn truncate(&mut self, len: usize) {
+        match self {
+            Values::Float(v) => v.truncate(len),
+            Values::Integer(v) => v.truncate(len),
+            Values::Label(v) => v.truncate(len),
+        }
+    }
+
+    /// Moves `count` values from `from` down to `to` (closing the gap a piece's blank lines left).
+    pub(super) fn move_down(&mut self, from: usize, count: usize, to: usize) {
+        match self {
+            Values::Float(v) => v.copy_within(from..from + count, to),
+            Values::Integer(v) => v.copy_within(from..from + count, to),
+            Values::Label(v) => v.copy_within(from..from + count, to),
+        }
+    }
+
+    /// Cuts `[start, start + Σ lens)` into consecutive parts of the given lengths.
+    fn parts(&mut self, start: usize, lens: &[usize]) -> Vec<Cells<'_>> {
+        fn cut<'a, T>(
+            mut rest: &'a mut [T],
+            lens: &[usize],
+            wrap: fn(&'a mut [T]) -> Cells<'a>,
+        ) -> Vec<Cells<'a>> {
+            lens.iter()
+                .map(|&n| {
+                    let (part, tail) = std::mem::take(&mut rest).split_at_mut(n);
+                    rest = tail;
+                    wrap(part)
+                })
+                .collect()
+        }
+        match self {
+            Values::Float(v) => cut(&mut v[start..], lens, Cells::Float),
+            Values::Integer(v) => cut(&mut v[start..], lens, Cells::Integer),
+            Values::Label(v) => cut(&mut v[start..], lens, Cells::Label),
+        }
+    }
+}
+
+/// Every piece's part of every group: `parts[piece][group]`, piece `j` getting `lines[j]` rows
+/// from row `first_row` + the lines of the pieces before it.
+pub(super) fn piece_parts<'a>(
+    values: &'a mut [Values],
+    widths: &[usize],
+    first_row: usize,
+    lines: &[usize],
+) -> Vec<Vec<Cells<'a>>> {
+    let mut parts: Vec<Vec<Cells<'a>>> = lines.iter().map(|_| Vec::new()).collect();
+    for (group, &width) in values.iter_mut().zip(widths) {
+        let lens: Vec<usize> = lines.iter().map(|&n| n * width).collect();
+        for (piece, cells) in parts.iter_mut().zip(group.parts(first_row * width, &lens)) {
+            piece.push(cells);
+        }
+    }
+    parts
+}
