@@ -335,9 +335,9 @@ impl<R: Read> CsvReader<R> {
                 &data[..end],
                 PIECES_PER_THREAD * rayon::current_num_threads(),
             );
-            // Every line may be a row: room for that many, from the table's current end.
-            let lines: Vec<usize> = pieces.par_iter().map(|p| count_lines(p)).collect();
-            let room = table.rows + lines.iter().sum::<usize>();
+            // Room from the table's current end for as many rows as each piece may hold.
+            let rooms: Vec<usize> = pieces.par_iter().map(|p| row_room(p, width)).collect();
+            let room = table.rows + rooms.iter().sum::<usize>();
             let expected = *expected_rows.get_or_insert_with(|| {
                 self.size.map_or(0, |size| {
                     expected_rows_of(size, self.consumed + end as u64, room, width)
@@ -351,7 +351,7 @@ impl<R: Read> CsvReader<R> {
             spare[..tail].copy_from_slice(&data[end..]);
             let (mut spare_filled, mut spare_eof) = (tail, self.eof);
             let mut parsed: Vec<PieceRows> = Vec::new();
-            let parts = columns::piece_parts(&mut table.values, &widths, table.rows, &lines);
+            let parts = columns::piece_parts(&mut table.values, &widths, table.rows, &rooms);
             // The source need not be `Send`: it stays on this thread.
             let next = rayon::in_place_scope(|scope| {
                 scope.spawn(|_| {
@@ -374,7 +374,7 @@ impl<R: Read> CsvReader<R> {
                 next
             });
             // Errors in file order: this chunk's, then the read's.
-            table.commit(parsed, &lines, &widths, &mut line)?;
+            table.commit(parsed, &rooms, &widths, &mut line)?;
             next?;
             self.consumed += end as u64;
             std::mem::swap(&mut self.buf, &mut spare);
@@ -399,25 +399,29 @@ fn expected_rows_of(size: u64, bytes: u64, lines: usize, width: usize) -> usize 
     estimate.min(size / width.max(1) as u64 + 1) as usize
 }
 
-/// Lines in a piece of complete lines (the last one may lack its line end at end of input).
-fn count_lines(piece: &[u8]) -> usize {
-    memchr::memchr_iter(b'\n', piece).count()
-        + usize::from(piece.last().is_some_and(|&b| b != b'\n'))
+/// The most rows a piece of complete lines can hold: one per line (the last may lack its line
+/// end at end of input), and no more than its bytes allow, a row of `width` fields being at
+/// least `width` bytes with its line end (so a chunk of blank lines asks for no more room than
+/// one of rows would).
+fn row_room(piece: &[u8], width: usize) -> usize {
+    let lines = memchr::memchr_iter(b'\n', piece).count()
+        + usize::from(piece.last().is_some_and(|&b| b != b'\n'));
+    lines.min(piece.len() / width.max(1) + 1)
 }
 
 impl Table {
-    /// Takes one chunk's pieces (piece `j` was given room for `lines[j]` rows, from the table's
+    /// Takes one chunk's pieces (piece `j` was given room for `rooms[j]` rows, from the table's
     /// end): closes the gaps their blank lines left, makes their lines the file's, or returns
     /// the first error among them with its file line and row.
     fn commit(
         &mut self,
         pieces: Vec<PieceRows>,
-        lines: &[usize],
+        rooms: &[usize],
         widths: &[usize],
         line: &mut u64,
     ) -> Result<(), TableError> {
         let mut written_at = self.rows;
-        for (piece, &room) in pieces.into_iter().zip(lines) {
+        for (piece, &room) in pieces.into_iter().zip(rooms) {
             if let Some(e) = piece.error {
                 return Err(e.after_lines(*line).after_rows(self.rows));
             }

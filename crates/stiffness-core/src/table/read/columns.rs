@@ -1,11 +1,11 @@
 //! The table's arrays while they are read, and the disjoint parts of them each piece writes.
 //!
 //! Pieces parse straight into the final arrays: each chunk's rows get room at the end of every
-//! group's array (as many rows as the chunk has lines, an upper bound), and that room is cut into
-//! one part per piece. Nothing is parsed into a buffer of its own and copied again, and when the
-//! file's size is known the arrays start as zeroed memory the kernel has not handed out yet
-//! (`vec![0; n]` asks the allocator for zeroed pages), so every page is first touched, and
-//! faulted in, by the thread that parses into it.
+//! group's array (as many rows as the chunk can hold: a row a line, no more than its bytes
+//! allow), and that room is cut into one part per piece. Nothing is parsed into a buffer of its
+//! own and copied again, and when the file's size is known the arrays start as zeroed memory the
+//! kernel has not handed out yet (`vec![0; n]` asks the allocator for zeroed pages), so every
+//! page is first touched, and faulted in, by the thread that parses into it.
 
 use super::CellKind;
 
@@ -100,17 +100,17 @@ impl Values {
     }
 }
 
-/// Every piece's part of every group: `parts[piece][group]`, piece `j` getting `lines[j]` rows
-/// from row `first_row` + the lines of the pieces before it.
+/// Every piece's part of every group: `parts[piece][group]`, piece `j` getting `rooms[j]` rows
+/// from row `first_row` + the rooms of the pieces before it.
 pub(super) fn piece_parts<'a>(
     values: &'a mut [Values],
     widths: &[usize],
     first_row: usize,
-    lines: &[usize],
+    rooms: &[usize],
 ) -> Vec<Vec<Cells<'a>>> {
-    let mut parts: Vec<Vec<Cells<'a>>> = lines.iter().map(|_| Vec::new()).collect();
+    let mut parts: Vec<Vec<Cells<'a>>> = rooms.iter().map(|_| Vec::new()).collect();
     for (group, &width) in values.iter_mut().zip(widths) {
-        let lens: Vec<usize> = lines.iter().map(|&n| n * width).collect();
+        let lens: Vec<usize> = rooms.iter().map(|&n| n * width).collect();
         for (piece, cells) in parts.iter_mut().zip(group.parts(first_row * width, &lens)) {
             piece.push(cells);
         }
