@@ -9,6 +9,7 @@
 //! `cargo bench -p robot-stiffness-benches --bench vjm_diagnose`
 use std::hint::black_box;
 use std::time::Duration;
+use vjm::Measurements;
 
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
@@ -72,10 +73,7 @@ fn bench_diagnose(c: &mut Criterion) {
                         identify(
                             &chain,
                             &model,
-                            d.q_flat(),
-                            d.wrench_flat(),
-                            d.displacement_flat(),
-                            None,
+                            Measurements::new(d.q_flat(), d.wrench_flat(), d.displacement_flat()),
                             &id_opts,
                         )
                         .expect("valid campaign"),

@@ -7,6 +7,7 @@
 //! measured up to N = 1e5 for reference. Throughput is in measurements. At N = 1e6
 //! criterion's minimum of 10 samples keeps the bench short.
 use std::time::Duration;
+use vjm::Measurements;
 
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
@@ -45,8 +46,13 @@ fn bench_identify(c: &mut Criterion) {
                 |b, d| {
                     b.iter(|| {
                         black_box(
-                            identify(&chain, &model, d.q, d.wrench, d.displacement, None, &opts)
-                                .expect("valid data"),
+                            identify(
+                                &chain,
+                                &model,
+                                Measurements::new(d.q, d.wrench, d.displacement),
+                                &opts,
+                            )
+                            .expect("valid data"),
                         )
                     })
                 },
@@ -59,8 +65,13 @@ fn bench_identify(c: &mut Criterion) {
                 |b, d| {
                     b.iter(|| {
                         black_box(
-                            identify(&chain, &model, d.q, d.wrench, d.displacement, None, &qr)
-                                .expect("valid data"),
+                            identify(
+                                &chain,
+                                &model,
+                                Measurements::new(d.q, d.wrench, d.displacement),
+                                &qr,
+                            )
+                            .expect("valid data"),
                         )
                     })
                 },
@@ -75,10 +86,7 @@ fn bench_identify(c: &mut Criterion) {
                                 identify_dense(
                                     &chain,
                                     &model,
-                                    d.q,
-                                    d.wrench,
-                                    d.displacement,
-                                    None,
+                                    Measurements::new(d.q, d.wrench, d.displacement),
                                     &opts,
                                 )
                                 .expect("valid data"),

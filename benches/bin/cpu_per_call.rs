@@ -14,6 +14,7 @@
 use std::hint::black_box;
 use std::process::ExitCode;
 use std::time::Instant;
+use vjm::Measurements;
 
 use robot_stiffness_benches::{process_cpu_seconds, rotation_vectors, rotations, VjmBatch, SEED};
 use so3_stiffness::so3;
@@ -141,10 +142,7 @@ fn run() -> Result<(), String> {
             || match identify(
                 &chain,
                 &model,
-                &big.q,
-                &big.wrench,
-                &big.displacement,
-                None,
+                Measurements::new(&big.q, &big.wrench, &big.displacement),
                 &opts,
             ) {
                 Ok(id) => {

@@ -13,6 +13,7 @@
 //! displacements, applied wrenches and tip points) are dropped before the baseline is taken.
 use std::process::ExitCode;
 use std::time::Instant;
+use vjm::Measurements;
 
 use robot_stiffness_benches::{
     process_cpu_seconds_with_exited as process_cpu_seconds, reset_peak, rss_and_peak,
@@ -92,10 +93,7 @@ fn run(n_rows: usize) -> Result<(), String> {
     identify(
         &chain,
         &model,
-        data.q_flat(),
-        data.wrench_flat(),
-        data.displacement_flat(),
-        None,
+        Measurements::new(data.q_flat(), data.wrench_flat(), data.displacement_flat()),
         &IdentifyOptions::default(),
     )
     .map_err(|e| format!("identify: {e}"))?;

@@ -20,6 +20,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
+use vjm::Measurements;
 
 use robot_stiffness_benches::{process_cpu_seconds, reset_peak, rss_and_peak, VjmBatch, SEED};
 use vjm::{identify, IdentifyOptions, SerialChain, VirtualJointModel};
@@ -154,8 +155,8 @@ fn run() -> Result<(), String> {
     let cpu_start = process_cpu_seconds();
     for _ in 0..args.repeats {
         let t0 = Instant::now();
-        let id =
-            identify(&chain, &model, &q, &wrench, &disp, None, &opts).map_err(|e| e.to_string())?;
+        let id = identify(&chain, &model, Measurements::new(&q, &wrench, &disp), &opts)
+            .map_err(|e| e.to_string())?;
         seconds.push(t0.elapsed().as_secs_f64());
         if peak_extra.is_none() {
             peak_extra = match (peak_reset, baseline, rss_and_peak()) {

@@ -351,7 +351,7 @@ pub fn run_csjm(first_seed: u64, runs: usize) -> Result<CsjmResult, StudyError> 
         alarm: 0,
         connection_term: 0,
         verdicts: BTreeMap::new(),
-        fdr: opts.fdr,
+        fdr: opts.selection.fdr,
         seconds: 0.0,
     };
     for seed in first_seed..first_seed + runs as u64 {

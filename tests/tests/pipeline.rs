@@ -6,6 +6,7 @@
 //! expectations: the hidden truth comes from the testbed's inputs.
 
 use std::path::PathBuf;
+use vjm::Measurements;
 
 use vjm::dataset::Dataset;
 use vjm::diagnose::{diagnose, DiagnoseOptions};
@@ -143,10 +144,7 @@ fn identification_from_the_file_recovers_the_hidden_tilt_within_its_interval() {
     let full = identify(
         &chain,
         &VirtualJointModel::extended(7),
-        data.q_flat(),
-        data.wrench_flat(),
-        data.displacement_flat(),
-        None,
+        Measurements::new(data.q_flat(), data.wrench_flat(), data.displacement_flat()),
         &IdentifyOptions::default(),
     )
     .expect("identify extended");
@@ -174,10 +172,7 @@ fn identification_from_the_file_recovers_the_hidden_tilt_within_its_interval() {
     let id = identify(
         &chain,
         &model,
-        data.q_flat(),
-        data.wrench_flat(),
-        data.displacement_flat(),
-        None,
+        Measurements::new(data.q_flat(), data.wrench_flat(), data.displacement_flat()),
         &IdentifyOptions::default(),
     )
     .expect("identify");

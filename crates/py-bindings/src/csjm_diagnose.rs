@@ -132,13 +132,13 @@ fn options(
 ) -> DiagnoseOptions {
     let mut opts = DiagnoseOptions::default();
     if let Some(v) = fdr {
-        opts.fdr = v;
+        opts.selection.fdr = v;
     }
     if let Some(v) = test_fraction {
-        opts.test_fraction = v;
+        opts.selection.test_fraction = v;
     }
     if let Some(v) = split_seed {
-        opts.split_seed = v;
+        opts.selection.split_seed = v;
     }
     if project {
         opts.read = ReadOptions::projecting();

@@ -76,13 +76,13 @@ pub fn vjm_diagnose<'py>(
         opts.baseline = Some(parse_model(n, b)?);
     }
     if let Some(v) = fdr {
-        opts.fdr = v;
+        opts.selection.fdr = v;
     }
     if let Some(v) = test_fraction {
-        opts.test_fraction = v;
+        opts.selection.test_fraction = v;
     }
     if let Some(v) = split_seed {
-        opts.split_seed = v;
+        opts.selection.split_seed = v;
     }
     if let Some(v) = max_findings {
         opts.max_findings = v;

@@ -5,6 +5,7 @@
 
 use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
+use vjm::Measurements;
 use vjm::{IdentificationPartial, IdentifyOptions};
 
 use crate::errors::{run, PyResultExt};
@@ -104,10 +105,8 @@ impl PyIdentificationPartial {
             IdentificationPartial::accumulate(
                 chain,
                 &c.model,
-                &c.q.data,
-                &c.w.data,
-                &c.d.data,
-                c.r.as_ref().map(|r| &*r.data),
+                Measurements::new(&c.q.data, &c.w.data, &c.d.data)
+                    .with_rotation(c.r.as_ref().map(|r| &*r.data)),
                 &c.opts,
             )
             .map_err(IdentifyFailure::Core)

@@ -2,6 +2,7 @@
 //! kinematics, identification and prediction. Every batch runs in Rust with the GIL released.
 
 use std::sync::Arc;
+use vjm::Measurements;
 
 use numpy::{PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
@@ -318,8 +319,13 @@ impl PyRobot {
             if dense {
                 c.check_measurements(chain, a.allow_outside_limits)
                     .map_err(IdentifyFailure::Data)?;
-                return vjm::identify_dense(chain, model, &q.data, &w.data, &d.data, rot, opts)
-                    .map_err(IdentifyFailure::Core);
+                return vjm::identify_dense(
+                    chain,
+                    model,
+                    Measurements::new(&q.data, &w.data, &d.data).with_rotation(rot),
+                    opts,
+                )
+                .map_err(IdentifyFailure::Core);
             }
             c.identify_checked(chain, a.allow_outside_limits)
         })?
@@ -344,7 +350,10 @@ impl PyRobot {
                 .map(ToString::to_string)
                 .collect();
             let m = if robust {
-                m.with_robust_covariance(chain, &q.data, &w.data, &d.data, rot)?
+                m.with_robust_covariance(
+                    chain,
+                    Measurements::new(&q.data, &w.data, &d.data).with_rotation(rot),
+                )?
             } else {
                 m
             };
@@ -439,15 +448,17 @@ impl Checked<'_> {
         let (q, w, d) = (&*self.q.data, &*self.w.data, &*self.d.data);
         let checks = ArrayChecks::new(
             chain.n_joints(),
-            q,
-            w,
-            d,
-            rot,
+            Measurements::new(q, w, d).with_rotation(rot),
             (!allow_outside_limits).then_some(chain),
         );
         let rows_ok = |start: usize, end: usize| checks.rows_ok(start, end);
-        let fused =
-            vjm::identify_checking_rows(chain, &self.model, q, w, d, rot, &self.opts, &rows_ok);
+        let fused = vjm::identify_checking_rows(
+            chain,
+            &self.model,
+            Measurements::new(q, w, d).with_rotation(rot),
+            &self.opts,
+            &rows_ok,
+        );
         match fused {
             Ok(Some(id)) => {
                 checks.information().map_err(IdentifyFailure::Data)?;
@@ -456,8 +467,13 @@ impl Checked<'_> {
             // A row failed: its error, or (a non-finite value) identify's own.
             Ok(None) => {
                 checks.report().map_err(IdentifyFailure::Data)?;
-                vjm::identify(chain, &self.model, q, w, d, rot, &self.opts)
-                    .map_err(IdentifyFailure::Core)
+                vjm::identify(
+                    chain,
+                    &self.model,
+                    Measurements::new(q, w, d).with_rotation(rot),
+                    &self.opts,
+                )
+                .map_err(IdentifyFailure::Core)
             }
             Err(e) => {
                 self.check_measurements(chain, allow_outside_limits)
@@ -478,10 +494,8 @@ impl Checked<'_> {
     ) -> Result<(), vjm::dataset::DatasetError> {
         vjm::dataset::check_arrays(
             chain.n_joints(),
-            &self.q.data,
-            &self.w.data,
-            &self.d.data,
-            self.r.as_ref().map(|r| &*r.data),
+            Measurements::new(&self.q.data, &self.w.data, &self.d.data)
+                .with_rotation(self.r.as_ref().map(|r| &*r.data)),
             (!allow_outside_limits).then_some(chain),
         )
         .map(|_| ())
@@ -524,7 +538,12 @@ pub fn vjm_identify_timed<'py>(
         let mut times = Vec::with_capacity(repeats);
         for _ in 0..repeats {
             let start = std::time::Instant::now();
-            let id = vjm::identify(chain, &model, &q.data, &w.data, &d.data, None, &opts)?;
+            let id = vjm::identify(
+                chain,
+                &model,
+                Measurements::new(&q.data, &w.data, &d.data),
+                &opts,
+            )?;
             times.push(start.elapsed().as_secs_f64());
             std::hint::black_box(id);
         }

@@ -5,6 +5,7 @@
 //! (build + solve, translational measurements) over N measurements on all rayon threads.
 
 use std::time::Instant;
+use vjm::Measurements;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -87,7 +88,7 @@ fn main() -> Result<(), vjm::VjmError> {
     let (mut best, mut best_cpu, mut rank) = (f64::INFINITY, f64::INFINITY, 0);
     for _ in 0..5 {
         let (t, c) = (Instant::now(), cpu_seconds());
-        let id = identify(&chain, &model, &q, &wrench, &disp, None, &opts)?;
+        let id = identify(&chain, &model, Measurements::new(&q, &wrench, &disp), &opts)?;
         best = best.min(t.elapsed().as_secs_f64());
         best_cpu = best_cpu.min(cpu_seconds() - c);
         rank = id.rank;

@@ -35,6 +35,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
+
+use crate::measurements::Measurements;
 use stiffness_core::num::Short;
 use stiffness_core::table::{write_csv, CellKind, Column, CsvReader, Layout, Table, TableError};
 use stiffness_core::Cancel;
@@ -453,19 +455,20 @@ pub(crate) fn check_value(line: u64, column: &str, value: f64) -> Result<(), Dat
     Ok(())
 }
 
-/// The value checks of a measurement table held as row-major arrays (`q` N×n, `wrench` N×6,
-/// `displacement` N×3, `rotation` N×3), without copying them: finiteness and plausibility of
+/// The value checks of a measurement table held as row-major arrays ([`Measurements`]),
+/// without copying them: finiteness and plausibility of
 /// every cell (row `i` is reported as line `i + 2`, its line in the written CSV), then that the
 /// data carry information (some load, some displacement). Shapes must already match. This is
 /// the one validation of in-memory data: [`Dataset::new`] and the Python `identify` call it.
-pub fn check_values(
-    n_joints: usize,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
-) -> Result<(), DatasetError> {
-    check_cells(n_joints, q, Some(wrench), Some(displacement), rotation)?;
+pub fn check_values(n_joints: usize, data: Measurements<'_>) -> Result<(), DatasetError> {
+    let (wrench, displacement) = (data.wrench(), data.displacement());
+    check_cells(
+        n_joints,
+        data.q(),
+        Some(wrench),
+        Some(displacement),
+        data.rotation(),
+    )?;
     check_information(wrench, displacement)
 }
 
@@ -606,12 +609,15 @@ impl<'a> ArrayChecks<'a> {
     /// The checks of these arrays; the joint limits only when `limits_of` is given.
     pub fn new(
         n_joints: usize,
-        q: &'a [f64],
-        wrench: &'a [f64],
-        displacement: &'a [f64],
-        rotation: Option<&'a [f64]>,
+        data: Measurements<'a>,
         limits_of: Option<&'a crate::SerialChain>,
     ) -> Self {
+        let Measurements {
+            q,
+            wrench,
+            displacement,
+            rotation,
+        } = data;
         // One interval per joint covers both checks: plausible, and (given a chain) inside
         // the limits widened by the tolerance.
         let cap = MAX_PLAUSIBLE_JOINT_ANGLE;
@@ -701,10 +707,7 @@ impl<'a> ArrayChecks<'a> {
         }
         check_values(
             self.n_joints,
-            self.q,
-            self.wrench,
-            self.displacement,
-            self.rotation,
+            Measurements::new(self.q, self.wrench, self.displacement).with_rotation(self.rotation),
         )?;
         if let Some(chain) = self.limits_of {
             check_joint_limits(chain, self.q)?;
@@ -722,15 +725,12 @@ impl<'a> ArrayChecks<'a> {
 /// everything is in order, the checks' own first error otherwise.
 pub fn check_arrays(
     n_joints: usize,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     limits_of: Option<&crate::SerialChain>,
 ) -> Result<ArraysCheck, DatasetError> {
     use rayon::prelude::*;
-    let checks = ArrayChecks::new(n_joints, q, wrench, displacement, rotation, limits_of);
-    let rows = displacement.len() / 3;
+    let checks = ArrayChecks::new(n_joints, data, limits_of);
+    let rows = data.displacement().len() / 3;
     let ok = (0..rows.div_ceil(CHECK_CHUNK))
         .into_par_iter()
         .all(|c| checks.rows_ok(c * CHECK_CHUNK, ((c + 1) * CHECK_CHUNK).min(rows)));
@@ -880,7 +880,10 @@ impl<'a> Dataset<'a> {
                 });
             }
         }
-        check_values(n_joints, &q, &wrench, &displacement, rotation.as_deref())?;
+        check_values(
+            n_joints,
+            Measurements::new(&q, &wrench, &displacement).with_rotation(rotation.as_deref()),
+        )?;
         Ok(Dataset {
             n_joints,
             q,
@@ -1219,6 +1222,13 @@ impl<'a> Dataset<'a> {
     /// All displacements, row-major N×3.
     pub fn displacement_flat(&self) -> &[f64] {
         &self.displacement
+    }
+
+    /// All rows as the view an identification reads (with the rotations when the table has
+    /// them): `vjm::identify(&chain, &model, data.measurements(), &opts)`.
+    pub fn measurements(&self) -> Measurements<'_> {
+        Measurements::new(&self.q, &self.wrench, &self.displacement)
+            .with_rotation(self.rotation.as_deref())
     }
 
     /// Pose group of every row: the `pose` column when present, otherwise rows with bitwise

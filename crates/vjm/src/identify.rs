@@ -14,6 +14,7 @@ use crate::lanes::kinematics::ChainLanes;
 use crate::lsq::{
     self, RankRevealingSolution, SolveOptions, TriangularAccumulator, TriangularFactor,
 };
+use crate::measurements::Measurements;
 use crate::model::{SpringAxis, SpringKind, VirtualJointModel};
 use crate::regressor::Measured;
 use crate::stats::student_t_975;
@@ -271,19 +272,10 @@ pub struct Identification {
 pub fn identify(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
 ) -> Result<Identification, VjmError> {
     // Without a row check nothing abandons the pass, so `None` cannot happen.
-    let data = Measurements {
-        q,
-        wrench,
-        displacement,
-        rotation,
-    };
     identify_inner(chain, model, data, opts, None)?.ok_or_else(|| VjmError::Numerical {
         message: "the identification was abandoned without a row check".into(),
     })
@@ -298,23 +290,13 @@ pub type RowCheck<'a> = &'a (dyn Fn(usize, usize) -> bool + Sync);
 /// third of the identification). `Ok(None)` when it returned `false` for some chunk: the
 /// identification is abandoned and the caller reports what is wrong. Streaming QR
 /// (`SolveMethod::Qr`) checks every chunk first, then identifies.
-#[allow(clippy::too_many_arguments)]
 pub fn identify_checking_rows(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
     rows_ok: RowCheck<'_>,
 ) -> Result<Option<Identification>, VjmError> {
-    let data = Measurements {
-        q,
-        wrench,
-        displacement,
-        rotation,
-    };
     identify_inner(chain, model, data, opts, Some(rows_ok))
 }
 
@@ -359,16 +341,6 @@ pub const MAX_GRAVITY_REFITS: usize = 20;
 /// largest compliance.
 pub const GRAVITY_TOLERANCE: f64 = 1e-10;
 
-/// A measurement set as [`identify`] takes it (row-major, base frame, SI): joint angles (N·n,
-/// rad), applied wrenches (N·6, N and N·m), tip displacements (N·3, m), rotations (N·3, rad).
-#[derive(Clone, Copy)]
-struct Measurements<'a> {
-    q: &'a [f64],
-    wrench: &'a [f64],
-    displacement: &'a [f64],
-    rotation: Option<&'a [f64]>,
-}
-
 /// The identification under gravity from the weightless one, `first`.
 ///
 /// Under gravity a measurement (loaded − unloaded, both at the static equilibrium under the
@@ -402,6 +374,8 @@ fn refit_under_gravity(
     let rotation = data.rotation.filter(|_| opts.use_rotations);
     let mut displacement = data.displacement.to_vec();
     let mut rot = rotation.map(<[f64]>::to_vec);
+    // The rows the refits correct: the rotations only when they are used.
+    let measured = data.with_rotation(rotation);
     // Gravity's part is non-linear in C: evaluated at what the data determine, not at the
     // noise of directions they barely see (±0.15 rad/(N·m) on an xArm7's 21 springs, a sag
     // that diverges). Decided once, from the weightless fit, so the refits iterate one map.
@@ -411,8 +385,7 @@ fn refit_under_gravity(
     for refit in 1..=MAX_GRAVITY_REFITS {
         correct_for_gravity(
             chain,
-            data,
-            rotation,
+            &measured,
             weight,
             &c,
             refit,
@@ -471,18 +444,18 @@ struct GravityRowScratch {
 
 /// Writes the measurements less gravity's part at compliances `c` (see
 /// [`refit_under_gravity`]) into `displacement` (N×3) and `rotation` (N×3, when rotations are
-/// used), chunk by chunk over rayon tasks. `refit` numbers the refit in errors.
-#[allow(clippy::too_many_arguments)]
+/// used: `data` has them exactly then), chunk by chunk over rayon tasks. `refit` numbers the
+/// refit in errors.
 fn correct_for_gravity(
     chain: &SerialChain,
     data: &Measurements<'_>,
-    measured_rotation: Option<&[f64]>,
     weight: &GravityWorkspace,
     c: &[f64],
     refit: usize,
     displacement: &mut [f64],
     rotation: Option<&mut [f64]>,
 ) -> Result<(), VjmError> {
+    let measured_rotation = data.rotation;
     let model = weight.model();
     let m = model.n_params();
     let n = chain.n_joints();
@@ -584,7 +557,7 @@ fn identify_pass(
                 return Ok(None);
             }
         }
-        let factor = accumulate(chain, model, q, wrench, displacement, rotation, opts)?;
+        let factor = accumulate(chain, model, data, opts)?;
         return finish(chain, model, &factor, opts, SolveMethod::Qr).map(Some);
     }
     let inputs = validate_inner(chain, model, data, opts, false)?;
@@ -622,7 +595,7 @@ fn identify_pass(
             .iter()
             .all(|&s| s <= NORMAL_EQUATIONS_ROUNDING_FLOOR * s1);
     if opts.method == SolveMethod::Auto && !trusted {
-        let factor = accumulate(chain, model, q, wrench, displacement, rotation, opts)?;
+        let factor = accumulate(chain, model, data, opts)?;
         return finish(chain, model, &factor, opts, SolveMethod::Qr).map(Some);
     }
     Ok(Some(id))
@@ -682,10 +655,7 @@ fn accumulate_gram(
 pub fn identify_dense(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
 ) -> Result<Identification, VjmError> {
     let weightless = IdentifyOptions {
@@ -697,21 +667,24 @@ pub fn identify_dense(
         .map(|g| GravityWorkspace::new(chain, model, &g, None))
         .transpose()?;
     let fit = |d: &[f64], r: Option<&[f64]>, o: &IdentifyOptions| {
-        let (design, rhs) = build_design(chain, model, q, wrench, d, r, o)?;
+        let rows = Measurements {
+            displacement: d,
+            rotation: r,
+            ..data
+        };
+        let (design, rhs) = build_design(chain, model, rows, o)?;
         let factor = lsq::dense_factor(&design, rhs.len(), model.n_params(), &rhs)?;
         finish(chain, model, &factor, o, SolveMethod::Qr)
     };
     let Some(weight) = weight else {
-        return fit(displacement, rotation, &weightless);
+        return fit(data.displacement, data.rotation, &weightless);
     };
-    let first = fit(displacement, rotation, &unconstrained(&weightless))?;
-    let inputs = Measurements {
-        q,
-        wrench,
-        displacement,
-        rotation,
-    };
-    refit_under_gravity(chain, &inputs, &weightless, &weight, first, fit)
+    let first = fit(
+        data.displacement,
+        data.rotation,
+        &unconstrained(&weightless),
+    )?;
+    refit_under_gravity(chain, &data, &weightless, &weight, first, fit)
 }
 
 /// [`accumulate`], [`build_design`] and [`identify_from_factor`] are the weightless, linear
@@ -758,18 +731,9 @@ struct Inputs {
 fn validate(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
 ) -> Result<Inputs, VjmError> {
-    let data = Measurements {
-        q,
-        wrench,
-        displacement,
-        rotation,
-    };
     validate_inner(chain, model, data, opts, true)
 }
 
@@ -896,14 +860,12 @@ const CHUNK: usize = 4096;
 pub fn accumulate(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
 ) -> Result<TriangularFactor, VjmError> {
     refuse_gravity(opts, "accumulate")?;
-    let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
+    let inputs = validate(chain, model, data, opts)?;
+    let (q, wrench) = (data.q, data.wrench);
     let ws0 = Workspace::new(chain, model)?;
     let m = model.n_params();
     let n = chain.n_joints();
@@ -917,16 +879,7 @@ pub fn accumulate(
                 for i in c * CHUNK..end {
                     ws.evaluate(chain, &q[i * n..(i + 1) * n]);
                     let f = &wrench[i * 6..i * 6 + 6];
-                    push_measurement(
-                        &mut ws,
-                        &mut acc,
-                        &mut g,
-                        f,
-                        i,
-                        displacement,
-                        rotation,
-                        &inputs,
-                    );
+                    push_measurement(&mut ws, &mut acc, &mut g, f, i, &data, &inputs);
                 }
                 (ws, acc, g)
             },
@@ -941,7 +894,6 @@ pub fn accumulate(
     Ok(acc.finish())
 }
 
-#[allow(clippy::too_many_arguments)]
 #[inline]
 fn push_measurement(
     ws: &mut Workspace,
@@ -949,8 +901,7 @@ fn push_measurement(
     g: &mut [f64],
     f: &[f64],
     i: usize,
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: &Measurements<'_>,
     inputs: &Inputs,
 ) {
     let mut jac = std::mem::take(&mut ws.jac);
@@ -966,9 +917,9 @@ fn push_measurement(
     }
     for r in 0..inputs.measured.rows() {
         let rhs = if r < 3 {
-            displacement[3 * i + r]
+            data.displacement[3 * i + r]
         } else {
-            rotation.map_or(0.0, |rot| rot[3 * i + r - 3])
+            data.rotation.map_or(0.0, |rot| rot[3 * i + r - 3])
         };
         acc.push_product_row(
             inputs.inv_sigma[r],
@@ -986,14 +937,17 @@ fn push_measurement(
 pub fn build_design(
     chain: &SerialChain,
     model: &VirtualJointModel,
-    q: &[f64],
-    wrench: &[f64],
-    displacement: &[f64],
-    rotation: Option<&[f64]>,
+    data: Measurements<'_>,
     opts: &IdentifyOptions,
 ) -> Result<(Vec<f64>, Vec<f64>), VjmError> {
     refuse_gravity(opts, "build_design")?;
-    let inputs = validate(chain, model, q, wrench, displacement, rotation, opts)?;
+    let inputs = validate(chain, model, data, opts)?;
+    let Measurements {
+        q,
+        wrench,
+        displacement,
+        rotation,
+    } = data;
     let mut ws = Workspace::new(chain, model)?;
     let m = model.n_params();
     let n = chain.n_joints();

@@ -12,6 +12,7 @@ use crate::chain::SerialChain;
 use crate::error::VjmError;
 use crate::identify::{accumulate, identify_from_factor, Identification, IdentifyOptions};
 use crate::lsq::{TriangularAccumulator, TriangularFactor};
+use crate::measurements::Measurements;
 use crate::model::VirtualJointModel;
 
 /// The identification statistics of some of a campaign's measurements (see the module docs).
@@ -36,8 +37,8 @@ use crate::model::VirtualJointModel;
 /// let opts = IdentifyOptions::default();
 /// let (q, w, d) = data(60);
 /// // Two parts of 30 measurements, merged, then solved.
-/// let a = IdentificationPartial::accumulate(&chain, &model, &q[..210], &w[..180], &d[..90], None, &opts).unwrap();
-/// let b = IdentificationPartial::accumulate(&chain, &model, &q[210..], &w[180..], &d[90..], None, &opts).unwrap();
+/// let a = IdentificationPartial::accumulate(&chain, &model, vjm::Measurements::new(&q[..210], &w[..180], &d[..90]), &opts).unwrap();
+/// let b = IdentificationPartial::accumulate(&chain, &model, vjm::Measurements::new(&q[210..], &w[180..], &d[90..]), &opts).unwrap();
 /// let id = a.merge(&b).unwrap().finish(&chain).unwrap();
 /// assert_eq!(id.n_equations, 180);
 /// ```
@@ -73,19 +74,16 @@ impl IdentificationPartial {
     pub fn accumulate(
         chain: &SerialChain,
         model: &VirtualJointModel,
-        q: &[f64],
-        wrench: &[f64],
-        displacement: &[f64],
-        rotation: Option<&[f64]>,
+        data: Measurements<'_>,
         opts: &IdentifyOptions,
     ) -> Result<Self, VjmError> {
-        let factor = accumulate(chain, model, q, wrench, displacement, rotation, opts)?;
+        let factor = accumulate(chain, model, data, opts)?;
         Ok(Self {
             model: model.clone(),
             opts: *opts,
             kinematics: crate::kinematics_sha256(chain),
             factor,
-            measurements: q.len() / chain.n_joints(),
+            measurements: data.q().len() / chain.n_joints(),
         })
     }
 

@@ -32,7 +32,7 @@
 //!     f.extend(fi);
 //!     d.extend(&di[..3]);
 //! }
-//! let id = identify(&panda, &model, &q, &f, &d, None, &IdentifyOptions::default()).unwrap();
+//! let id = identify(&panda, &model, vjm::Measurements::new(&q, &f, &d), &IdentifyOptions::default()).unwrap();
 //! // The tip lies on joint 7's axis: its torsion cannot move the tip point.
 //! assert_eq!(id.rank, 6);
 //! assert_eq!(id.compliance[6], None);
@@ -57,6 +57,7 @@ pub mod instruments;
 mod kinematics;
 mod lanes;
 pub mod lsq;
+mod measurements;
 mod model;
 mod model_spec;
 pub use model_spec::spring_label;
@@ -95,6 +96,7 @@ pub use kinematics::{
     inverse_condition, jacobian, jacobian_batch_in_place, jacobian_batch_with_layout,
     jacobian_deflected, jacobian_in_place, JacobianLayout, Workspace,
 };
+pub use measurements::Measurements;
 pub use model::{spring_axes, Spring, SpringAxis, SpringKind, VirtualJointModel, NOMINAL_TORSION};
 pub use predict::{predict_deflection, spring_deflection};
 pub use regressor::{regressor_rows, Measured};

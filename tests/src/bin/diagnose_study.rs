@@ -269,7 +269,7 @@ fn run(args: &Args) -> Result<(), String> {
         println!("### False alarms on clean campaigns (seeds {FALSE_ALARM_SEED}…)\n");
         println!(
             "{}",
-            false_alarm_table(&false_alarm, DiagnoseOptions::default().fdr)
+            false_alarm_table(&false_alarm, DiagnoseOptions::default().selection.fdr)
         );
     }
     if let Some(r) = &csjm {

@@ -1,4 +1,5 @@
 use std::path::PathBuf;
+use vjm::Measurements;
 
 use nalgebra::{Matrix3, Vector3};
 use serde_json::{json, Value};
@@ -87,7 +88,8 @@ fn vjm_part() -> Value {
         ("traditional", VirtualJointModel::traditional(n)),
         ("extended", VirtualJointModel::extended(n)),
     ] {
-        let id = vjm::identify(&chain, &model, &q, &w, &d, None, &opts).expect("identifiable data");
+        let id = vjm::identify(&chain, &model, Measurements::new(&q, &w, &d), &opts)
+            .expect("identifiable data");
         ids.insert(
             name.to_string(),
             json!({

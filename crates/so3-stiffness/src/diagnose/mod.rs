@@ -52,6 +52,7 @@ pub mod structure;
 #[cfg(feature = "testbed")]
 pub use crate::testbed;
 use run::run_diagnosis;
+pub use stiffness_core::engine::schema::SelectionOptions;
 
 use std::path::Path;
 
@@ -99,37 +100,23 @@ pub const LINEAR_ALIAS_FRACTION: f64 = 0.05;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub struct DiagnoseOptions {
-    /// False discovery rate q of the Benjamini–Hochberg selection (0 < q < 1; default 0.01,
-    /// the shared engine's); also the level of the connection-term finding.
-    pub fdr: f64,
-    /// Fraction of the loaded rows held out (0 < f < 1).
-    pub test_fraction: f64,
-    /// Seed of the train/test split (the same seed gives the same split; default
-    /// [`DEFAULT_SPLIT_SEED`](stiffness_core::engine::DEFAULT_SPLIT_SEED), 0, as for every
-    /// model).
-    pub split_seed: u64,
+    /// The selection and hold-out options every model shares (false discovery rate, also the
+    /// level of the connection-term finding; held-out fraction of the loaded rows; split seed;
+    /// alias thresholds).
+    pub selection: SelectionOptions,
     /// The platform weight the `platform_gravity` candidate tests for (the prototype's by
     /// default: 4.82 N at ᴬr_G = (0, 0, 0.081) m, z_B up).
     pub weight: PointLoad,
     /// How the measurement file is read by [`diagnose_file`].
     pub read: ReadOptions,
-    /// |cos| at or above which two one-column candidates are aliases (default 0.99).
-    pub alias_cosine: f64,
-    /// A significant effect b is an alias of a finding a when, with b in the model, the F
-    /// test of a has p above this level (default 0.05): the data cannot tell a from b.
-    pub alias_alpha: f64,
 }
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
-            fdr: 0.01,
-            test_fraction: 0.25,
-            split_seed: stiffness_core::engine::DEFAULT_SPLIT_SEED,
+            selection: SelectionOptions::default(),
             weight: PointLoad::prototype_gravity(),
             read: ReadOptions::default(),
-            alias_cosine: 0.99,
-            alias_alpha: 0.05,
         }
     }
 }
@@ -180,17 +167,13 @@ pub enum DiagnoseError {
 
 impl DiagnoseOptions {
     fn validate(&self) -> Result<(), DiagnoseError> {
-        stiffness_core::engine::schema::check_selection_options(
-            self.fdr,
-            self.test_fraction,
-            self.alias_cosine,
-            self.alias_alpha,
-        )
-        .map_err(|e| DiagnoseError::InvalidOption {
-            option: e.option,
-            value: e.value,
-            requirement: e.requirement,
-        })
+        self.selection
+            .check()
+            .map_err(|e| DiagnoseError::InvalidOption {
+                option: e.option,
+                value: e.value,
+                requirement: e.requirement,
+            })
     }
 }
 
@@ -355,8 +338,8 @@ fn split(
     options: &DiagnoseOptions,
 ) -> Result<(Vec<usize>, Vec<usize>), DiagnoseError> {
     let mut order: Vec<usize> = (1..=loaded).collect();
-    order.shuffle(&mut StdRng::seed_from_u64(options.split_seed));
-    let n_test = ((options.test_fraction * loaded as f64).round() as usize).min(loaded);
+    order.shuffle(&mut StdRng::seed_from_u64(options.selection.split_seed));
+    let n_test = ((options.selection.test_fraction * loaded as f64).round() as usize).min(loaded);
     let mut test: Vec<usize> = order[..n_test].to_vec();
     test.sort_unstable();
     let mut train: Vec<usize> = std::iter::once(0)

@@ -18,9 +18,8 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use stiffness_core::engine::basis::Basis;
-use stiffness_core::engine::{
-    Compressed, CompressedAccumulator, Fit, Problem, RowSet, RANK_TOL, ZERO_COLUMN_RTOL,
-};
+use stiffness_core::engine::{Compressed, CompressedAccumulator, Fit, Problem, RowSet};
+use stiffness_core::lsq::{RankPolicy, ScaledSvd};
 use stiffness_core::{Cancel, Cancelled};
 
 use super::candidates::{push_columns, Effect, Samples, Term};
@@ -169,29 +168,13 @@ impl<'a> CsjmProblem<'a> {
     /// freedom (NaN without any).
     pub fn covariance(&self, fit: &CsjmFit) -> DMatrix<f64> {
         let p = fit.coef.len();
-        let mut cov = DMatrix::zeros(p, p);
         let cols = stiffness_core::engine::fit::term_columns(self, &fit.terms);
         let x = fit.compressed.columns(RowSet::Train, &cols);
-        let norms: Vec<f64> = x
-            .iter()
-            .map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt())
-            .collect();
-        let largest = norms.iter().copied().fold(0.0, f64::max);
-        let scale: Vec<Option<f64>> = norms
-            .iter()
-            .map(|&n| (n > ZERO_COLUMN_RTOL * largest && n.is_finite()).then_some(n))
-            .collect();
-        let rows = fit.compressed.ncols();
-        let xs = DMatrix::from_fn(rows, p, |i, j| scale[j].map_or(0.0, |s| x[j][i] / s));
-        let Ok(svd) = stiffness_core::decompose::svd(xs, false, true, "SVD of the CSJM design")
+        let Ok(svd) =
+            ScaledSvd::of_columns(&x, &RankPolicy::DIAGNOSIS, false, "SVD of the CSJM design")
         else {
-            return cov.map(|_: f64| f64::NAN);
+            return DMatrix::from_element(p, p, f64::NAN);
         };
-        let Some(v_t) = svd.v_t.as_ref() else {
-            return cov.map(|_: f64| f64::NAN);
-        };
-        let s = &svd.singular_values;
-        let s_max = s.iter().copied().fold(0.0, f64::max);
         let n_obs = fit.compressed.n_obs(RowSet::Train);
         let sse = stiffness_core::engine::fit::sse(self, fit, RowSet::Train);
         let s2 = if n_obs > fit.rank {
@@ -199,19 +182,7 @@ impl<'a> CsjmProblem<'a> {
         } else {
             f64::NAN
         };
-        for k in (0..s.len()).filter(|&k| s[k] > RANK_TOL * s_max && s[k].is_finite()) {
-            let vk = v_t.row(k).transpose();
-            cov += (&vk * vk.transpose()) * (s2 / (s[k] * s[k]));
-        }
-        for i in 0..p {
-            for j in 0..p {
-                cov[(i, j)] = match (scale[i], scale[j]) {
-                    (Some(a), Some(b)) => cov[(i, j)] / (a * b),
-                    _ => f64::NAN,
-                };
-            }
-        }
-        cov
+        svd.covariance(s2)
     }
 
     /// Fraction of the (column-normalised, whitened) energy of `extra`'s columns on the

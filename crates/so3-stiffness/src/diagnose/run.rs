@@ -33,7 +33,7 @@ pub(super) fn run_diagnosis(
     let (train, test) = split(loaded, options)?;
     let problem =
         CsjmProblem::new(&samples, train, test, cancel.clone()).with_noise_from_baseline()?;
-    let q = options.fdr;
+    let q = options.selection.fdr;
 
     let baseline_fit = fit(&problem, &[Term::Baseline], &())?;
     if baseline_fit.rank < BASELINE_COLUMNS {
@@ -114,7 +114,7 @@ pub(super) fn run_diagnosis(
         n_train: problem.train.len(),
         n_test: problem.test.len(),
         fdr: q,
-        split_seed: options.split_seed,
+        split_seed: options.selection.split_seed,
     })
 }
 
@@ -141,10 +141,10 @@ fn select_effects(
 ) -> Result<Selection<Term, ()>, DiagnoseError> {
     let pool: Vec<Term> = Effect::ALL.iter().map(|e| Term::Effect(*e)).collect();
     let select_opts = SelectOptions {
-        fdr: options.fdr,
+        fdr: options.selection.fdr,
         max_findings: Effect::ALL.len(),
-        alias_cosine: options.alias_cosine,
-        alias_alpha: options.alias_alpha,
+        alias_cosine: options.selection.alias_cosine,
+        alias_alpha: options.selection.alias_alpha,
         defer_cluster_robust: false,
     };
     Ok(select(
@@ -211,7 +211,7 @@ fn findings_of(
             aliases: aliases_of(
                 problem,
                 comp,
-                options.alias_cosine,
+                options.selection.alias_cosine,
                 f,
                 fraction,
                 gravity_note,

@@ -407,7 +407,7 @@ fn a_platform_gravity_finding_is_listed_with_its_aliases() {
     // default). This test is about the aliases listed with such a finding, so it runs at
     // 0.05, on 12 campaigns, and asks for a third of them named.
     let mut options = DiagnoseOptions::default();
-    options.fdr = 0.05;
+    options.selection.fdr = 0.05;
     let mut named = 0;
     for seed in 0..12 {
         let campaign = simulate_campaign(&spec(
@@ -524,7 +524,7 @@ fn bad_inputs_give_clear_errors() {
 
     let campaign = simulate_campaign(&spec(CsjmEffects::none(), 7000, 1.0)).unwrap();
     let mut options = DiagnoseOptions::default();
-    options.test_fraction = 1.5;
+    options.selection.test_fraction = 1.5;
     let err = diagnose(&campaign.dataset, &options).unwrap_err();
     assert!(
         matches!(
@@ -537,7 +537,7 @@ fn bad_inputs_give_clear_errors() {
         "{err}"
     );
     let mut options = DiagnoseOptions::default();
-    options.fdr = f64::NAN;
+    options.selection.fdr = f64::NAN;
     assert!(matches!(
         diagnose(&campaign.dataset, &options),
         Err(DiagnoseError::InvalidOption { option: "fdr", .. })

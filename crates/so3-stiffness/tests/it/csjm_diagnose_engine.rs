@@ -142,8 +142,8 @@ fn alias_options_out_of_range_are_refused_by_name() {
         (0.99, f64::INFINITY, "alias_alpha"),
     ] {
         let mut o = DiagnoseOptions::default();
-        o.alias_cosine = cosine;
-        o.alias_alpha = alpha;
+        o.selection.alias_cosine = cosine;
+        o.selection.alias_alpha = alpha;
         let err = diagnose(&data, &o).unwrap_err();
         assert!(
             matches!(err, DiagnoseError::InvalidOption { option, .. } if option == name),
@@ -155,7 +155,7 @@ fn alias_options_out_of_range_are_refused_by_name() {
 
 #[test]
 fn the_default_fdr_is_the_shared_engines_and_a_finding_carries_the_robust_test() {
-    assert_eq!(DiagnoseOptions::default().fdr, 0.01);
+    assert_eq!(DiagnoseOptions::default().selection.fdr, 0.01);
     let d = diagnose(
         &campaign(CsjmEffects::friction(2.0), 9400),
         &DiagnoseOptions::default(),
@@ -186,7 +186,7 @@ fn an_effect_is_a_finding_or_an_alias_never_both_and_engine_aliases_state_their_
     let mut effects = CsjmEffects::none();
     effects.cable_stiffening = [1.0e5, 0.0, 1.0e5, 0.0, 1.0e5, 0.0];
     let mut options = DiagnoseOptions::default();
-    options.fdr = 0.05;
+    options.selection.fdr = 0.05;
     let mut engine_aliases = 0;
     for seed in 9000..9020 {
         let mut spec = CsjmCampaignSpec::new(effects, seed);
@@ -205,8 +205,9 @@ fn an_effect_is_a_finding_or_an_alias_never_both_and_engine_aliases_state_their_
                 if a.delta_chi2.is_finite() {
                     engine_aliases += 1;
                     assert!(
-                        a.p_finding_given_alias > options.alias_alpha
-                            || a.cosine.is_some_and(|c| c >= options.alias_cosine),
+                        a.p_finding_given_alias > options.selection.alias_alpha
+                            || a.cosine
+                                .is_some_and(|c| c >= options.selection.alias_cosine),
                         "seed {seed}: {a:?}"
                     );
                 }

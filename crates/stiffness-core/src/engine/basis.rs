@@ -14,9 +14,7 @@
 //! outside a basis is below [`RANK_TOL`] of its own norm is in the basis's span; singular
 //! values of the column-scaled design below `RANK_TOL·σ_max` are zero.
 
-use nalgebra::{DMatrix, DVector};
-
-use crate::lsq::RankPolicy;
+use crate::lsq::{RankPolicy, ScaledSvd};
 
 /// Relative tolerance under which a column's part orthogonal to the basis is treated as zero
 /// (the column lies in the span of the model: not testable on these data), and singular values
@@ -217,46 +215,21 @@ pub fn solve_columns(cols: &[Vec<f64>], y: &[f64]) -> ColumnSolution {
             in_data: Vec::new(),
         };
     }
-    let n = y.len();
-    let norms: Vec<f64> = cols.iter().map(|c| norm(c)).collect();
-    let zero = zero_norm(cols);
-    let in_data: Vec<bool> = norms.iter().map(|&s| s > zero && s.is_finite()).collect();
-    // Scale columns to unit norm so the rank tolerance is independent of units; columns not
-    // in the data are zeroed.
-    let scales: Vec<f64> = norms
-        .iter()
-        .zip(&in_data)
-        .map(|(&s, &keep)| if keep { s } else { 1.0 })
-        .collect();
-    let x = DMatrix::from_fn(n, p, |i, j| {
-        if in_data[j] {
-            cols[j][i] / scales[j]
-        } else {
-            0.0
-        }
-    });
-    let Ok(svd) = crate::decompose::svd(x, true, true, "SVD of the candidate columns") else {
+    let Ok(svd) = ScaledSvd::of_columns(
+        cols,
+        &RankPolicy::DIAGNOSIS,
+        true,
+        "SVD of the candidate columns",
+    ) else {
         // Only non-finite columns fail to converge (the data are finite-checked on entry):
         // nothing is identifiable from them.
         return ColumnSolution {
             beta: vec![0.0; p],
             rank: 0,
-            in_data,
+            in_data: ScaledSvd::columns_in_data(cols, &RankPolicy::DIAGNOSIS),
         };
     };
-    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
-    let tol = RANK_TOL * smax.max(f64::MIN_POSITIVE);
-    let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
-    let beta = svd
-        .solve(&DVector::from_column_slice(y), tol)
-        .map(|b| b.iter().cloned().collect::<Vec<f64>>())
-        .unwrap_or_else(|_| vec![0.0; p]);
-    let beta = beta
-        .iter()
-        .zip(&scales)
-        .zip(&in_data)
-        .map(|((b, s), &keep)| if keep { b / s } else { 0.0 })
-        .collect();
+    let (beta, rank, in_data) = (svd.solve(y), svd.rank(), svd.in_data());
     ColumnSolution {
         beta,
         rank,

@@ -160,39 +160,82 @@ pub struct OptionOutOfRange {
     pub requirement: &'static str,
 }
 
-/// Checks the options every model's diagnosis shares (NaN fails every check): the false
-/// discovery rate `fdr` and the held-out `test_fraction` in (0, 1), the alias threshold
-/// `alias_cosine` in (0, 1], the alias level `alias_alpha` in (0, 1).
-pub fn check_selection_options(
-    fdr: f64,
-    test_fraction: f64,
-    alias_cosine: f64,
-    alias_alpha: f64,
-) -> Result<(), OptionOutOfRange> {
-    let open = |x: f64| x > 0.0 && x < 1.0;
-    for (option, value, ok, requirement) in [
-        ("fdr", fdr, open(fdr), "in (0, 1)"),
-        (
-            "test_fraction",
-            test_fraction,
-            open(test_fraction),
-            "in (0, 1)",
-        ),
-        (
-            "alias_cosine",
-            alias_cosine,
-            alias_cosine > 0.0 && alias_cosine <= 1.0,
-            "in (0, 1]",
-        ),
-        ("alias_alpha", alias_alpha, open(alias_alpha), "in (0, 1)"),
-    ] {
-        if !ok {
-            return Err(OptionOutOfRange {
-                option,
-                value,
-                requirement,
-            });
+/// The options every model's diagnosis shares: the statistical selection and the hold-out
+/// split. Each model's `DiagnoseOptions` holds one (`selection`) next to its own options.
+///
+/// ```
+/// use stiffness_core::engine::schema::SelectionOptions;
+/// let mut opts = SelectionOptions::default();
+/// assert_eq!((opts.fdr, opts.test_fraction, opts.split_seed), (0.01, 0.25, 0));
+/// opts.fdr = 1.5;
+/// assert_eq!(opts.check().unwrap_err().option, "fdr");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[non_exhaustive]
+pub struct SelectionOptions {
+    /// False discovery rate q of the Benjamini–Hochberg selection, in (0, 1) (default 0.01);
+    /// also the level of the verdict's tests.
+    pub fdr: f64,
+    /// Fraction of the poses (rows, for a joint module) held out when the data have no split
+    /// of their own, in (0, 1) (default 0.25).
+    pub test_fraction: f64,
+    /// Seed of the hold-out split: the same seed gives the same split (default
+    /// [`DEFAULT_SPLIT_SEED`](super::DEFAULT_SPLIT_SEED), 0, for every model).
+    pub split_seed: u64,
+    /// |cos| at or above which two one-column candidates are aliases, in (0, 1] (default 0.99).
+    pub alias_cosine: f64,
+    /// A significant candidate b is an alias of a finding a when, with b in the model, the F
+    /// test of a has p above this level, in (0, 1) (default 0.05): the data cannot tell a
+    /// from b.
+    pub alias_alpha: f64,
+}
+
+impl Default for SelectionOptions {
+    fn default() -> Self {
+        SelectionOptions {
+            fdr: 0.01,
+            test_fraction: 0.25,
+            split_seed: super::DEFAULT_SPLIT_SEED,
+            alias_cosine: 0.99,
+            alias_alpha: 0.05,
         }
     }
-    Ok(())
+}
+
+impl SelectionOptions {
+    /// The first option outside its range (NaN fails every check): `fdr`, `test_fraction`
+    /// and `alias_alpha` in (0, 1), `alias_cosine` in (0, 1].
+    pub fn check(&self) -> Result<(), OptionOutOfRange> {
+        let open = |x: f64| x > 0.0 && x < 1.0;
+        for (option, value, ok, requirement) in [
+            ("fdr", self.fdr, open(self.fdr), "in (0, 1)"),
+            (
+                "test_fraction",
+                self.test_fraction,
+                open(self.test_fraction),
+                "in (0, 1)",
+            ),
+            (
+                "alias_cosine",
+                self.alias_cosine,
+                self.alias_cosine > 0.0 && self.alias_cosine <= 1.0,
+                "in (0, 1]",
+            ),
+            (
+                "alias_alpha",
+                self.alias_alpha,
+                open(self.alias_alpha),
+                "in (0, 1)",
+            ),
+        ] {
+            if !ok {
+                return Err(OptionOutOfRange {
+                    option,
+                    value,
+                    requirement,
+                });
+            }
+        }
+        Ok(())
+    }
 }

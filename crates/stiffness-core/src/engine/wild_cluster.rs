@@ -33,7 +33,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::basis::{dot, norm, zero_norm, RANK_TOL};
-use crate::lsq::TriangularFactor;
+use crate::lsq::{RankPolicy, ScaledSvd, TriangularFactor};
 
 /// Draws in the first round; more are drawn only when the p-value is small.
 const FIRST_DRAWS: usize = 999;
@@ -61,13 +61,11 @@ const WEBB: [f64; 6] = [
     1.224_744_871_391_589,
 ];
 
-/// The column-scaled SVD of a set of columns (length P each): `A D = U Σ Vᵀ` with the
-/// singular values above `RANK_TOL·σ_max` kept. `zero`: columns of this norm or less are not
-/// in the data (scale 0).
-///
-/// The same rank rules as [`super::basis::solve_columns`], which keeps only the solution: the
-/// coordinates need the factors.
-struct ScaledSvd {
+/// The pseudo-inverse of a set of columns (length P each) from their column-scaled SVD
+/// `A D = U Σ Vᵀ` under the diagnosis' rank policy ([`crate::lsq::ScaledSvd`]), kept as its
+/// factors: the coordinates need them, not only a solution. `zero`: columns of this norm or
+/// less are not in the data.
+struct Pseudoinverse {
     /// Columns.
     p: usize,
     /// Per kept singular value k: `D V_k / σ_k` (length p).
@@ -76,22 +74,11 @@ struct ScaledSvd {
     u: Vec<Vec<f64>>,
 }
 
-impl ScaledSvd {
+impl Pseudoinverse {
     fn of(columns: &[Vec<f64>], zero: f64) -> Self {
         let p = columns.len();
         let np = columns.first().map_or(0, Vec::len);
-        let scale: Vec<f64> = columns
-            .iter()
-            .map(|c| {
-                let n = norm(c);
-                if n > zero {
-                    1.0 / n
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let mut out = ScaledSvd {
+        let mut out = Pseudoinverse {
             p,
             w: Vec::new(),
             u: Vec::new(),
@@ -99,22 +86,20 @@ impl ScaledSvd {
         if p == 0 || np == 0 {
             return out;
         }
-        let a = DMatrix::from_fn(np, p, |i, j| columns[j][i] * scale[j]);
         // Only non-finite columns fail to converge (the data are finite-checked on entry):
         // nothing is in their span.
-        let Ok(svd) =
-            crate::decompose::svd(a, true, true, "SVD of the wild cluster test's columns")
-        else {
+        let Ok(svd) = ScaledSvd::of_columns_in(
+            columns,
+            zero,
+            &RankPolicy::DIAGNOSIS,
+            true,
+            "SVD of the wild cluster test's columns",
+        ) else {
             return out;
         };
-        let (u, vt) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
-        let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
-        for (k, &s) in svd.singular_values.iter().enumerate() {
-            if smax > 0.0 && s > RANK_TOL * smax {
-                out.w
-                    .push((0..p).map(|j| vt[(k, j)] * scale[j] / s).collect());
-                out.u.push(u.column(k).iter().copied().collect());
-            }
+        for (s, u, v) in svd.kept_triplets() {
+            out.w.push(v.iter().map(|x| x / s).collect());
+            out.u.push(u);
         }
         out
     }
@@ -165,7 +150,7 @@ impl WildClusterTest {
         let pos0: Vec<usize> = model.iter().map(|&c| pos(c)).collect();
         let pos_b: Vec<usize> = (0..p).filter(|k| !pos0.contains(k)).collect();
         let model_cols: Vec<Vec<f64>> = model.iter().map(|&k| col(k)).collect();
-        let svd0 = ScaledSvd::of(&model_cols, zero);
+        let svd0 = Pseudoinverse::of(&model_cols, zero);
         let restricted = svd0.solve(&col(y));
         // The block's columns with the model projected out, Γ their coefficients on it; a
         // column whose part outside the model is below RANK_TOL of its norm adds nothing.
@@ -187,7 +172,7 @@ impl WildClusterTest {
             gamma.push(g);
             perp.push(r);
         }
-        let svd_b = ScaledSvd::of(&perp, 0.0);
+        let svd_b = Pseudoinverse::of(&perp, 0.0);
         let (r0, q) = (svd0.rank(), svd_b.rank());
         let mut t = vec![0.0; (r0 + q) * p];
         for (a, w) in svd0.w.iter().enumerate() {

@@ -1,14 +1,17 @@
 //! The streaming least-squares factor shared by the identification and the diagnosis: the R of
 //! a tall matrix accumulated block by block (TSQR), mergeable across threads, partitions and
-//! machines; what an estimate's data determine ([`WeakDirections`]); and the one rank policy
-//! of every solve, with its named presets ([`RankPolicy`]).
+//! machines; what an estimate's data determine ([`WeakDirections`]); the one rank policy
+//! of every solve, with its named presets ([`RankPolicy`]); and the rank-revealing SVD of a
+//! small design under that policy ([`ScaledSvd`]).
 
 mod accumulator;
 mod rank;
+mod scaled_svd;
 mod weak;
 
 pub use accumulator::{TriangularAccumulator, TriangularFactor, BLOCK_ROWS};
 pub use rank::RankPolicy;
+pub use scaled_svd::ScaledSvd;
 pub use weak::WeakDirections;
 
 /// A slice or factor has the wrong length.

@@ -3,6 +3,7 @@
 mod cancel;
 mod decompose;
 mod engine;
+mod scaled_svd;
 mod table;
 mod weak;
 mod wild_cluster;

@@ -16,6 +16,7 @@ use crate::gravity::{GravityWorkspace, RowFrame};
 use crate::identify::{CombinationTerm, IdentifyOptions};
 use crate::instruments::{ForceSensorNoise, TrackerNoise};
 use crate::kinematics::{inverse_condition_at, jacobian_in_place, Workspace};
+use crate::measurements::Measurements;
 use crate::model::VirtualJointModel;
 use crate::model::NOMINAL_TORSION;
 
@@ -1239,7 +1240,12 @@ fn combinations_of_rows(
         d.extend_from_slice(&x[..3]);
         f.extend_from_slice(w);
     }
-    let id = crate::identify(chain, model, q, &f, &d, None, &IdentifyOptions::default())?;
+    let id = crate::identify(
+        chain,
+        model,
+        Measurements::new(q, &f, &d),
+        &IdentifyOptions::default(),
+    )?;
     let defs = id
         .combinations
         .iter()

@@ -53,6 +53,7 @@ pub mod report;
 pub mod rows;
 mod run;
 use run::run_diagnosis;
+pub use stiffness_core::engine::schema::SelectionOptions;
 pub use stiffness_core::stats;
 pub mod structure;
 
@@ -132,15 +133,9 @@ impl NoiseAssumption {
 pub struct DiagnoseOptions {
     /// The baseline model; `None` = traditional (one torsional spring per joint).
     pub baseline: Option<VirtualJointModel>,
-    /// False discovery rate of the Benjamini–Hochberg selection (default 0.01); also the
-    /// level of the verdict's tests.
-    pub fdr: f64,
-    /// Fraction of poses held out when the file has no `set` column (default 0.25).
-    pub test_fraction: f64,
-    /// Seed of the pose hold-out (default
-    /// [`DEFAULT_SPLIT_SEED`](stiffness_core::engine::DEFAULT_SPLIT_SEED), 0, as for every
-    /// model).
-    pub split_seed: u64,
+    /// The selection and hold-out options every model shares (false discovery rate, held-out
+    /// fraction of the poses, split seed, alias thresholds).
+    pub selection: SelectionOptions,
     /// Noise model of the weights.
     pub noise: NoiseAssumption,
     /// `true` when `noise` is the instruments' true noise level (given by the user), which
@@ -149,11 +144,6 @@ pub struct DiagnoseOptions {
     pub noise_known: bool,
     /// Most findings to name (default 6).
     pub max_findings: usize,
-    /// |cos| at or above which two candidates are aliases (default 0.99).
-    pub alias_cosine: f64,
-    /// A significant candidate b is an alias of a finding a when, with b in the model, the
-    /// F test of a has p above this level (default 0.05): the data cannot tell a from b.
-    pub alias_alpha: f64,
     /// Accept joint angles outside the URDF limits (default `false`: such a row is refused,
     /// naming row and joint, since it usually means degrees or a wrong joint order).
     /// Continuous joints have no limits.
@@ -174,14 +164,10 @@ impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
             baseline: None,
-            fdr: 0.01,
-            test_fraction: 0.25,
-            split_seed: stiffness_core::engine::DEFAULT_SPLIT_SEED,
+            selection: SelectionOptions::default(),
             noise: NoiseAssumption::default(),
             noise_known: false,
             max_findings: 6,
-            alias_cosine: 0.99,
-            alias_alpha: 0.05,
             allow_outside_limits: false,
             per_row: true,
             gravity: None,
@@ -269,13 +255,7 @@ pub fn diagnose_monitored(
 fn check_options(opts: &DiagnoseOptions) -> Result<(), DiagnoseError> {
     let bad =
         |name: &'static str, message: String| Err(DiagnoseError::InvalidOption { name, message });
-    stiffness_core::engine::schema::check_selection_options(
-        opts.fdr,
-        opts.test_fraction,
-        opts.alias_cosine,
-        opts.alias_alpha,
-    )
-    .or_else(|e| {
+    opts.selection.check().or_else(|e| {
         bad(
             e.option,
             format!(
@@ -338,7 +318,7 @@ fn prepare<'a>(
         }
         None => VirtualJointModel::traditional(n),
     };
-    let labels = data.split(opts.test_fraction, opts.split_seed)?;
+    let labels = data.split(opts.selection.test_fraction, opts.selection.split_seed)?;
     let n_train = labels.iter().filter(|l| **l == SetLabel::Train).count();
     let n_base = baseline_model.n_params();
     if 3 * n_train < n_base + 10 {
@@ -358,7 +338,6 @@ fn prepare<'a>(
         }));
     }
     let m = 3 * n;
-    let groups = data.pose_groups();
     let base_terms: Vec<Term> = baseline_model
         .springs()
         .iter()
@@ -382,7 +361,6 @@ fn prepare<'a>(
         chain,
         data,
         labels,
-        groups,
         // The hinge knots come from the pre-fit's pass below; the springs-only pre-fit has no
         // hinge columns.
         Vec::new(),

@@ -147,18 +147,18 @@ impl std::fmt::Debug for VjmProblem<'_> {
 }
 
 impl<'a> VjmProblem<'a> {
-    /// The problem for `data` on `chain` with the split `labels` and pose `groups`.
-    #[allow(clippy::too_many_arguments)]
+    /// The problem for `data` on `chain` with the split `labels`; rows are clustered by the
+    /// data's pose groups ([`Dataset::pose_groups`]).
     pub fn new(
         chain: &'a SerialChain,
         data: &'a Dataset<'a>,
         labels: Vec<SetLabel>,
-        groups: Vec<usize>,
         tau_scale: Vec<f64>,
         whitening: Whitening,
         torque_noise: [f64; 6],
         cancel: Cancel,
     ) -> Self {
+        let groups = data.pose_groups();
         let n = chain.n_joints();
         let m = 3 * n;
         let mut next = m;

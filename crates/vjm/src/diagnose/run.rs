@@ -117,7 +117,7 @@ pub(super) fn run_diagnosis<'a>(
         rows,
         n_train,
         n_test: data.len() - n_train,
-        fdr: opts.fdr,
+        fdr: opts.selection.fdr,
     })
 }
 
@@ -144,10 +144,10 @@ fn select_findings(
     }
     let pool: Vec<Term> = catalogue(in_model).into_iter().map(Term::Cand).collect();
     let select_opts = SelectOptions {
-        fdr: opts.fdr,
+        fdr: opts.selection.fdr,
         max_findings: opts.max_findings,
-        alias_cosine: opts.alias_cosine,
-        alias_alpha: opts.alias_alpha,
+        alias_cosine: opts.selection.alias_cosine,
+        alias_alpha: opts.selection.alias_alpha,
         // The cluster sums of each finding come from the final pass over the rows (one pass
         // fewer), unless its point differs from that pass's.
         defer_cluster_robust: true,
@@ -219,9 +219,9 @@ fn decide_verdict(
     // finding is found (MuJoCo's geometric non-linearity on every clean campaign) the chance of
     // a false `unexplained` stays near `fdr` in all (measured in docs/gravity.md).
     let alpha = if found {
-        opts.fdr / (2.0 * n_tests)
+        opts.selection.fdr / (2.0 * n_tests)
     } else {
-        opts.fdr / n_tests
+        opts.selection.fdr / n_tests
     };
     let unexplained = if found {
         v.lack_of_fit.p_value <= alpha

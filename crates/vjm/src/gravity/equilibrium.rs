@@ -505,30 +505,31 @@ pub fn deflection_under_gravity(
     gravity: &Gravity,
     payload: Option<&PointMass>,
 ) -> Result<[f64; 6], VjmError> {
-    deflection_under_gravity_with_gears(chain, model, compliance, &[], q, wrench, gravity, payload)
+    let loading = Loading {
+        gravity: Some(*gravity),
+        payload,
+        wrench: Some(*wrench),
+    };
+    deflection_under_gravity_with_gears(chain, model, compliance, &[], q, &loading)
 }
 
 /// [`deflection_under_gravity`] with non-linear gears ([`static_equilibrium_with_gears`]):
-/// each curved spring deflects by θ(τ_g + τ) − θ(τ_g).
-#[allow(clippy::too_many_arguments)]
+/// each curved spring deflects by θ(τ_g + τ) − θ(τ_g). The tip under `loading` minus the tip
+/// under the same loading without its wrench (no wrench: no deflection).
 pub fn deflection_under_gravity_with_gears(
     chain: &SerialChain,
     model: &VirtualJointModel,
     compliance: &[f64],
     gears: &[GearCurve],
     q: &[f64],
-    wrench: &[f64; 6],
-    gravity: &Gravity,
-    payload: Option<&PointMass>,
+    loading: &Loading<'_>,
 ) -> Result<[f64; 6], VjmError> {
-    let mut loading = Loading {
-        gravity: Some(*gravity),
-        payload,
+    let unloaded = Loading {
         wrench: None,
+        ..*loading
     };
-    let rest = static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading)?;
-    loading.wrench = Some(*wrench);
-    let loaded = static_equilibrium_with_gears(chain, model, compliance, gears, q, &loading)?;
+    let rest = static_equilibrium_with_gears(chain, model, compliance, gears, q, &unloaded)?;
+    let loaded = static_equilibrium_with_gears(chain, model, compliance, gears, q, loading)?;
     Ok(tip_difference(&rest.tip, &loaded.tip))
 }
 

@@ -300,7 +300,9 @@ mod tests {
     //! path: the Gram matrix of the dense whitened design built row by row by
     //! `crate::build_design`, and the scalar per-configuration Jacobian.
     use super::*;
-    use crate::{build_design, IdentifyOptions, SerialChain, VirtualJointModel, Workspace};
+    use crate::{
+        build_design, IdentifyOptions, Measurements, SerialChain, VirtualJointModel, Workspace,
+    };
 
     fn problem_data(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
         // Deterministic, spread over the joint ranges; n is not a multiple of any lane count.
@@ -364,7 +366,13 @@ mod tests {
                 noise_sigma: [1e-5, 2e-5, 1.5e-5, 1e-4, 2e-4, 3e-4],
                 ..Default::default()
             };
-            let (design, rhs) = build_design(&chain, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+            let (design, rhs) = build_design(
+                &chain,
+                &model,
+                Measurements::new(&q, &w, &d).with_rotation(Some(&r)),
+                &opts,
+            )
+            .unwrap();
             let (m, p) = (21, 22);
             let rows = rhs.len();
             let mut expect = vec![0.0; p * p];

@@ -23,11 +23,10 @@
 //! let spec = CampaignSpec { n_poses: 10, noise: false, ..Default::default() };
 //! let data = simulate(&chain, &TrueModel::nominal(7), &spec)?.dataset;
 //! let (model, opts) = (VirtualJointModel::extended(7), IdentifyOptions::default());
-//! let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
-//! let id = identify(&chain, &model, q, w, d, None, &opts)?;
+//! let id = identify(&chain, &model, data.measurements(), &opts)?;
 //! assert!(id.rank < 21); // the extended model aliases on the Panda
 //! let sm = StiffnessModel::from_identification(&id, &chain, &model, &opts, DataSource::in_memory(data.len()))?
-//!     .with_robust_covariance(&chain, q, w, d, None)?;
+//!     .with_robust_covariance(&chain, data.measurements())?;
 //! let text = sm.to_json();
 //! let back = StiffnessModel::from_json(&text, "model.json")?;
 //! back.check_robot(&chain, "model.json")?;

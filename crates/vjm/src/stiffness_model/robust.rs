@@ -19,6 +19,7 @@ use super::{ModelError, StiffnessModel};
 use crate::chain::SerialChain;
 use crate::error::VjmError;
 use crate::kinematics::Workspace;
+use crate::measurements::Measurements;
 use crate::regressor::{regressor_rows, Measured};
 
 /// Name of the model-based covariance in [`EstimateRecord::covariance_method`](super::EstimateRecord::covariance_method).
@@ -28,29 +29,25 @@ pub const COVARIANCE_ROBUST: &str = "robust";
 
 impl StiffnessModel {
     /// The same model with the cluster-robust covariance (see the module documentation of
-    /// `stiffness_model::robust`), computed from the identification data: `q` N×n (rad),
-    /// `wrench` N×6, `displacement` N×3 (m), `rotation` N×3 (rad) exactly when the model was
-    /// identified with rotations. N must be the model's row count. Without a noise scale (no
+    /// `stiffness_model::robust`), computed from the identification data (with their rotations
+    /// exactly when the model was identified with rotations). N must be the model's row count. Without a noise scale (no
     /// degrees of freedom) the model is returned unchanged.
     pub fn with_robust_covariance(
         mut self,
         chain: &SerialChain,
-        q: &[f64],
-        wrench: &[f64],
-        displacement: &[f64],
-        rotation: Option<&[f64]>,
+        data: Measurements<'_>,
     ) -> Result<Self, ModelError> {
         self.check_robot(chain, "<model>")?;
         let Some(sigma2) = self.noise.sigma2 else {
             return Ok(self);
         };
-        let rotation = self.checked_rows(chain.n_joints(), q, wrench, displacement, rotation)?;
+        let rotation = self.checked_rows(chain.n_joints(), data)?;
         let Some(cov) = self.estimate.covariance.clone() else {
             return Ok(self);
         };
         // B = (AᵀA)⁺ on the row space = V/σ².
         let b: Vec<f64> = cov.iter().flatten().map(|v| v / sigma2).collect();
-        let meat = self.cr2_meat(chain, &b, q, wrench, displacement, rotation)?;
+        let meat = self.cr2_meat(chain, &b, data.with_rotation(rotation))?;
         self.estimate.covariance = Some(sandwich(&b, &meat, cov.len())?);
         self.estimate.covariance_method = COVARIANCE_ROBUST.to_string();
         Ok(self)
@@ -61,11 +58,9 @@ impl StiffnessModel {
     fn checked_rows<'r>(
         &self,
         n: usize,
-        q: &[f64],
-        wrench: &[f64],
-        displacement: &[f64],
-        rotation: Option<&'r [f64]>,
+        data: Measurements<'r>,
     ) -> Result<Option<&'r [f64]>, ModelError> {
+        let (q, wrench, displacement) = (data.q(), data.wrench(), data.displacement());
         let g = self.data.rows;
         let shape = |what: &'static str, got: usize, per: usize| {
             if got != g * per {
@@ -85,7 +80,7 @@ impl StiffnessModel {
             displacement.len(),
             3,
         )?;
-        match (self.noise.use_rotations, rotation) {
+        match (self.noise.use_rotations, data.rotation()) {
             (true, Some(r)) => {
                 shape("rotation (the identification's rows)", r.len(), 3)?;
                 Ok(Some(r))
@@ -103,11 +98,10 @@ impl StiffnessModel {
         &self,
         chain: &SerialChain,
         b: &[f64],
-        q: &[f64],
-        wrench: &[f64],
-        displacement: &[f64],
-        rotation: Option<&[f64]>,
+        data: Measurements<'_>,
     ) -> Result<Vec<f64>, ModelError> {
+        let (q, wrench, displacement) = (data.q(), data.wrench(), data.displacement());
+        let rotation = data.rotation();
         let model = self.spring_model()?;
         let (n, m) = (chain.n_joints(), model.n_params());
         let measured = if rotation.is_some() {

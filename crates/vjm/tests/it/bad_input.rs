@@ -1,5 +1,6 @@
 //! Every bad input of issue 3 gives an error naming the offending item; nothing panics.
 
+use vjm::Measurements;
 use vjm::{
     complementary_stiffness, identify, jacobian, jacobian_in_place, predict_deflection,
     IdentifyOptions, SerialChain, SolveMethod, Spring, SpringAxis, VirtualJointModel, VjmError,
@@ -130,7 +131,7 @@ fn nan_in_q_or_wrench_names_row_and_column() {
     let d = vec![0.0; n * 3];
     qs[7 * 12 + 3] = f64::NAN;
     let opts = IdentifyOptions::default();
-    let err = identify(&panda, &model, &qs, &f, &d, None, &opts).unwrap_err();
+    let err = identify(&panda, &model, Measurements::new(&qs, &f, &d), &opts).unwrap_err();
     assert!(
         matches!(
             err,
@@ -146,7 +147,7 @@ fn nan_in_q_or_wrench_names_row_and_column() {
     assert!(err.to_string().contains("row 12, column 3"));
     qs[7 * 12 + 3] = 0.0;
     f[6 * 20 + 5] = f64::NAN;
-    let err = identify(&panda, &model, &qs, &f, &d, None, &opts).unwrap_err();
+    let err = identify(&panda, &model, Measurements::new(&qs, &f, &d), &opts).unwrap_err();
     assert!(
         matches!(
             err,
@@ -182,7 +183,7 @@ fn non_finite_measurements_are_named_by_every_reduction() {
     ] {
         let mut opts = IdentifyOptions::default();
         opts.method = method;
-        let err = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap_err();
+        let err = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap_err();
         assert!(
             matches!(
                 err,
@@ -198,7 +199,13 @@ fn non_finite_measurements_are_named_by_every_reduction() {
         let mut d_ok = d.clone();
         d_ok[3 * 33 + 2] = 0.0;
         opts.use_rotations = true;
-        let err = identify(&panda, &model, &q, &f, &d_ok, Some(&r), &opts).unwrap_err();
+        let err = identify(
+            &panda,
+            &model,
+            Measurements::new(&q, &f, &d_ok).with_rotation(Some(&r)),
+            &opts,
+        )
+        .unwrap_err();
         assert!(
             matches!(
                 err,
@@ -213,17 +220,20 @@ fn non_finite_measurements_are_named_by_every_reduction() {
         );
         // Rotations are not used: their bad value does not matter.
         opts.use_rotations = false;
-        assert!(identify(&panda, &model, &q, &f, &d_ok, Some(&r), &opts).is_ok());
+        assert!(identify(
+            &panda,
+            &model,
+            Measurements::new(&q, &f, &d_ok).with_rotation(Some(&r)),
+            &opts
+        )
+        .is_ok());
     }
     let mut huge = vec![1e-4; n * 3];
     huge[5] = 1e160;
     let err = identify(
         &panda,
         &model,
-        &q,
-        &f,
-        &huge,
-        None,
+        Measurements::new(&q, &f, &huge),
         &IdentifyOptions::default(),
     )
     .unwrap_err();
@@ -262,7 +272,10 @@ fn shape_mismatches_state_expected_and_got() {
     );
     let opts = IdentifyOptions::default();
     let err = identify(
-        &panda, &model, &[0.0; 70], &[0.0; 59], &[0.0; 30], None, &opts,
+        &panda,
+        &model,
+        Measurements::new(&[0.0; 70], &[0.0; 59], &[0.0; 30]),
+        &opts,
     )
     .unwrap_err();
     assert!(
@@ -271,7 +284,10 @@ fn shape_mismatches_state_expected_and_got() {
         "{err}"
     );
     let err = identify(
-        &panda, &model, &[0.0; 69], &[0.0; 60], &[0.0; 30], None, &opts,
+        &panda,
+        &model,
+        Measurements::new(&[0.0; 69], &[0.0; 60], &[0.0; 30]),
+        &opts,
     )
     .unwrap_err();
     assert!(err.to_string().contains("q (N×n"), "{err}");
@@ -307,10 +323,7 @@ fn too_few_measurements() {
     let err = identify(
         &panda,
         &model,
-        &[0.1; 42],
-        &[1.0; 36],
-        &[0.0; 18],
-        None,
+        Measurements::new(&[0.1; 42], &[1.0; 36], &[0.0; 18]),
         &IdentifyOptions::default(),
     )
     .unwrap_err();
@@ -357,7 +370,10 @@ fn invalid_models_and_options() {
     let mut opts = IdentifyOptions::default();
     opts.noise_sigma[1] = 0.0;
     let err = identify(
-        &panda, &model, &[0.1; 70], &[1.0; 60], &[0.0; 30], None, &opts,
+        &panda,
+        &model,
+        Measurements::new(&[0.1; 70], &[1.0; 60], &[0.0; 30]),
+        &opts,
     )
     .unwrap_err();
     assert!(
@@ -367,7 +383,10 @@ fn invalid_models_and_options() {
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = true;
     let err = identify(
-        &panda, &model, &[0.1; 70], &[1.0; 60], &[0.0; 30], None, &opts,
+        &panda,
+        &model,
+        Measurements::new(&[0.1; 70], &[1.0; 60], &[0.0; 30]),
+        &opts,
     )
     .unwrap_err();
     assert!(err.to_string().contains("use_rotations"), "{err}");

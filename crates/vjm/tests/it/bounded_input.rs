@@ -9,6 +9,7 @@ use vjm::bounded::{
 };
 use vjm::dataset::Dataset;
 use vjm::testbed::CampaignSpec;
+use vjm::Measurements;
 use vjm::{
     identify, IdentifyOptions, ModelError, SerialChain, StiffnessModel, VirtualJointModel,
     VjmError, BUNDLED_BASE, BUNDLED_FLANGE, BUNDLED_URDF,
@@ -309,10 +310,7 @@ fn messages_quote_numbers_short() {
     let err = identify(
         &chain,
         &VirtualJointModel::traditional(7),
-        &q,
-        &[1.0; 6],
-        &[1e-4; 3],
-        None,
+        Measurements::new(&q, &[1.0; 6], &[1e-4; 3]),
         &opts,
     )
     .unwrap_err()

@@ -2,6 +2,7 @@
 //! first error as `check_values` followed by `check_joint_limits`, whichever rows are bad.
 
 use vjm::dataset::{check_arrays, check_joint_limits, check_values, ArraysCheck};
+use vjm::Measurements;
 use vjm::SerialChain;
 
 use crate::strategies::{random_configurations, random_wrenches};
@@ -22,7 +23,9 @@ fn arrays(chain: &SerialChain) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
 
 /// The sequential reference: values first, then the joint limits.
 fn sequential(chain: &SerialChain, q: &[f64], w: &[f64], d: &[f64], r: Option<&[f64]>) -> String {
-    match check_values(7, q, w, d, r).and_then(|_| check_joint_limits(chain, q)) {
+    match check_values(7, Measurements::new(q, w, d).with_rotation(r))
+        .and_then(|_| check_joint_limits(chain, q))
+    {
         Ok(()) => "ok".into(),
         Err(e) => e.to_string(),
     }
@@ -33,7 +36,12 @@ fn same_first_error_as_the_sequential_checks() {
     let chain = SerialChain::bundled();
     let (q0, w0, d0, r0) = arrays(&chain);
     assert_eq!(
-        check_arrays(7, &q0, &w0, &d0, Some(&r0), Some(&chain)).unwrap(),
+        check_arrays(
+            7,
+            Measurements::new(&q0, &w0, &d0).with_rotation(Some(&r0)),
+            Some(&chain)
+        )
+        .unwrap(),
         ArraysCheck::Passed
     );
     type Edit = fn(&mut [f64], &mut [f64], &mut [f64], &mut [f64]);
@@ -68,16 +76,20 @@ fn same_first_error_as_the_sequential_checks() {
         edit(&mut q, &mut w, &mut d, &mut r);
         let expect = sequential(&chain, &q, &w, &d, Some(&r));
         assert_ne!(expect, "ok", "{name}: the edit must break a check");
-        let got = check_arrays(7, &q, &w, &d, Some(&r), Some(&chain))
-            .unwrap_err()
-            .to_string();
+        let got = check_arrays(
+            7,
+            Measurements::new(&q, &w, &d).with_rotation(Some(&r)),
+            Some(&chain),
+        )
+        .unwrap_err()
+        .to_string();
         assert_eq!(got, expect, "{name}");
     }
     // Without a chain the limits are not checked.
     let mut q = q0.clone();
     q[7 * 25_000 + 3] = 0.5;
     assert_eq!(
-        check_arrays(7, &q, &w0, &d0, None, None).unwrap(),
+        check_arrays(7, Measurements::new(&q, &w0, &d0), None).unwrap(),
         ArraysCheck::Passed
     );
     // A non-finite value anywhere: nothing else is reported (identify names it).
@@ -85,7 +97,7 @@ fn same_first_error_as_the_sequential_checks() {
     d[0] = 1.0; // implausible, but
     d[3 * 40_000 + 2] = f64::NAN; // a NaN further down wins
     assert_eq!(
-        check_arrays(7, &q0, &w0, &d, None, Some(&chain)).unwrap(),
+        check_arrays(7, Measurements::new(&q0, &w0, &d), Some(&chain)).unwrap(),
         ArraysCheck::NonFinite
     );
 }
@@ -116,10 +128,16 @@ fn identify_checking_rows_covers_every_row_once() {
             seen.lock().unwrap().push((s, e));
             true
         };
-        let fused = identify_checking_rows(&chain, &model, &q, &w, &d, None, &opts, &record)
-            .unwrap()
-            .expect("every chunk passed");
-        let plain = identify(&chain, &model, &q, &w, &d, None, &opts).unwrap();
+        let fused = identify_checking_rows(
+            &chain,
+            &model,
+            Measurements::new(&q, &w, &d),
+            &opts,
+            &record,
+        )
+        .unwrap()
+        .expect("every chunk passed");
+        let plain = identify(&chain, &model, Measurements::new(&q, &w, &d), &opts).unwrap();
         assert_eq!(fused.compliance, plain.compliance, "{method:?}");
         assert_eq!(fused.stderr, plain.stderr, "{method:?}");
         let mut ranges = seen.into_inner().unwrap();
@@ -131,10 +149,14 @@ fn identify_checking_rows_covers_every_row_once() {
             "{method:?}: gaps or overlaps"
         );
         let refuse_late = |s: usize, e: usize| !(s..e).contains(&39_999);
-        assert!(
-            identify_checking_rows(&chain, &model, &q, &w, &d, None, &opts, &refuse_late)
-                .unwrap()
-                .is_none()
-        );
+        assert!(identify_checking_rows(
+            &chain,
+            &model,
+            Measurements::new(&q, &w, &d),
+            &opts,
+            &refuse_late
+        )
+        .unwrap()
+        .is_none());
     }
 }

@@ -3,6 +3,7 @@
 
 use vjm::testbed::kinematics::deflected_tip;
 use vjm::testbed::{simulate, Campaign, CampaignSpec, Effect, TrueModel};
+use vjm::Measurements;
 use vjm::{
     compensate, compensate_in_place, identify, predict_deflection, CompensateOptions,
     CompensatedRow, CompensationStatus, CompensationWorkspace, IdentifyOptions, Load, PointMass,
@@ -178,10 +179,7 @@ fn identified_model_compensates_held_out_poses() {
     let id = identify(
         &chain,
         &model,
-        &q,
-        &f,
-        &d,
-        None,
+        Measurements::new(&q, &f, &d),
         &IdentifyOptions::default(),
     )
     .unwrap();
@@ -509,10 +507,7 @@ fn model_file_compensation() {
     let id = identify(
         &chain,
         &model,
-        ds.q_flat(),
-        ds.wrench_flat(),
-        ds.displacement_flat(),
-        None,
+        Measurements::new(ds.q_flat(), ds.wrench_flat(), ds.displacement_flat()),
         &opts,
     )
     .unwrap();

@@ -1,5 +1,6 @@
 //! Experiment design: dexterity (seed Table I's measure) and greedy selection.
 
+use vjm::Measurements;
 use vjm::{dexterity, identify, select_configurations, Measured, SerialChain, VirtualJointModel};
 
 use crate::strategies::{random_compliances, random_configurations, random_wrenches};
@@ -78,7 +79,13 @@ fn greedy_selection_is_well_conditioned() {
             .unwrap();
         d.extend_from_slice(&x[..3]);
     }
-    let id = identify(&panda, &model, &q, &f, &d, None, &Default::default()).unwrap();
+    let id = identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &f, &d),
+        &Default::default(),
+    )
+    .unwrap();
     assert_eq!(id.rank, 15);
     crate::identification::assert_recovers(&id, &truth, 1e-9);
 }

@@ -438,31 +438,22 @@ fn bad_input_is_rejected_with_a_clear_error() {
         matches!(e, DiagnoseError::JointCount { data: 7, chain: 6 }),
         "{e}"
     );
-    let e = diagnose(
-        &chain,
-        &c.dataset,
-        &DiagnoseOptions {
-            fdr: 1.5,
-            ..Default::default()
-        },
-    )
-    .unwrap_err();
+    let selecting = |set: fn(&mut vjm::diagnose::SelectionOptions)| {
+        let mut opts = DiagnoseOptions::default();
+        set(&mut opts.selection);
+        opts
+    };
+    let e = diagnose(&chain, &c.dataset, &selecting(|s| s.fdr = 1.5)).unwrap_err();
     assert!(e.to_string().contains("fdr"), "{e}");
     // The alias options are checked as the CSJM's are (they were not before issue 26): the
     // message names the option, the range and the value.
     for (opts, expect) in [
         (
-            DiagnoseOptions {
-                alias_cosine: 1.5,
-                ..Default::default()
-            },
+            selecting(|s| s.alias_cosine = 1.5),
             "option `alias_cosine`: must be in (0, 1], got 1.5",
         ),
         (
-            DiagnoseOptions {
-                alias_alpha: f64::NAN,
-                ..Default::default()
-            },
+            selecting(|s| s.alias_alpha = f64::NAN),
             "option `alias_alpha`: must be in (0, 1), got NaN",
         ),
     ] {
@@ -919,7 +910,6 @@ fn a_fused_pass_makes_what_separate_passes_make() {
             &chain,
             &data,
             labels.clone(),
-            data.pose_groups(),
             tau_scale,
             Whitening {
                 displacement_sigma: noise.displacement_sigma,
@@ -1563,7 +1553,6 @@ fn the_pose_compliance_projection_equals_explicit_per_pose_columns() {
         &chain,
         &data,
         vec![vjm::dataset::SetLabel::Train; data.len()],
-        data.pose_groups(),
         vec![1.0; 7],
         Whitening {
             displacement_sigma: noise.displacement_sigma,

@@ -2,6 +2,7 @@
 //! rotations, checked against independent code paths.
 
 use nalgebra::{DVector, Vector3};
+use vjm::Measurements;
 use vjm::{
     complementary_stiffness, forward_kinematics_deflected, identify, jacobian,
     jacobian_batch_in_place, jacobian_deflected, IdentifyOptions, SerialChain, VirtualJointModel,
@@ -124,7 +125,13 @@ fn identify_recovers_link_translations_of_the_full_model() {
     let (q, f, d, r) = synthetic(&panda, &model, &truth, 400, 21);
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = true;
-    let id = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let id = identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     assert_recovers(&id, &truth, 1e-6);
     assert!(
         id.rank > 21,
@@ -194,7 +201,13 @@ fn a_full_model_round_trips_through_the_file_and_predicts_the_equilibrium() {
     let (q, f, d, r) = synthetic(&panda, &model, &truth, 400, 31);
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = true;
-    let id = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let id = identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     let sm =
         StiffnessModel::from_identification(&id, &panda, &model, &opts, DataSource::in_memory(400))
             .unwrap();

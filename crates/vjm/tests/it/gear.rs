@@ -6,6 +6,7 @@ use vjm::gravity::{
     gravity_sag, gravity_sag_with_gears, static_equilibrium, static_equilibrium_with_gears,
     Gravity, Loading,
 };
+use vjm::Measurements;
 use vjm::{SerialChain, VirtualJointModel};
 
 /// θ(T) = c·T + Σ a_k h_k(T), written out by cases, against `GearCurve::deflection`; its slope
@@ -137,7 +138,7 @@ fn the_model_file_records_gear_curves() {
         IdentifyOptions::default(),
     );
     let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
-    let id = identify(&chain, &model, q, w, d, None, &opts).unwrap();
+    let id = identify(&chain, &model, Measurements::new(q, w, d), &opts).unwrap();
     let sm = StiffnessModel::from_identification(
         &id,
         &chain,

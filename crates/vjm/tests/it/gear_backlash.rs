@@ -201,15 +201,18 @@ fn predict_adds_the_lost_motion_of_a_sign_change() {
         let j = vjm::jacobian(&chain, &model, q).unwrap();
         let lever = norm(&[j[(0, 1)], j[(1, 1)], j[(2, 1)]]);
         let exact_plain = deflection_under_gravity(&chain, &model, &c, q, &w, &g, None).unwrap();
+        let loading = vjm::gravity::Loading {
+            gravity: Some(g),
+            payload: None,
+            wrench: Some(w),
+        };
         let exact_bent = deflection_under_gravity_with_gears(
             &chain,
             &model,
             &c,
             std::slice::from_ref(&lost),
             q,
-            &w,
-            &g,
-            None,
+            &loading,
         )
         .unwrap();
         let exact: Vec<f64> = (0..3).map(|r| exact_bent[r] - exact_plain[r]).collect();

@@ -6,6 +6,7 @@ use vjm::diagnose::report::GearFinding;
 use vjm::diagnose::{diagnose, DiagnoseOptions};
 use vjm::gravity::Gravity;
 use vjm::testbed::{simulate, CampaignSpec, Effect, HarmonicDriveSpring, TrueModel};
+use vjm::Measurements;
 use vjm::{
     identify, predict_deflection, DataSource, IdentifyOptions, Load, SerialChain, StiffnessModel,
     VirtualJointModel,
@@ -63,7 +64,7 @@ fn diagnosed(
         synthetic.extend_from_slice(&p[..width]);
     }
     let opts = IdentifyOptions::default();
-    let id = identify(&chain, &model, q, w, &synthetic, None, &opts).unwrap();
+    let id = identify(&chain, &model, Measurements::new(q, w, &synthetic), &opts).unwrap();
     let sm = StiffnessModel::from_identification(
         &id,
         &chain,
@@ -228,7 +229,7 @@ fn a_diagnosed_backlash_is_the_saved_models_lost_motion() {
     let width = disp.len() / data.len();
     let iopts = IdentifyOptions::default();
     let fit = |d: &[f64]| {
-        let id = identify(&chain, &model, q, w, d, None, &iopts).unwrap();
+        let id = identify(&chain, &model, Measurements::new(q, w, d), &iopts).unwrap();
         StiffnessModel::from_identification(
             &id,
             &chain,

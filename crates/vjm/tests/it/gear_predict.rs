@@ -7,6 +7,7 @@
 use vjm::gear::GearCurve;
 use vjm::gravity::{deflection_under_gravity, deflection_under_gravity_with_gears, Gravity};
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+use vjm::Measurements;
 use vjm::{
     identify, DataSource, IdentifyOptions, Load, PointMass, SerialChain, StiffnessModel,
     VirtualJointModel,
@@ -29,7 +30,7 @@ pub(crate) fn panda_model() -> (SerialChain, StiffnessModel, vjm::dataset::Datas
         IdentifyOptions::default(),
     );
     let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
-    let id = identify(&chain, &model, q, w, d, None, &opts).unwrap();
+    let id = identify(&chain, &model, Measurements::new(q, w, d), &opts).unwrap();
     let sm = StiffnessModel::from_identification(
         &id,
         &chain,
@@ -117,15 +118,18 @@ fn under_gravity_a_gear_curve_works_about_the_weights_preload() {
             .predict_under_gravity(&chain, q, Load::Wrench(&w), &g)
             .unwrap()[0];
         let exact_plain = deflection_under_gravity(&chain, &model, &c, q, &w, &g, None).unwrap();
+        let loading = vjm::gravity::Loading {
+            gravity: Some(g),
+            payload: None,
+            wrench: Some(w),
+        };
         let exact_bent = deflection_under_gravity_with_gears(
             &chain,
             &model,
             &c,
             std::slice::from_ref(&curve),
             q,
-            &w,
-            &g,
-            None,
+            &loading,
         )
         .unwrap();
         let share: Vec<f64> = (0..3)

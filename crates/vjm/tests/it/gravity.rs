@@ -8,6 +8,7 @@ use vjm::gravity::{
     gravity_potential_deflected, gravity_stiffness, gravity_torques, Body, Gravity, MassModel,
 };
 use vjm::stiffness_model::PointMass;
+use vjm::Measurements;
 use vjm::{SerialChain, VirtualJointModel, VjmError};
 
 use crate::strategies::{arb_chain_and_q, config};
@@ -620,8 +621,15 @@ fn identify_under_gravity_recovers_the_springs_of_the_exact_equilibrium() {
     under_gravity.gravity = Some(Gravity::default());
     for (force, paired, bound) in [(20.0, true, 2e-4), (5.0, false, 1e-3)] {
         let (q, w, d, _) = panda_under_gravity(&c, 60, force, paired, 3);
-        let with = vjm::identify(&panda, &model, &q, &w, &d, None, &under_gravity).unwrap();
-        let without = vjm::identify(&panda, &model, &q, &w, &d, None, &weightless).unwrap();
+        let with = vjm::identify(
+            &panda,
+            &model,
+            Measurements::new(&q, &w, &d),
+            &under_gravity,
+        )
+        .unwrap();
+        let without =
+            vjm::identify(&panda, &model, Measurements::new(&q, &w, &d), &weightless).unwrap();
         let (e_with, e_without) = (
             worst_relative_error(&with, &c),
             worst_relative_error(&without, &c),
@@ -636,7 +644,13 @@ fn identify_under_gravity_recovers_the_springs_of_the_exact_equilibrium() {
         assert!(with.gravity_iterations >= 2 && with.gravity_iterations <= vjm::MAX_GRAVITY_REFITS);
         assert_eq!(without.gravity_iterations, 0);
         // The dense path refits the same way.
-        let dense = vjm::identify_dense(&panda, &model, &q, &w, &d, None, &under_gravity).unwrap();
+        let dense = vjm::identify_dense(
+            &panda,
+            &model,
+            Measurements::new(&q, &w, &d),
+            &under_gravity,
+        )
+        .unwrap();
         assert_eq!(dense.rank, with.rank);
         for (a, b) in dense.compliance[..6].iter().zip(&with.compliance) {
             let (a, b) = (a.unwrap(), b.unwrap());
@@ -659,9 +673,9 @@ fn nonnegative_fits_settle_under_gravity() {
     let (q, w, d, _) = panda_under_gravity(&c, 60, 20.0, true, 11);
     let mut opts = vjm::IdentifyOptions::default();
     opts.gravity = Some(Gravity::default());
-    let free = vjm::identify(&panda, &extended, &q, &w, &d, None, &opts).unwrap();
+    let free = vjm::identify(&panda, &extended, Measurements::new(&q, &w, &d), &opts).unwrap();
     opts.nonnegative = true;
-    let fit = vjm::identify(&panda, &extended, &q, &w, &d, None, &opts).unwrap();
+    let fit = vjm::identify(&panda, &extended, Measurements::new(&q, &w, &d), &opts).unwrap();
     assert!(fit.gravity_iterations >= 2 && fit.gravity_iterations <= vjm::MAX_GRAVITY_REFITS);
     assert!(
         fit.solution.solution.iter().all(|x| *x >= 0.0),
@@ -693,9 +707,21 @@ fn identify_under_gravity_with_rotations() {
     let mut opts = vjm::IdentifyOptions::default();
     opts.use_rotations = true;
     opts.noise_sigma = [1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5];
-    let without = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let without = vjm::identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &w, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     opts.gravity = Some(Gravity::default());
-    let with = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let with = vjm::identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &w, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     let (e_with, e_without) = (
         worst_relative_error(&with, &c),
         worst_relative_error(&without, &c),
@@ -716,19 +742,19 @@ fn identify_without_weight_is_the_weightless_fit() {
     let (q, w, d, _) = panda_under_gravity(&PANDA_TORSIONS, 30, 20.0, false, 9);
     let opts = vjm::IdentifyOptions::default();
     assert_eq!(opts.gravity, None);
-    let none = vjm::identify(&panda, &model, &q, &w, &d, None, &opts).unwrap();
+    let none = vjm::identify(&panda, &model, Measurements::new(&q, &w, &d), &opts).unwrap();
     assert_eq!(none.gravity_iterations, 0);
     let mut zero = opts;
     zero.gravity = Some(Gravity::new([0.0; 3]).unwrap());
-    let refit = vjm::identify(&panda, &model, &q, &w, &d, None, &zero).unwrap();
+    let refit = vjm::identify(&panda, &model, Measurements::new(&q, &w, &d), &zero).unwrap();
     assert_eq!(refit.gravity_iterations, 1);
     assert_eq!(refit.compliance, none.compliance);
     assert_eq!(refit.solution.solution, none.solution.solution);
     assert_eq!(refit.stderr, none.stderr);
     // The weightless building blocks refuse gravity rather than ignore it.
     for err in [
-        vjm::build_design(&panda, &model, &q, &w, &d, None, &zero).map(|_| ()),
-        vjm::accumulate(&panda, &model, &q, &w, &d, None, &zero).map(|_| ()),
+        vjm::build_design(&panda, &model, Measurements::new(&q, &w, &d), &zero).map(|_| ()),
+        vjm::accumulate(&panda, &model, Measurements::new(&q, &w, &d), &zero).map(|_| ()),
     ] {
         let err = err.unwrap_err();
         assert!(
@@ -757,11 +783,11 @@ fn identify_under_gravity_names_a_link_without_inertial() {
     let w = [1.0, 2.0, 3.0, 0.1, 0.2, 0.3].repeat(3);
     let d = [1e-5; 9];
     let mut opts = vjm::IdentifyOptions::default();
-    assert!(vjm::identify(&chain, &model, &q, &w, &d, None, &opts).is_ok());
+    assert!(vjm::identify(&chain, &model, Measurements::new(&q, &w, &d), &opts).is_ok());
     opts.gravity = Some(Gravity::default());
     for result in [
-        vjm::identify(&chain, &model, &q, &w, &d, None, &opts),
-        vjm::identify_dense(&chain, &model, &q, &w, &d, None, &opts),
+        vjm::identify(&chain, &model, Measurements::new(&q, &w, &d), &opts),
+        vjm::identify_dense(&chain, &model, Measurements::new(&q, &w, &d), &opts),
     ] {
         let err = result.unwrap_err();
         assert!(
@@ -782,7 +808,13 @@ fn a_model_identified_under_gravity_records_gravity_and_inertials() {
     let (q, w, d, r) = panda_under_gravity(&PANDA_TORSIONS, 20, 20.0, false, 13);
     let mut opts = vjm::IdentifyOptions::default();
     opts.use_rotations = true;
-    let weightless = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let weightless = vjm::identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &w, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     let sm = StiffnessModel::from_identification(
         &weightless,
         &panda,
@@ -801,7 +833,13 @@ fn a_model_identified_under_gravity_records_gravity_and_inertials() {
 
     let g = Gravity::new([0.0, 0.0, -9.81]).unwrap();
     opts.gravity = Some(g);
-    let id = vjm::identify(&panda, &model, &q, &w, &d, Some(&r), &opts).unwrap();
+    let id = vjm::identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &w, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     let sm =
         StiffnessModel::from_identification(&id, &panda, &model, &opts, DataSource::in_memory(20))
             .unwrap();

@@ -4,6 +4,7 @@ use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use vjm::Measurements;
 use vjm::{
     build_design, identify, identify_dense, predict_deflection, Identification, IdentifyOptions,
     SerialChain, SolveMethod, VirtualJointModel, NORMAL_EQUATIONS_MAX_CONDITION,
@@ -100,7 +101,13 @@ fn noise_free_panda_with(use_rotations: bool, method: SolveMethod) -> Identifica
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = use_rotations;
     opts.method = method;
-    let id = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let id = identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     assert_recovers(&id, &truth, 1e-9);
     id
 }
@@ -177,10 +184,7 @@ fn rank_of_traditional_model_on_bundled_panda() {
     let id = identify(
         &panda,
         &model,
-        &q,
-        &f,
-        &d,
-        None,
+        Measurements::new(&q, &f, &d),
         &IdentifyOptions::default(),
     )
     .unwrap();
@@ -189,7 +193,13 @@ fn rank_of_traditional_model_on_bundled_panda() {
     assert_recovers(&id, &truth, 1e-9);
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = true;
-    let id = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let id = identify(
+        &panda,
+        &model,
+        Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     assert_eq!(id.rank, 7);
     assert!(id.aliases.is_empty());
     assert_recovers(&id, &truth, 1e-9);
@@ -207,7 +217,7 @@ proptest! {
         let (q, f, d, r) = synthetic(&chain, &model, &truth, 80, seed + 17);
         let mut opts = IdentifyOptions::default();
         opts.use_rotations = rot;
-        let id = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let id = identify(&chain, &model, Measurements::new(&q, &f, &d).with_rotation(Some(&r)), &opts).unwrap();
         assert_recovers(&id, &truth, 1e-9);
         // Every parameter is either identifiable or in exactly one alias group.
         let aliased: usize = id.aliases.iter().map(Vec::len).sum();
@@ -236,9 +246,9 @@ proptest! {
         let mut opts = IdentifyOptions::default();
         opts.use_rotations = rot;
         opts.method = SolveMethod::Qr;
-        let qr = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let qr = identify(&chain, &model, Measurements::new(&q, &f, &d).with_rotation(Some(&r)), &opts).unwrap();
         opts.method = SolveMethod::Auto;
-        let auto = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let auto = identify(&chain, &model, Measurements::new(&q, &f, &d).with_rotation(Some(&r)), &opts).unwrap();
         let gray = qr.singular_values[qr.rank..].iter().any(|&s| s > 1e-12 * qr.singular_values[0]);
         if qr.condition_number <= 0.5 * NORMAL_EQUATIONS_MAX_CONDITION && !gray {
             prop_assert_eq!(auto.method, SolveMethod::NormalEquations);
@@ -284,9 +294,9 @@ fn auto_falls_back_to_qr_when_ill_conditioned() {
         );
     }
     let mut opts = IdentifyOptions::default();
-    let auto = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let auto = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     opts.method = SolveMethod::Qr;
-    let qr = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let qr = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     assert!(
         qr.condition_number > NORMAL_EQUATIONS_MAX_CONDITION,
         "κ = {}",
@@ -296,7 +306,7 @@ fn auto_falls_back_to_qr_when_ill_conditioned() {
     assert_eq!(auto.compliance, qr.compliance);
     assert_eq!(auto.singular_values, qr.singular_values);
     opts.method = SolveMethod::NormalEquations;
-    let ne = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let ne = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     assert_eq!(ne.method, SolveMethod::NormalEquations);
     assert!(
         ne.rank <= qr.rank,
@@ -336,7 +346,13 @@ fn auto_falls_back_to_qr_for_a_weak_but_real_direction() {
     let mut opts = IdentifyOptions::default();
     opts.use_rotations = true;
     opts.method = SolveMethod::Qr;
-    let qr = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let qr = identify(
+        &chain,
+        &model,
+        Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     assert_eq!(qr.rank, 2, "singular values {:?}", qr.singular_values);
     let weak = qr.singular_values[1] / qr.singular_values[0];
     assert!(
@@ -345,13 +361,24 @@ fn auto_falls_back_to_qr_for_a_weak_but_real_direction() {
     );
     opts.method = SolveMethod::NormalEquations;
     assert_eq!(
-        identify(&chain, &model, &q, &f, &d, Some(&r), &opts)
-            .unwrap()
-            .rank,
+        identify(
+            &chain,
+            &model,
+            Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+            &opts
+        )
+        .unwrap()
+        .rank,
         1
     );
     opts.method = SolveMethod::Auto;
-    let auto = identify(&chain, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+    let auto = identify(
+        &chain,
+        &model,
+        Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+        &opts,
+    )
+    .unwrap();
     assert_eq!((auto.method, auto.rank), (SolveMethod::Qr, 2));
 }
 
@@ -363,9 +390,9 @@ fn repeated_identification_is_bitwise_reproducible() {
     let model = VirtualJointModel::extended(7);
     let (q, f, d, _, _) = noisy_panda(20_003, 1e-6, 41);
     let opts = IdentifyOptions::default();
-    let first = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let first = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     for _ in 0..4 {
-        let again = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+        let again = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
         assert_eq!(again.compliance, first.compliance);
         assert_eq!(again.stderr, first.stderr);
     }
@@ -409,7 +436,13 @@ fn streaming_matches_dense() {
         let mut opts = IdentifyOptions::default();
         opts.use_rotations = rot;
         opts.method = method;
-        let s = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let s = identify(
+            &panda,
+            &model,
+            Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+            &opts,
+        )
+        .unwrap();
         let expect = if method == SolveMethod::Qr {
             SolveMethod::Qr
         } else {
@@ -417,7 +450,13 @@ fn streaming_matches_dense() {
         };
         assert_eq!(s.method, expect);
         opts.method = SolveMethod::Qr;
-        let dn = identify_dense(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let dn = identify_dense(
+            &panda,
+            &model,
+            Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+            &opts,
+        )
+        .unwrap();
         assert_eq!(s.rank, dn.rank);
         assert_eq!(s.aliases, dn.aliases);
         assert_eq!(s.n_equations, dn.n_equations);
@@ -462,7 +501,7 @@ fn standard_errors_are_calibrated() {
     let (mut z2, mut covered, mut total) = (0.0, 0, 0);
     for _ in 0..200 {
         let d: Vec<f64> = d0.iter().map(|v| v + noise.sample(&mut rng)).collect();
-        let id = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+        let id = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
         for (k, &t) in truth.iter().enumerate().take(6) {
             let (c, s) = (id.compliance[k].unwrap(), id.stderr[k].unwrap());
             z2 += ((c - t) / s).powi(2);
@@ -488,10 +527,7 @@ fn sigma_estimated_from_residuals() {
     let id = identify(
         &panda,
         &model,
-        &q,
-        &f,
-        &d,
-        None,
+        Measurements::new(&q, &f, &d),
         &IdentifyOptions::default(),
     )
     .unwrap();
@@ -515,7 +551,7 @@ fn nonnegative_least_squares() {
     let (q, f, d, _) = synthetic(&panda, &model, &truth, 40, 22);
     let mut opts = IdentifyOptions::default();
     opts.nonnegative = true;
-    let id = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let id = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     assert_recovers(&id, &truth, 1e-9);
 
     // Data from a (non-physical) negative compliance: the constraint must become active.
@@ -524,21 +560,18 @@ fn nonnegative_least_squares() {
     let free = identify(
         &panda,
         &model,
-        &q,
-        &f,
-        &d,
-        None,
+        Measurements::new(&q, &f, &d),
         &IdentifyOptions::default(),
     )
     .unwrap();
     assert!(free.compliance[5].unwrap() < 0.0);
-    let id = identify(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let id = identify(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     let x = &id.solution.solution;
     for k in 0..6 {
         assert!(id.compliance[k].unwrap() >= 0.0);
     }
     // KKT on the whitened problem: gradient g = Aᵀ(b − Ax); g_k ≤ 0 where x_k = 0, g_k ≈ 0 where x_k > 0.
-    let (a, b) = build_design(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let (a, b) = build_design(&panda, &model, Measurements::new(&q, &f, &d), &opts).unwrap();
     let m = 7;
     let rows = b.len();
     let mut g = vec![0.0; m];

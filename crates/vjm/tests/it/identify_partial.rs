@@ -4,6 +4,7 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use vjm::Measurements;
 use vjm::{
     identify, Identification, IdentificationPartial, IdentifyOptions, SerialChain, SolveMethod,
     VirtualJointModel, VjmError,
@@ -72,7 +73,13 @@ fn three_parts_merged_in_either_grouping_equal_the_single_pass() {
         let mut opts = IdentifyOptions::default();
         opts.use_rotations = rot;
         opts.method = SolveMethod::Qr;
-        let single = identify(&panda, &model, &q, &f, &d, Some(&r), &opts).unwrap();
+        let single = identify(
+            &panda,
+            &model,
+            Measurements::new(&q, &f, &d).with_rotation(Some(&r)),
+            &opts,
+        )
+        .unwrap();
         let cuts = [0, 1_234, 5_000, 9_001];
         let parts: Vec<IdentificationPartial> = cuts
             .windows(2)
@@ -81,10 +88,8 @@ fn three_parts_merged_in_either_grouping_equal_the_single_pass() {
                 IdentificationPartial::accumulate(
                     &panda,
                     &model,
-                    &q[7 * s..7 * e],
-                    &f[6 * s..6 * e],
-                    &d[3 * s..3 * e],
-                    Some(&r[3 * s..3 * e]),
+                    Measurements::new(&q[7 * s..7 * e], &f[6 * s..6 * e], &d[3 * s..3 * e])
+                        .with_rotation(Some(&r[3 * s..3 * e])),
                     &opts,
                 )
                 .unwrap()
@@ -109,7 +114,9 @@ fn empty_is_neutral_and_parts_round_trip() {
     let model = VirtualJointModel::traditional(7);
     let (q, f, d, _) = campaign(300, 11);
     let opts = IdentifyOptions::default();
-    let whole = IdentificationPartial::accumulate(&panda, &model, &q, &f, &d, None, &opts).unwrap();
+    let whole =
+        IdentificationPartial::accumulate(&panda, &model, Measurements::new(&q, &f, &d), &opts)
+            .unwrap();
     let empty = IdentificationPartial::empty(&panda, &model, &opts).unwrap();
     let id = whole.finish(&panda).unwrap();
     assert_same(
@@ -144,12 +151,15 @@ fn incompatible_parts_are_refused() {
     let (q, f, d, _) = campaign(200, 3);
     let opts = IdentifyOptions::default();
     let trad = VirtualJointModel::traditional(7);
-    let a = IdentificationPartial::accumulate(&panda, &trad, &q, &f, &d, None, &opts).unwrap();
+    let a = IdentificationPartial::accumulate(&panda, &trad, Measurements::new(&q, &f, &d), &opts)
+        .unwrap();
     let ext = VirtualJointModel::extended(7);
-    let b = IdentificationPartial::accumulate(&panda, &ext, &q, &f, &d, None, &opts).unwrap();
+    let b = IdentificationPartial::accumulate(&panda, &ext, Measurements::new(&q, &f, &d), &opts)
+        .unwrap();
     let mut other = opts;
     other.noise_sigma[0] = 2e-5;
-    let c = IdentificationPartial::accumulate(&panda, &trad, &q, &f, &d, None, &other).unwrap();
+    let c = IdentificationPartial::accumulate(&panda, &trad, Measurements::new(&q, &f, &d), &other)
+        .unwrap();
     let e = IdentificationPartial::empty(&tcp, &trad, &opts).unwrap();
     for (x, what) in [(&b, "model"), (&c, "options"), (&e, "robot kinematics")] {
         match a.merge(x) {

@@ -3,6 +3,7 @@
 
 use vjm::gravity::Gravity;
 use vjm::testbed::{simulate, simulate_at, CampaignSpec, TrueModel};
+use vjm::Measurements;
 use vjm::{
     design, identify, predicted_stderr, IdentifyOptions, NoiseModel, Plan, PlanSpec, SerialChain,
     VirtualJointModel,
@@ -113,7 +114,7 @@ fn observed_over_predicted(
         let c = simulate_at(chain, &truth, &plan.q, &plan.wrench, &poses, &spec).unwrap();
         let ds = &c.dataset;
         let (q, w, d) = (ds.q_flat(), ds.wrench_flat(), ds.displacement_flat());
-        let id = identify(chain, model, q, w, d, None, &opts).unwrap();
+        let id = identify(chain, model, Measurements::new(q, w, d), &opts).unwrap();
         assert_eq!(id.rank, plan.rank);
         for (j, comb) in id.combinations.iter().enumerate() {
             assert_eq!(comb.label, plan.combinations[j].label);

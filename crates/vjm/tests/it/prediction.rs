@@ -1,6 +1,7 @@
 //! Deflection prediction with and without K_C against the exact nonlinear equilibrium.
 
 use nalgebra::{DMatrix, DVector};
+use vjm::Measurements;
 use vjm::{
     jacobian, jacobian_deflected, predict_deflection, spring_deflection, SerialChain,
     VirtualJointModel,
@@ -120,7 +121,7 @@ fn model_from_noise_free_campaign(
         .dataset;
     let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
     let opts = IdentifyOptions::default();
-    let id = identify(&chain, model, q, w, d, None, &opts).unwrap();
+    let id = identify(&chain, model, Measurements::new(q, w, d), &opts).unwrap();
     let sm = StiffnessModel::from_identification(
         &id,
         &chain,
@@ -194,7 +195,7 @@ fn a_model_predicts_the_sag_under_its_own_weight() {
         );
     }
     let extended = VirtualJointModel::extended(7);
-    let id = identify(&chain, &extended, q, w, d, None, &opts).unwrap();
+    let id = identify(&chain, &extended, Measurements::new(q, w, d), &opts).unwrap();
     assert!(id.rank < 21);
     let sm = StiffnessModel::from_identification(
         &id,

@@ -545,7 +545,8 @@ mod validation {
             (good_w.clone(), vec![0.0; 6]),
         ];
         for (w, d) in cases {
-            let a = vjm::dataset::check_values(2, &q, &w, &d, None).map_err(|e| e.to_string());
+            let a = vjm::dataset::check_values(2, vjm::Measurements::new(&q, &w, &d))
+                .map_err(|e| e.to_string());
             let b = Dataset::new(2, q.clone(), w.clone(), d.clone(), None, None, None)
                 .map(|_| ())
                 .map_err(|e| e.to_string());

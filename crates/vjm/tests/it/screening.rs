@@ -7,6 +7,7 @@ use vjm::dataset::{check_poses, ArraysCheck, DatasetError};
 use vjm::screening::{outlier_rows, review, DataWarning, Quantity};
 use vjm::stiffness_model::{PointMass, PoseTable};
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+use vjm::Measurements;
 use vjm::{identify, IdentifyOptions, SerialChain, VirtualJointModel};
 
 const Q: [f64; 7] = [0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8];
@@ -137,7 +138,7 @@ fn loads_scaled_to_nothing_are_an_error_not_rank_0() {
     for v in &mut w {
         *v *= 1e-300;
     }
-    let e = vjm::dataset::check_values(7, &q, &w, &d, None).unwrap_err();
+    let e = vjm::dataset::check_values(7, Measurements::new(&q, &w, &d)).unwrap_err();
     assert!(
         matches!(e, DatasetError::NegligibleLoad { rows: 6, .. }),
         "{e}"
@@ -168,7 +169,13 @@ fn campaign(seed: u64, force_max: Option<f64>) -> (Vec<f64>, Vec<f64>, Vec<f64>)
 
 fn warnings_of(q: &[f64], w: &[f64], d: &[f64], model: &VirtualJointModel) -> Vec<DataWarning> {
     let chain = SerialChain::bundled();
-    let id = identify(&chain, model, q, w, d, None, &IdentifyOptions::default()).unwrap();
+    let id = identify(
+        &chain,
+        model,
+        Measurements::new(q, w, d),
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
     review(&id, w, d)
 }
 
@@ -236,7 +243,7 @@ fn wrenches_in_kn_or_displacements_in_mm_are_a_compliance_scale_warning() {
     let light: Vec<f64> = w.iter().map(|v| v * scale).collect();
     let mm: Vec<f64> = d.iter().map(|v| v * scale * 1e3).collect();
     for (name, wrench, disp) in [("kN", &kn, &d), ("mm", &light, &mm)] {
-        vjm::dataset::check_values(7, &q, wrench, disp, None).unwrap();
+        vjm::dataset::check_values(7, Measurements::new(&q, wrench, disp)).unwrap();
         let found = warnings_of(&q, wrench, disp, &VirtualJointModel::traditional(7));
         assert!(
             found

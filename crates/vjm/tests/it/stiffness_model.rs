@@ -5,6 +5,7 @@
 #![allow(clippy::needless_range_loop)] // loops over [dx, dy, dz] read clearer indexed
 
 use std::path::{Path, PathBuf};
+use vjm::Measurements;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -81,7 +82,7 @@ fn fit(
     let w: Vec<f64> = train.iter().flat_map(|&i| data.wrench(i)).collect();
     let d: Vec<f64> = train.iter().flat_map(|&i| data.displacement(i)).collect();
     assert_eq!(q.len(), train.len() * n);
-    let id = identify(chain, model, &q, &w, &d, None, opts).unwrap();
+    let id = identify(chain, model, Measurements::new(&q, &w, &d), opts).unwrap();
     let sm = StiffnessModel::from_identification(
         &id,
         chain,
@@ -190,7 +191,7 @@ fn a_pose_outside_what_the_data_saw_is_flagged() {
         d.extend(&di[..3]);
     }
     let opts = IdentifyOptions::default();
-    let id = identify(&chain, &model, &q, &w, &d, None, &opts).unwrap();
+    let id = identify(&chain, &model, Measurements::new(&q, &w, &d), &opts).unwrap();
     assert!(id.rank <= 6, "rank {}", id.rank);
     let sm =
         StiffnessModel::from_identification(&id, &chain, &model, &opts, DataSource::in_memory(12))
@@ -554,7 +555,8 @@ fn robust(sm: StiffnessModel, chain: &SerialChain, data: &Dataset<'_>) -> Stiffn
     let q: Vec<f64> = train.iter().flat_map(|&i| data.q(i).to_vec()).collect();
     let w: Vec<f64> = train.iter().flat_map(|&i| data.wrench(i)).collect();
     let d: Vec<f64> = train.iter().flat_map(|&i| data.displacement(i)).collect();
-    sm.with_robust_covariance(chain, &q, &w, &d, None).unwrap()
+    sm.with_robust_covariance(chain, Measurements::new(&q, &w, &d))
+        .unwrap()
 }
 
 /// `predict` and `predict_sag` run in fixed-size row blocks on every core: on 2 500 rows

@@ -7,6 +7,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, RngSeed};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use vjm::Measurements;
 use vjm::SerialChain;
 
 /// Proptest configuration: `cases` cases from a fixed seed, so every run sees the same inputs.
@@ -158,7 +159,7 @@ pub fn identified_model(
     let data = simulate(chain, &truth, spec).unwrap().dataset;
     let (q, w, d) = (data.q_flat(), data.wrench_flat(), data.displacement_flat());
     let opts = IdentifyOptions::default();
-    let id = identify(chain, model, q, w, d, None, &opts).unwrap();
+    let id = identify(chain, model, Measurements::new(q, w, d), &opts).unwrap();
     StiffnessModel::from_identification(&id, chain, model, &opts, DataSource::in_memory(data.len()))
         .unwrap()
 }

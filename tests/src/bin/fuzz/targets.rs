@@ -6,6 +6,7 @@
 use so3_stiffness::identification::{self as csjm, CsjmDataset, FitOptions, FitOrder, ReadOptions};
 use vjm::dataset::Dataset;
 use vjm::testbed::{simulate, CampaignSpec, TrueModel};
+use vjm::Measurements;
 use vjm::{
     identify, jacobian, CompensateOptions, IdentifyOptions, Load, ModelError, SerialChain,
     SolveMethod, StiffnessModel, VirtualJointModel,
@@ -123,10 +124,8 @@ fn identify_dataset(
     let result = identify(
         chain,
         model,
-        data.q_flat(),
-        data.wrench_flat(),
-        data.displacement_flat(),
-        rotation.as_deref(),
+        Measurements::new(data.q_flat(), data.wrench_flat(), data.displacement_flat())
+            .with_rotation(rotation.as_deref()),
         &opts,
     );
     match result {
