@@ -17,6 +17,7 @@ pub mod gravity;
 pub mod identify_partial;
 pub mod interrupt;
 pub mod output_tables;
+pub mod paper_study;
 pub mod results;
 pub mod so3;
 pub mod stiffness_model;
@@ -63,6 +64,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     gravity::register(m)?;
     identify_partial::register(m)?;
     vjm_data::register(m)?;
+    paper_study::register(m)?;
     stiffness_model::register(m)?;
     use_model::register(m)?;
     output_tables::register(m)?;

@@ -463,7 +463,7 @@ pub fn vjm_paper_study<'py>(
     seed: u64,
     links: bool,
     link_share: Option<f64>,
-) -> PyResult<Bound<'py, PyAny>> {
+) -> PyResult<Py<crate::paper_study::PyPaperStudy>> {
     let chain = &robot.chain;
     if let Some(r) = tilt_ratio {
         if !(r.is_finite() && r >= 0.0) {
@@ -516,11 +516,7 @@ pub fn vjm_paper_study<'py>(
         ))
     })?
     .map_err(IntoPyErr::into_py_err)?;
-    let mut json =
-        serde_json::to_value(&study).map_err(|e| crate::errors::internal_error(e.to_string()))?;
-    json["tilt_ratio"] = serde_json::json!(ratio);
-    json["link_scale"] = serde_json::json!(scale);
-    crate::results::native(py, &json)
+    crate::paper_study::paper_study(py, &study, ratio, scale)
 }
 
 /// Registers the functions on `m`.

@@ -5,8 +5,8 @@ from __future__ import annotations
 import contextlib
 import os
 import warnings
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
+from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, TypeVar, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -479,45 +479,33 @@ class PaperStudy(FieldEq):
     paper: PaperFigures
 
     @classmethod
-    def _from_core(cls, d: Dict[str, Any]) -> "PaperStudy":
+    def _from_core(cls, d: "_core.PaperStudy") -> "PaperStudy":
+        def model(m: "_core.PaperModelErrors") -> PaperModelErrors:
+            return PaperModelErrors(magnitude=_fields_of(PaperErrors, m.magnitude), vector=_fields_of(PaperErrors, m.vector))
 
-        def model(m: Dict[str, Any]) -> PaperModelErrors:
-            return PaperModelErrors(magnitude=PaperErrors(**m["magnitude"]), vector=PaperErrors(**m["vector"]))
-
-        rows = d["rows"]
-
-        def col(key: str, dtype: Any) -> Any:
-            return np.asarray([r[key] for r in rows], dtype=dtype)
-
+        rows = _fields_of(PaperStudyRows, d.rows)
         return cls(
-            traditional=model(d["traditional"]),
-            extended=model(d["extended"]),
-            full=model(d["full"]),
-            rows=PaperStudyRows(
-                test=col("test", np.int64),
-                configuration=col("configuration", np.int64),
-                load=col("load", np.int64),
-                identification=col("identification", np.bool_),
-                measured=col("measured", np.float64).reshape(-1, 3),
-                traditional=col("traditional", np.float64).reshape(-1, 3),
-                extended=col("extended", np.float64).reshape(-1, 3),
-                traditional_magnitude_error=col("traditional_magnitude_error", np.float64),
-                traditional_vector_error=col("traditional_vector_error", np.float64),
-                extended_magnitude_error=col("extended_magnitude_error", np.float64),
-                extended_vector_error=col("extended_vector_error", np.float64),
-                full=col("full", np.float64).reshape(-1, 3),
-                full_magnitude_error=col("full_magnitude_error", np.float64),
-                full_vector_error=col("full_vector_error", np.float64),
-            ),
-            extended_rank=int(d["extended_rank"]),
-            full_rank=int(d["full_rank"]),
-            torsion_share=float(d["torsion_share"]),
-            link_share=float(d["link_share"]),
-            tilt_ratio=float(d["tilt_ratio"]),
-            link_scale=float(d["link_scale"]),
-            clipped=[PaperClippedAngle(**c) for c in d["clipped"]],
-            paper=PaperFigures(**d["paper"]),
+            traditional=model(d.traditional),
+            extended=model(d.extended),
+            full=model(d.full),
+            rows=rows,
+            extended_rank=int(d.extended_rank),
+            full_rank=int(d.full_rank),
+            torsion_share=float(d.torsion_share),
+            link_share=float(d.link_share),
+            tilt_ratio=float(d.tilt_ratio),
+            link_scale=float(d.link_scale),
+            clipped=[_fields_of(PaperClippedAngle, c) for c in d.clipped],
+            paper=_fields_of(PaperFigures, d.paper),
         )
+
+
+_T = TypeVar("_T")
+
+
+def _fields_of(cls: "type[_T]", obj: Any) -> _T:
+    """A dataclass built from the same-named attributes of a typed core result."""
+    return cls(**{f.name: getattr(obj, f.name) for f in fields(cls)})  # type: ignore[arg-type]
 
 
 @checked
