@@ -303,10 +303,10 @@ impl<R: Read> CsvReader<R> {
             breaks: vec![(0, self.line)],
             sha256: None,
         };
-        // File line of the next chunk's first line; rows the file is expected to hold (from its
-        // size and the first chunk's lines), once known.
+        // File line of the next chunk's first line; whether the arrays have reserved the rows
+        // the file is expected to hold (after the first chunk's rows are known).
         let mut line = self.line;
-        let mut expected_rows: Option<usize> = None;
+        let mut reserved = false;
         // Chunk k's pieces are parsed on the pool, straight into the table's arrays, while this
         // thread reads chunk k + 1 into `spare` (and hashes chunk k, when asked): the serial
         // work hides behind the parallel work. Pieces count their lines themselves (relative
@@ -338,13 +338,8 @@ impl<R: Read> CsvReader<R> {
             // Room from the table's current end for as many rows as each piece may hold.
             let rooms: Vec<usize> = pieces.par_iter().map(|p| row_room(p, width)).collect();
             let room = table.rows + rooms.iter().sum::<usize>();
-            let expected = *expected_rows.get_or_insert_with(|| {
-                self.size.map_or(0, |size| {
-                    expected_rows_of(size, self.consumed + end as u64, room, width)
-                })
-            });
             for (values, &w) in table.values.iter_mut().zip(&widths) {
-                values.grow_to(room * w, expected * w);
+                values.grow_to(room * w);
             }
             // The incomplete last line starts the next chunk.
             let tail = data.len() - end;
@@ -377,6 +372,15 @@ impl<R: Read> CsvReader<R> {
             table.commit(parsed, &rooms, &widths, &mut line)?;
             next?;
             self.consumed += end as u64;
+            if let (false, Some(size)) = (reserved, self.size) {
+                reserved = table.rows > 0;
+                if reserved {
+                    let rows = expected_rows_of(size, self.consumed, table.rows);
+                    for (values, &w) in table.values.iter_mut().zip(&widths) {
+                        values.try_reserve_total(rows.saturating_mul(w));
+                    }
+                }
+            }
             std::mem::swap(&mut self.buf, &mut spare);
             self.filled = spare_filled;
             self.eof = spare_eof;
@@ -389,14 +393,11 @@ impl<R: Read> CsvReader<R> {
     }
 }
 
-/// Rows a file of `size` bytes is expected to hold, from the `lines` of its first `bytes`
-/// (2 % over, for rows a little shorter than the first ones), and never more than the file
-/// could hold (a row has `width` fields, so at least `width` bytes with its line end): the
-/// arrays are made that long at once, in memory not touched until a row is parsed into it.
-fn expected_rows_of(size: u64, bytes: u64, lines: usize, width: usize) -> usize {
-    let per_line = bytes.max(1) as f64 / lines.max(1) as f64;
-    let estimate = (size as f64 / per_line * 1.02) as u64;
-    estimate.min(size / width.max(1) as u64 + 1) as usize
+/// Rows a file of `size` bytes is expected to hold, from the `rows` of its first `bytes`
+/// (2 % over, for rows a little shorter than the first ones).
+fn expected_rows_of(size: u64, bytes: u64, rows: usize) -> usize {
+    let per_row = bytes.max(1) as f64 / rows.max(1) as f64;
+    (size as f64 / per_row * 1.02).min(usize::MAX as f64 / 16.0) as usize
 }
 
 /// The most rows a piece of complete lines can hold: one per line (the last may lack its line

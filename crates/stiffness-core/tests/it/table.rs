@@ -511,9 +511,10 @@ fn ints_floats_lines<R: std::io::Read>(reader: CsvReader<R>) -> (Vec<i64>, Vec<f
     (t.take_integers(i), t.take_floats(x), lines)
 }
 
-/// A file is read from its path with arrays sized from its first chunk: whether that guess is
-/// right, far too short (long first rows) or far too long (a first chunk of blank lines), every
-/// row of every table reads as the same bytes read from memory do, with its own values and line.
+/// A file is read from its path with arrays that reserve what its first chunk predicts: whether
+/// that guess is right, far too short (long first rows) or absent (a first chunk of blank
+/// lines), every row of every table reads as the same bytes read from memory do, with its own
+/// values and line.
 #[test]
 fn a_file_reads_every_row_however_its_first_chunk_predicts_the_rest() {
     let nanos = std::time::SystemTime::now()
@@ -553,6 +554,52 @@ fn a_file_reads_every_row_however_its_first_chunk_predicts_the_rest() {
                 assert_eq!(x, (i as f64).ln_1p() - 4.0, "{name}: row {i}");
                 assert_eq!(lines[i], (i + 2 + blank) as u64, "{name}: row {i}");
             }
+        }
+    }
+    std::fs::remove_dir(&dir).unwrap();
+}
+
+/// A file whose size promises far more rows than it holds (a sparse file: a header, a first
+/// chunk of blank lines or of short rows, then a hole of 64 GiB read as NUL bytes) is an error
+/// naming the first line of the hole, not an allocation of hundreds of GB that aborts the
+/// process (the arrays only reserve what the allocator grants, and only from rows seen).
+#[test]
+fn a_sparse_file_is_an_error_not_an_abort() {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos();
+    let dir = std::env::temp_dir().join(format!("table-sparse-{}-{nanos}", std::process::id()));
+    std::fs::create_dir(&dir).unwrap();
+    let chunk = stiffness_core::table::read::CHUNK_BYTES;
+    let blank = format!("a,b,c\n{}", "\n".repeat(chunk + 7));
+    let short = format!("a,b,c\n{}", "1,2,3\n".repeat(chunk / 6 + 7));
+    for (name, head, first_hole_line) in [
+        ("blank lines", blank, chunk as u64 + 9),
+        ("short rows", short, (chunk / 6) as u64 + 9),
+    ] {
+        let path = dir.join("sparse.csv");
+        std::fs::write(&path, &head).unwrap();
+        let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+        if let Err(e) = file.set_len(64 << 30) {
+            // A file system without sparse files cannot make the case; nothing to test.
+            eprintln!("skipped ({name}): no sparse file here: {e}");
+            std::fs::remove_file(&path).unwrap();
+            continue;
+        }
+        drop(file);
+        let mut layout = Layout::new();
+        layout.group(CellKind::Float, vec![(0, "a".into())]);
+        let got = CsvReader::open(&path)
+            .unwrap()
+            .read(&layout, &Cancel::new());
+        std::fs::remove_file(&path).unwrap();
+        match got {
+            Err(TableError::Malformed { line, message }) => {
+                assert_eq!(line, first_hole_line, "{name}: {message}");
+                assert!(message.contains("longer than"), "{name}: {message}");
+            }
+            other => panic!("{name}: expected the hole to be a malformed line, got {other:?}"),
         }
     }
     std::fs::remove_dir(&dir).unwrap();

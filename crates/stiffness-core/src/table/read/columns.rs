@@ -3,9 +3,8 @@
 //! Pieces parse straight into the final arrays: each chunk's rows get room at the end of every
 //! group's array (as many rows as the chunk can hold: a row a line, no more than its bytes
 //! allow), and that room is cut into one part per piece. Nothing is parsed into a buffer of its
-//! own and copied again, and when the file's size is known the arrays start as zeroed memory the
-//! kernel has not handed out yet (`vec![0; n]` asks the allocator for zeroed pages), so every
-//! page is first touched, and faulted in, by the thread that parses into it.
+//! own and copied again. When the file's size is known, the arrays reserve (without writing)
+//! the rows it is expected to hold after the first chunk, so that they are not reallocated.
 
 use super::CellKind;
 
@@ -34,30 +33,25 @@ impl Values {
         }
     }
 
-    fn len(&self) -> usize {
+    /// Makes the array at least `len` long (the new values zeros).
+    pub(super) fn grow_to(&mut self, len: usize) {
         match self {
-            Values::Float(v) => v.len(),
-            Values::Integer(v) => v.len(),
-            Values::Label(v) => v.len(),
+            Values::Float(v) if v.len() < len => v.resize(len, 0.0),
+            Values::Integer(v) if v.len() < len => v.resize(len, 0),
+            Values::Label(v) if v.len() < len => v.resize(len, 0),
+            _ => {}
         }
     }
 
-    /// Makes the array at least `len` long. An empty array with a larger `expected` length is
-    /// made that long at once in zeroed, untouched memory; otherwise the new values are zeros
-    /// written here.
-    pub(super) fn grow_to(&mut self, len: usize, expected: usize) {
-        if self.len() >= len {
-            return;
-        }
-        let fresh = self.len() == 0 && expected > len;
-        match self {
-            Values::Float(v) if fresh => *v = vec![0.0; expected],
-            Values::Integer(v) if fresh => *v = vec![0; expected],
-            Values::Label(v) if fresh => *v = vec![0; expected],
-            Values::Float(v) => v.resize(len, 0.0),
-            Values::Integer(v) => v.resize(len, 0),
-            Values::Label(v) => v.resize(len, 0),
-        }
+    /// Reserves room for `len` values in all, if the allocator grants it: a capacity, not
+    /// memory written (a file's size can promise more rows than it holds, e.g. a sparse file
+    /// of blank lines, so a refusal is not an error: the arrays then grow chunk by chunk).
+    pub(super) fn try_reserve_total(&mut self, len: usize) {
+        let _ = match self {
+            Values::Float(v) => v.try_reserve_exact(len.saturating_sub(v.len())),
+            Values::Integer(v) => v.try_reserve_exact(len.saturating_sub(v.len())),
+            Values::Label(v) => v.try_reserve_exact(len.saturating_sub(v.len())),
+        };
     }
 
     pub(super) fn truncate(&mut self, len: usize) {
