@@ -157,7 +157,10 @@ impl ScaledSvd {
     pub fn solve(&self, y: &[f64]) -> Vec<f64> {
         let p = self.scales.len();
         let mut beta = vec![0.0; p];
-        debug_assert!(self.u.is_some(), "ScaledSvd::solve needs the SVD taken with U");
+        debug_assert!(
+            self.u.is_some(),
+            "ScaledSvd::solve needs the SVD taken with U"
+        );
         let Some(u) = self.u.as_ref() else {
             return beta;
         };
