@@ -355,9 +355,9 @@ pub fn vjm_design(
 }
 
 /// A planned campaign: `q` (N, n) rad, `wrench` (N, 6) N and N·m (base frame), `pose` (N,)
-/// int64 pose ids, the `rank` the plan reaches, its `combinations` (their fields: `label`,
-/// `stderr`, `terms` of `param` and `coefficient`, `weak`), `worst_stderr` (None when not
-/// finite), the `noise` model assumed (its fields) and `pose_compliance_wrenches`.
+/// int64 pose ids, the `rank` the plan reaches, its `combinations`
+/// ([`PyPlannedCombination`]), `worst_stderr` (None when not finite), the `noise` model assumed
+/// (a dict of its fields) and `pose_compliance_wrenches`.
 #[derive(Debug)]
 #[pyclass(module = "robot_stiffness._core", name = "DesignPlan", frozen, get_all)]
 pub struct PyDesignPlan {
@@ -369,14 +369,35 @@ pub struct PyDesignPlan {
     pub pose: Py<PyAny>,
     /// Rank reached.
     pub rank: usize,
-    /// The planned combinations (a list of dicts of their fields).
-    pub combinations: Py<PyAny>,
+    /// The planned combinations.
+    pub combinations: Vec<Py<PyPlannedCombination>>,
     /// The largest predicted standard error, or None when it is not finite.
     pub worst_stderr: Option<f64>,
     /// The noise model assumed (a dict of its fields).
     pub noise: Py<PyAny>,
     /// Wrenches per pose of the pose-compliance rows.
     pub pose_compliance_wrenches: usize,
+}
+
+/// A combination of parameters a plan determines: its label, its predicted standard error
+/// (rad/(N·m); None when not finite), its terms `(parameter index, coefficient)` and whether it
+/// is weak.
+#[derive(Debug)]
+#[pyclass(
+    module = "robot_stiffness._core",
+    name = "PlannedCombination",
+    frozen,
+    get_all
+)]
+pub struct PyPlannedCombination {
+    /// E.g. `J1y + J2z`.
+    pub label: String,
+    /// Predicted standard error, or None when it is not finite.
+    pub stderr: Option<f64>,
+    /// `(parameter index, coefficient)` of each term.
+    pub terms: Vec<(usize, f64)>,
+    /// Above its value or above 1e-2 rad/(N·m).
+    pub weak: bool,
 }
 
 impl PyDesignPlan {
@@ -388,7 +409,21 @@ impl PyDesignPlan {
             wrench: numpy_field(py, plan.wrench.concat(), &[rows, 6])?,
             pose: numpy::PyArray1::from_vec(py, pose).into_any().unbind(),
             rank: plan.rank,
-            combinations: native_field(py, &plan.combinations)?,
+            combinations: plan
+                .combinations
+                .iter()
+                .map(|c| {
+                    Py::new(
+                        py,
+                        PyPlannedCombination {
+                            label: c.label.clone(),
+                            stderr: c.stderr.is_finite().then_some(c.stderr),
+                            terms: c.terms.iter().map(|t| (t.param, t.coefficient)).collect(),
+                            weak: c.weak,
+                        },
+                    )
+                })
+                .collect::<PyResult<_>>()?,
             worst_stderr: plan.worst_stderr.is_finite().then_some(plan.worst_stderr),
             noise: native_field(py, &plan.noise)?,
             pose_compliance_wrenches: plan.pose_compliance_wrenches,
@@ -399,6 +434,7 @@ impl PyDesignPlan {
 /// Registers the functions on `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyDesignPlan>()?;
+    m.add_class::<PyPlannedCombination>()?;
     m.add_function(wrap_pyfunction!(vjm_compensate, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_design, m)?)?;
     m.add_function(wrap_pyfunction!(vjm_compensate_model_file, m)?)?;

@@ -28,6 +28,7 @@ __all__ = [
     "PaperModelErrors",
     "PaperStudy",
     "PaperStudyRows",
+    "PlannedCombination",
     "PredictionColumns",
     "VJM_COMPENSATION_COLUMNS",
     "VJM_PREDICTION_COLUMNS",
@@ -426,6 +427,20 @@ class PaperStudy:
     def paper(self) -> PaperFigures: ...
 
 @final
+class PlannedCombination:
+    """A combination a plan determines: label, predicted stderr (None when not finite), terms
+    as (parameter index, coefficient), weak."""
+
+    @property
+    def label(self) -> str: ...
+    @property
+    def stderr(self) -> Optional[float]: ...
+    @property
+    def terms(self) -> List[Tuple[int, float]]: ...
+    @property
+    def weak(self) -> bool: ...
+
+@final
 class DesignPlan:
     """A planned VJM campaign: rows (rad, N, N·m, base frame) and what the plan determines."""
 
@@ -438,7 +453,7 @@ class DesignPlan:
     @property
     def rank(self) -> int: ...
     @property
-    def combinations(self) -> List[Dict[str, Any]]: ...
+    def combinations(self) -> List[PlannedCombination]: ...
     @property
     def worst_stderr(self) -> Optional[float]: ...
     @property

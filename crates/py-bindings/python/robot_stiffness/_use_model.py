@@ -269,13 +269,13 @@ def design(
         inner, model_spec(model), int(poses), int(wrenches_per_pose), int(seed), float(margin), int(pool_size),
         progress=progress, gravity=None if gravity is None else gravity_vector(gravity))
     labels = robot.labels(model)
-    # Non-finite standard errors arrive as None (their serialised form): an unbounded one.
+    # A non-finite standard error arrives as None: an unbounded one.
     combos = tuple(
         PlannedCombination(
-            label=c["label"],
-            stderr=math.inf if c["stderr"] is None else float(c["stderr"]),
-            terms=tuple((labels[t["param"]], float(t["coefficient"])) for t in c["terms"]),
-            weak=bool(c["weak"]),
+            label=c.label,
+            stderr=math.inf if c.stderr is None else float(c.stderr),
+            terms=tuple((labels[param], float(coefficient)) for param, coefficient in c.terms),
+            weak=bool(c.weak),
         )
         for c in plan.combinations
     )
