@@ -99,7 +99,7 @@ impl Pseudoinverse {
         };
         for (s, u, v) in svd.kept_triplets() {
             out.w.push(v.iter().map(|x| x / s).collect());
-            out.u.push(u);
+            out.u.push(u.clone());
         }
         out
     }

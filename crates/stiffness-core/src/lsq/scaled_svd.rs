@@ -43,14 +43,10 @@ use crate::decompose::NotConverged;
 pub struct ScaledSvd {
     /// Each column's norm, `None` for a column not in the data.
     scales: Vec<Option<f64>>,
-    /// Singular values, nonincreasing.
-    singular_values: Vec<f64>,
-    /// Left singular vectors (rows × min(rows, p)), when asked for.
-    u: Option<Mat<f64>>,
-    /// Right singular vectors (p × min(rows, p)).
-    v: Mat<f64>,
-    /// Singular values above this (and finite) are kept.
-    cut: f64,
+    /// The kept singular values, decreasing, each with its U_k (length rows; empty without
+    /// U) and its right singular vector in the columns' units, D V_k (0 for a column not in
+    /// the data): the rank decision is made once, here.
+    kept: Vec<(f64, Vec<f64>, Vec<f64>)>,
 }
 
 impl ScaledSvd {
@@ -87,16 +83,27 @@ impl ScaledSvd {
             iterations: crate::decompose::iteration_cap(rows.min(cols.len())),
         };
         let svd = x.thin_svd().map_err(|_| not_converged)?;
-        let k = rows.min(cols.len());
-        let singular_values: Vec<f64> = (0..k).map(|i| svd.S().column_vector()[i]).collect();
-        let s_max = singular_values.iter().copied().fold(0.0, f64::max);
-        Ok(ScaledSvd {
-            scales,
-            singular_values,
-            u: with_u.then(|| svd.U().to_owned()),
-            v: svd.V().to_owned(),
-            cut: policy.rank_rtol * s_max.max(f64::MIN_POSITIVE),
-        })
+        let sigma = svd.S().column_vector();
+        let s_max = (0..sigma.nrows()).map(|k| sigma[k]).fold(0.0, f64::max);
+        let cut = policy.rank_rtol * s_max.max(f64::MIN_POSITIVE);
+        let (u, v) = (svd.U(), svd.V());
+        let kept = (0..sigma.nrows())
+            .filter(|&k| sigma[k] > cut && sigma[k].is_finite())
+            .map(|k| {
+                let uk = if with_u {
+                    (0..u.nrows()).map(|i| u[(i, k)]).collect()
+                } else {
+                    Vec::new()
+                };
+                let dv = scales
+                    .iter()
+                    .enumerate()
+                    .map(|(j, sc)| sc.map_or(0.0, |n| v[(j, k)] / n))
+                    .collect();
+                (sigma[k], uk, dv)
+            })
+            .collect();
+        Ok(ScaledSvd { scales, kept })
     }
 
     /// Whether each column is in the data (a column that is not gets coefficient 0 and a NaN
@@ -113,61 +120,30 @@ impl ScaledSvd {
             .collect()
     }
 
-    fn kept(&self, k: usize) -> bool {
-        let s = self.singular_values[k];
-        s > self.cut && s.is_finite()
-    }
-
-    fn kept_indices(&self) -> impl Iterator<Item = usize> + '_ {
-        (0..self.singular_values.len()).filter(|&k| self.kept(k))
-    }
-
     /// Singular values kept: the design's numerical rank.
     pub fn rank(&self) -> usize {
-        self.kept_indices().count()
-    }
-
-    /// V_k in the columns' units: `V_k[j] / ‖column j‖`, 0 for a column not in the data.
-    fn unscaled_v(&self, k: usize) -> Vec<f64> {
-        self.scales
-            .iter()
-            .enumerate()
-            .map(|(j, sc)| sc.map_or(0.0, |n| self.v[(j, k)] / n))
-            .collect()
+        self.kept.len()
     }
 
     /// The kept singular values in decreasing order, each as `(σ_k, U_k, D V_k)`: U_k of
     /// length rows (empty when the SVD was taken without U) and the right singular vector in
     /// the columns' units (`V_k[j] / ‖column j‖`, 0 for a column not in the data), so that the
     /// minimum-norm coefficients of `y` are `Σ_k D V_k (U_kᵀ y) / σ_k`.
-    pub fn kept_triplets(&self) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
-        self.kept_indices()
-            .map(|k| {
-                let u = self
-                    .u
-                    .as_ref()
-                    .map_or_else(Vec::new, |u| (0..u.nrows()).map(|i| u[(i, k)]).collect());
-                (self.singular_values[k], u, self.unscaled_v(k))
-            })
-            .collect()
+    pub fn kept_triplets(&self) -> &[(f64, Vec<f64>, Vec<f64>)] {
+        &self.kept
     }
 
     /// The minimum-norm least-squares coefficients of `y` (one per column, in the columns'
     /// units; 0 for a column not in the data). Zeros when the SVD was taken without U.
     pub fn solve(&self, y: &[f64]) -> Vec<f64> {
-        let p = self.scales.len();
-        let mut beta = vec![0.0; p];
-        debug_assert!(
-            self.u.is_some(),
-            "ScaledSvd::solve needs the SVD taken with U"
-        );
-        let Some(u) = self.u.as_ref() else {
-            return beta;
-        };
-        for k in self.kept_indices() {
-            let uy: f64 = (0..u.nrows()).map(|i| u[(i, k)] * y[i]).sum();
-            let c = uy / self.singular_values[k];
-            for (b, v) in beta.iter_mut().zip(self.unscaled_v(k)) {
+        let mut beta = vec![0.0; self.scales.len()];
+        for (sigma, u, dv) in &self.kept {
+            debug_assert!(
+                u.len() == y.len(),
+                "ScaledSvd::solve needs the SVD taken with U"
+            );
+            let c = u.iter().zip(y).map(|(a, b)| a * b).sum::<f64>() / sigma;
+            for (b, v) in beta.iter_mut().zip(dv) {
                 *b += v * c;
             }
         }
@@ -180,9 +156,8 @@ impl ScaledSvd {
     pub fn covariance(&self, s2: f64) -> DMatrix<f64> {
         let p = self.scales.len();
         let mut cov = DMatrix::zeros(p, p);
-        for k in self.kept_indices() {
-            let vk = self.unscaled_v(k);
-            let w = s2 / (self.singular_values[k] * self.singular_values[k]);
+        for (sigma, _, vk) in &self.kept {
+            let w = s2 / (sigma * sigma);
             for i in 0..p {
                 for j in 0..p {
                     cov[(i, j)] += vk[i] * vk[j] * w;
