@@ -11,7 +11,8 @@ plus 10 µm noise, a ``pose`` and a ``set`` column), writes it with the library'
 * the CLI ``robot-stiffness identify vjm FILE.csv`` end to end (a fresh interpreter: start-up,
   reading, identification, output), the same model and gravity setting as the in-memory run.
 
-Every timing is the median of ``--repeat`` runs. By default the fit is the weightless one
+Every timing is the median of ``--repeat`` rounds; in a round every step runs once, in turn,
+so that the ratios are taken under the same machine load. By default the fit is the weightless one
 (``gravity=None``, CLI ``--no-gravity``), so that the ratios show the cost of the file; pass
 ``--gravity`` for the default gravity model on both sides. A markdown table goes to stdout.
 
@@ -56,13 +57,20 @@ def campaign(robot: Robot, n: int) -> Measurements:
     return Measurements(q=q, wrench=w, displacement=d, pose=pose, set=sets)
 
 
-def median_time(repeat: int, f: Callable[[], object]) -> float:
-    times: List[float] = []
+def median_times(repeat: int, steps: Sequence[Callable[[], object]]) -> List[float]:
+    """The median time of each step over ``repeat`` rounds; in a round each step runs once, in order."""
+    times: List[List[float]] = [[] for _ in steps]
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+        for f, ts in zip(steps, times):
+            t0 = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t0)
+    return [statistics.median(ts) for ts in times]
+
+
+def median_time(repeat: int, f: Callable[[], object]) -> float:
+    """The median time of ``repeat`` runs of ``f``."""
+    return median_times(repeat, [f])[0]
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -83,33 +91,32 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             nonlocal text
             text = data.to_csv_text()
 
-        t_write = median_time(args.repeat, write)
+        write()
         path.write_text(text)
         size = path.stat().st_size
         del text
-        t_read = median_time(args.repeat, lambda: _core.vjm_read_csv(str(path), robot.n_joints))
         read = _core.vjm_read_csv(str(path), robot.n_joints)
         assert np.array_equal(read.q, data.q) and np.array_equal(read.displacement, data.displacement)
+        del read
         robot.identify(data.q[:1000], data.wrench[:1000], data.displacement[:1000], **gravity_kw)  # warm-up
-        t_identify = median_time(
-            args.repeat, lambda: robot.identify(data.q, data.wrench, data.displacement, **gravity_kw)
-        )
         cli = [sys.executable, "-m", "robot_stiffness.cli", "identify", "vjm", str(path), "--json",
                str(Path(tmp) / "id.json"), "--force"]
         if not args.gravity:
             cli.append("--no-gravity")
-
-        def run_cli() -> None:
-            subprocess.run(cli, check=True, stdout=subprocess.DEVNULL, env=os.environ.copy())
-
-        t_cli = median_time(args.repeat, run_cli)
-        t_start = median_time(
-            args.repeat, lambda: subprocess.run([sys.executable, "-c", "import robot_stiffness.cli"], check=True)
-        )
+        steps: List[Callable[[], object]] = [
+            write,
+            lambda: _core.vjm_read_csv(str(path), robot.n_joints),
+            lambda: robot.identify(data.q, data.wrench, data.displacement, **gravity_kw),
+            lambda: subprocess.run(cli, check=True, stdout=subprocess.DEVNULL, env=os.environ.copy()),
+            lambda: subprocess.run([sys.executable, "-c", "import robot_stiffness.cli"], check=True),
+        ]
+        # The steps take turns, one run each per round, so that a machine that slows down or
+        # speeds up during the run moves every step's median alike and the ratios hold.
+        t_write, t_read, t_identify, t_cli, t_start = median_times(args.repeat, steps)
 
     fit = "under gravity" if args.gravity else "weightless"
     print(f"robot_stiffness {_core.__version__}; {args.rows:,} rows × {robot.n_joints} joints "
-          f"(+ pose, set), {size / 1e6:.0f} MB of CSV; {fit} fit; median of {args.repeat} runs; "
+          f"(+ pose, set), {size / 1e6:.0f} MB of CSV; {fit} fit; median of {args.repeat} rounds; "
           f"{os.cpu_count()} cores\n")
     print("| step | time | ratio to in-memory identify |")
     print("| --- | ---: | ---: |")

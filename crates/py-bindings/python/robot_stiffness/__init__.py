@@ -26,11 +26,14 @@ from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 from typing import List as _List
 
+from ._console_process import leave_cores_to_the_core
 from ._interrupt import leave_quietly_while_starting
 
 # Before the extension and numpy load (a few hundred ms): a Ctrl-C of the console script then
-# exits 130 without a traceback.
+# exits 130 without a traceback, and numpy's BLAS does not spin on the cores the core's
+# thread pool is about to use.
 leave_quietly_while_starting()
+leave_cores_to_the_core()
 
 from . import _core  # noqa: E402
 from ._errors import (  # noqa: E402

@@ -18,7 +18,7 @@ import numpy.typing as npt
 from ._arguments import checked
 from ._equality import FieldEq
 from ._errors import InvalidValueError
-from .results import _build
+from ._core_values import build
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import StiffnessModel
@@ -113,7 +113,7 @@ class _CoreCombination:
 
 @dataclass(frozen=True)
 class _CoreIdentification:
-    """The core's identification result, typed (built by :func:`results._build`)."""
+    """The core's identification result, typed (built by ``_core_values.build``)."""
 
     model: str
     n_params: int
@@ -230,7 +230,7 @@ class Identification(FieldEq):
 
     @classmethod
     def _from_core(cls, value: Mapping[str, object], model: Optional["StiffnessModel"] = None) -> "Identification":
-        core = _build(_CoreIdentification, value)
+        core = build(_CoreIdentification, value)
         assert isinstance(core, _CoreIdentification)
         ci = np.array(
             [[np.nan, np.nan] if c is None else [c[0], c[1]] for c in core.ci95], dtype=np.float64

@@ -31,6 +31,8 @@ import sys
 import threading
 from typing import Any, Callable, Dict, Iterator, List, TypeVar
 
+from ._console_process import launched_as_console_script
+
 __all__ = [
     "Terminated",
     "Cancelled",
@@ -205,20 +207,12 @@ def _leave_while_starting(signum: int, frame: Any) -> None:
     os._exit(130 if signum == signal.SIGINT else 143)
 
 
-def _launched_as_console_script() -> bool:
-    argv = list(getattr(sys, "orig_argv", []))
-    if "-m" in argv[:-1] and argv[argv.index("-m") + 1] == "robot_stiffness.cli":
-        return True
-    name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
-    return name in ("robot-stiffness", "robot-stiffness.exe")
-
-
 def leave_quietly_while_starting() -> None:
     """When the process is the console script, SIGINT/SIGTERM that arrive while the package is
     still importing (before :func:`signals_raise` takes over) end it with 130/143 and one line,
     no traceback. A library import (``import robot_stiffness``) keeps Python's handlers; a
     signal the caller ignores stays ignored."""
-    if not _in_main_thread() or not _launched_as_console_script():
+    if not _in_main_thread() or not launched_as_console_script():
         return
     defaults = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
     for sig, default in defaults.items():

@@ -16,11 +16,11 @@ from . import _core
 from ._arguments import DEFAULT_GRAVITY, check_path, checked, gravity_vector
 from ._arrays import f64
 from ._errors import ArgumentTypeError, DataFileError, ShapeError
-from .results import Diagnosis
 from ._columnar import is_columnar_path, read_columns, release_arrow_memory
 from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column, column_names, columns, is_table, joint_columns, optional_columns
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
+    from .results import Diagnosis
     from .vjm import Robot
 
 Array = npt.NDArray[np.float64]
@@ -360,6 +360,9 @@ def diagnose(
         summary, rows = _diagnose_core(robot, m, baseline, fdr, test_fraction, split_seed, max_findings, progress,
                                        bool(allow_outside_limits), tracker_sigma, force_sigma, moment_sigma,
                                        bool(per_row), gravity)
+    # Imported here: the diagnosis classes are not loaded by the commands that do not diagnose.
+    from .results import Diagnosis
+
     return Diagnosis._from_core("vjm", summary, rows)
 
 

@@ -35,7 +35,8 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 from ._arguments import checked
 from ._errors import ArgumentTypeError, InvalidValueError, StiffnessError
 from ._identify_partial import IdentificationPartial
-from ._vjm_data import Diagnosis, as_measurements, diagnose
+from ._vjm_data import as_measurements, diagnose
+from .results import Diagnosis
 from .vjm import Identification, ModelSpec, Robot
 
 PathLike = Union[str, "os.PathLike[str]"]

@@ -10,7 +10,7 @@ of ``robot-stiffness diagnose … --json`` (the keys of docs/diagnose.md and
 docs/csjm-diagnose.md); the rows only with ``rows=True``. Results pickle.
 
 How a result is built: the core hands over its result struct as plain Python values (dicts,
-lists, numbers) and the rows as numpy columns; :func:`_build` fills each dataclass from the
+lists, numbers) and the rows as numpy columns; ``_core_values.build`` fills each dataclass from the
 values by the dataclass's own type hints. So a field the core gains is one line here — its
 name and type in the dataclass below (``tests/test_results_typed.py`` lists every key of the
 core that no field takes).
@@ -25,11 +25,18 @@ import operator
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Union
+from typing import Dict, Iterator, List, Mapping, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
 
+from ._core_values import build as _build
+from ._core_values import field_names as _field_names
+from ._core_values import fits as _fits
+from ._core_values import float_or_nan as _float
+from ._core_values import hints as _hints
+from ._core_values import json_key as _key
+from ._core_values import register_builder
 from ._equality import FieldEq
 
 __all__ = [
@@ -71,21 +78,6 @@ def _only(model: str, default: object = None, key: Optional[str] = None, former:
     JSON. ``former``: the key earlier versions wrote it under (read as well)."""
     meta = {"model": model, **({"key": key} if key else {}), **({"former": former} if former else {})}
     return field(default=default, metadata=meta)
-
-
-def _value_of(f: "dataclasses.Field[object]", value: Mapping[str, object]) -> Optional[str]:
-    """The key of ``f`` in ``value``: its JSON key, or the key earlier versions wrote it under
-    (``former`` in its metadata: a result saved before a rename reads back); None if neither."""
-    key = _key(f)
-    if key in value:
-        return key
-    former = f.metadata.get("former")
-    return str(former) if former is not None and former in value else None
-
-
-def _key(f: "dataclasses.Field[object]") -> str:
-    """The JSON key of a field (its name unless it is a Python keyword, e.g. ``lambda``)."""
-    return str(f.metadata.get("key", f.name))
 
 
 class _Result(FieldEq):
@@ -650,102 +642,10 @@ class Diagnosis(_Result):
 # ----------------------------------------------------------------------------- building
 
 
-def _field_names(cls: type) -> List[str]:
-    return [f.name for f in dataclasses.fields(cls)]
+register_builder(PoseErrors, PoseErrors._from_core)
 
 
-_HINTS: Dict[type, Dict[str, object]] = {}
-
-
-def _hints(cls: type) -> Dict[str, object]:
-    if cls not in _HINTS:
-        _HINTS[cls] = typing.get_type_hints(cls)  # resolved in the class's own module
-    return _HINTS[cls]
-
-
-def _fits(tp: object, value: object) -> bool:
-    """Whether ``value`` (a core value) has the shape of type ``tp`` (for picking a Union arm)."""
-    origin = typing.get_origin(tp)
-    if dataclasses.is_dataclass(tp):
-        required = {_key(f) for f in dataclasses.fields(tp)
-                    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING}
-        return isinstance(value, dict) and required <= set(value)
-    if origin in (list, List):
-        (item,) = typing.get_args(tp)
-        return isinstance(value, list) and all(_fits(item, v) for v in value[:1])
-    if origin is tuple:
-        return isinstance(value, (list, tuple)) and len(value) == len(typing.get_args(tp))
-    if tp is float:
-        return value is None or (isinstance(value, (int, float)) and not isinstance(value, bool))
-    if tp in (int, str, bool):
-        return isinstance(value, tp)
-    return True
-
-
-_FLAT: Dict[object, Optional[Callable[[Any], object]]] = {}
-
-
-def _float(v: object) -> float:
-    return math.nan if v is None else float(v)  # type: ignore[arg-type]
-
-
-def _flat_builder(tp: object) -> Optional[Callable[[Any], object]]:
-    """For a dataclass whose fields are all ``int``, ``float``, ``str`` or ``bool``: a function
-    that builds it from a core mapping as :func:`_build` does, without the per-field dispatch
-    (lists of such items are the long ones). ``None`` for any other type."""
-    if tp not in _FLAT:
-        builder: Optional[Callable[[Any], object]] = None
-        if dataclasses.is_dataclass(tp) and isinstance(tp, type):
-            hints = _hints(tp)
-            convert: Dict[object, Optional[Callable[[Any], object]]] = {int: int, float: _float, str: None, bool: None}
-            fields = dataclasses.fields(tp)
-            if all(hints[f.name] in convert for f in fields):
-                plan = [(f.name, _key(f), convert[hints[f.name]]) for f in fields]
-                cls: type = tp
-
-                def build(value: Any) -> object:
-                    if not isinstance(value, dict):
-                        raise TypeError(f"{cls.__name__} expects a mapping, got {type(value).__name__}")
-                    return cls(**{name: (value[key] if conv is None else conv(value[key]))
-                                  for name, key, conv in plan if key in value})
-
-                builder = build
-        _FLAT[tp] = builder
-    return _FLAT[tp]
-
-
-def _build(tp: object, value: object) -> object:
-    """``value`` (plain core values) as type ``tp``: dataclasses field by field (by JSON key),
-    lists item by item, a Union by its first fitting arm, null floats as NaN."""
-    origin = typing.get_origin(tp)
-    if origin is Union:
-        args = [a for a in typing.get_args(tp) if a is not type(None)]
-        if value is None and len(args) < len(typing.get_args(tp)):
-            return None
-        arm = next((a for a in args if _fits(a, value)), args[0])
-        return _build(arm, value)
-    if tp is PoseErrors:
-        return PoseErrors._from_core(value)
-    if dataclasses.is_dataclass(tp) and isinstance(tp, type):
-        if not isinstance(value, dict):
-            raise TypeError(f"{tp.__name__} expects a mapping, got {type(value).__name__}")
-        hints = _hints(tp)
-        keys = {f.name: _value_of(f, value) for f in dataclasses.fields(tp)}
-        kwargs = {name: _build(hints[name], value[key]) for name, key in keys.items() if key is not None}
-        return tp(**kwargs)
-    if origin in (list, List):
-        (item,) = typing.get_args(tp)
-        flat = _flat_builder(item)
-        if flat is not None:  # e.g. per_pose: one entry per pose, 10⁵ of them in a large campaign
-            return [flat(v) for v in value]  # type: ignore[attr-defined]
-        return [_build(item, v) for v in value]  # type: ignore[attr-defined]
-    if origin is tuple:
-        return tuple(_build(a, v) for a, v in zip(typing.get_args(tp), value))  # type: ignore[call-overload]
-    if tp is float:
-        return math.nan if value is None else float(value)  # type: ignore[arg-type]
-    if tp is int:
-        return int(value)  # type: ignore[call-overload]
-    return value
+# ----------------------------------------------------------------------------- building
 
 
 def _unbuild(obj: object, model: Optional[str]) -> Json:

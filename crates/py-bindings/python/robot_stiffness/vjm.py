@@ -30,7 +30,7 @@ from __future__ import annotations
 import contextlib
 import os
 import warnings
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -49,7 +49,6 @@ from ._errors import (
 from ._vjm_data import (
     Campaign,
     DataFile,
-    Diagnosis,
     Measurements,
     diagnose,
     PaperStudy,
@@ -82,6 +81,20 @@ from ._tables import (
     joint_columns,
     optional_columns,
 )
+
+if TYPE_CHECKING:
+    from .results import Diagnosis
+
+
+def __getattr__(name: str) -> Any:
+    # `vjm.Diagnosis` is loaded when first used: the diagnosis classes are a quarter of the
+    # console script's Python start-up, and most commands do not diagnose.
+    if name == "Diagnosis":
+        from .results import Diagnosis
+
+        return Diagnosis
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "DEFAULT_GRAVITY",

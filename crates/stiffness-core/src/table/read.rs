@@ -303,10 +303,11 @@ impl<R: Read> CsvReader<R> {
             breaks: vec![(0, self.line)],
             sha256: None,
         };
-        // File line of the next chunk's first line; whether the arrays have reserved the rows
-        // the file is expected to hold (after the first chunk's rows are known).
+        // File line of the next chunk's first line; whether the arrays have been made as long
+        // as the rows the file is expected to hold (zeroed by the allocator, once the first
+        // chunk's rows are known: `Values::extend_zeroed_to`).
         let mut line = self.line;
-        let mut reserved = false;
+        let mut sized = false;
         // Chunk k's pieces are parsed on the pool, straight into the table's arrays, while this
         // thread reads chunk k + 1 into `spare` (and hashes chunk k, when asked): the serial
         // work hides behind the parallel work. Pieces count their lines themselves (relative
@@ -372,12 +373,12 @@ impl<R: Read> CsvReader<R> {
             table.commit(parsed, &rooms, &widths, &mut line)?;
             next?;
             self.consumed += end as u64;
-            if let (false, Some(size)) = (reserved, self.size) {
-                reserved = table.rows > 0;
-                if reserved {
+            if let (false, Some(size)) = (sized, self.size) {
+                sized = table.rows > 0;
+                if sized {
                     let rows = expected_rows_of(size, self.consumed, table.rows);
                     for (values, &w) in table.values.iter_mut().zip(&widths) {
-                        values.try_reserve_total(rows.saturating_mul(w));
+                        values.extend_zeroed_to(rows.saturating_mul(w));
                     }
                 }
             }

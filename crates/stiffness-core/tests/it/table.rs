@@ -562,7 +562,8 @@ fn a_file_reads_every_row_however_its_first_chunk_predicts_the_rest() {
 /// A file whose size promises far more rows than it holds (a sparse file: a header, a first
 /// chunk of blank lines or of short rows, then a hole of 64 GiB read as NUL bytes) is an error
 /// naming the first line of the hole, not an allocation of hundreds of GB that aborts the
-/// process (the arrays only reserve what the allocator grants, and only from rows seen).
+/// process (the arrays take a zeroed allocation only if the allocator grants it, and only
+/// from rows seen).
 #[test]
 fn a_sparse_file_is_an_error_not_an_abort() {
     let nanos = std::time::SystemTime::now()

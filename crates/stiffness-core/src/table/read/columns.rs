@@ -3,8 +3,8 @@
 //! Pieces parse straight into the final arrays: each chunk's rows get room at the end of every
 //! group's array (as many rows as the chunk can hold: a row a line, no more than its bytes
 //! allow), and that room is cut into one part per piece. Nothing is parsed into a buffer of its
-//! own and copied again. When the file's size is known, the arrays reserve (without writing)
-//! the rows it is expected to hold after the first chunk, so that they are not reallocated.
+//! own and copied again. When the file's size is known, the arrays take, after the first chunk, a
+//! zeroed allocation for the rows it is expected to hold (see [`Values::extend_zeroed_to`]).
 
 use super::CellKind;
 
@@ -43,15 +43,32 @@ impl Values {
         }
     }
 
-    /// Reserves room for `len` values in all, if the allocator grants it: a capacity, not
-    /// memory written (a file's size can promise more rows than it holds, e.g. a sparse file
-    /// of blank lines, so a refusal is not an error: the arrays then grow chunk by chunk).
-    pub(super) fn try_reserve_total(&mut self, len: usize) {
-        let _ = match self {
-            Values::Float(v) => v.try_reserve_exact(len.saturating_sub(v.len())),
-            Values::Integer(v) => v.try_reserve_exact(len.saturating_sub(v.len())),
-            Values::Label(v) => v.try_reserve_exact(len.saturating_sub(v.len())),
-        };
+    /// Makes the array `len` long ahead of the rows, zeroed by the allocator (calloc), if it
+    /// grants the memory: a fresh zeroed allocation is zero pages the system fills on their
+    /// first write, so the zeroing happens in the parsing threads as they write their rows,
+    /// not on the reading thread before each chunk (a `resize` there was a fifth of the read).
+    /// A file's size can promise more rows than it holds (a sparse file of blank lines), so a
+    /// refusal is not an error: the arrays then reserve what they can and grow chunk by chunk.
+    pub(super) fn extend_zeroed_to(&mut self, len: usize) {
+        fn extend<T: bytemuck::Zeroable + Copy>(v: &mut Vec<T>, len: usize) {
+            if len <= v.len() {
+                return;
+            }
+            match bytemuck::allocation::try_zeroed_vec(len) {
+                Ok(mut zeroed) => {
+                    zeroed[..v.len()].copy_from_slice(v);
+                    *v = zeroed;
+                }
+                Err(()) => {
+                    let _ = v.try_reserve_exact(len - v.len());
+                }
+            }
+        }
+        match self {
+            Values::Float(v) => extend(v, len),
+            Values::Integer(v) => extend(v, len),
+            Values::Label(v) => extend(v, len),
+        }
     }
 
     pub(super) fn truncate(&mut self, len: usize) {
