@@ -82,10 +82,10 @@ pub fn csjm_simulate<'py>(
 ) -> PyResult<PyCsjmCampaign> {
     let mut spec = CsjmCampaignSpec::new(effects(effects_list)?, seed);
     if let Some(n) = increments {
-        spec.increments = n;
+        spec.schedule.increments = n;
     }
     if let Some(m) = max_increment {
-        spec.max_increment = m;
+        spec.schedule.max_increment = m;
     }
     let campaign = run(py, || simulate_campaign(&spec))?.py()?;
     let mut buf = Vec::new();

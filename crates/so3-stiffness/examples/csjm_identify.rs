@@ -71,8 +71,8 @@ fn sweep() -> Result<(), Box<dyn std::error::Error>> {
             for seed in 1..=8 {
                 let mut config = CampaignConfig::paper_like(max_increment, seed);
                 if !noisy {
-                    config.tracker = TrackerNoise::none();
-                    config.moment_noise = MomentNoise::none();
+                    config.schedule.tracker = TrackerNoise::none();
+                    config.schedule.moment_noise = MomentNoise::none();
                 }
                 let campaign = simulate_campaign(&cables, &config)?;
                 let truth = campaign.true_stiffness.covariant;
@@ -103,7 +103,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let r0 = campaign.dataset.reference().orientation;
     println!(
         "seed-like campaign: {} increments, ‖Δτ‖ ≤ {MAX_INCREMENT} N·m, pre-load τ₀ = ({:.2}, {:.2}, {:.2}) N·m, seed {SEED}",
-        config.increments, config.preload.x, config.preload.y, config.preload.z
+        config.schedule.increments, config.schedule.preload.x, config.schedule.preload.y, config.schedule.preload.z
     );
     println!(
         "cable stiffness k = {:.0} N/m, tensions at R₀ (N): {:.1?}",
@@ -125,7 +125,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dtau = Vector3::new(2.71, -0.93, 0.74);
     let actual = cables
         .equilibrium(
-            &(config.preload + dtau),
+            &(config.schedule.preload + dtau),
             &EquilibriumOptions::starting_at(campaign.true_r0),
         )?
         .pose;

@@ -30,13 +30,10 @@ use crate::csjm::{CsjmSimulator, EquilibriumOptions, PointLoad, Stiffness, CABLE
 use crate::identification::campaign::{prototype_simulator, Recorder};
 // Re-exported so that a campaign spec can be built from this module alone (e.g. by bindings).
 pub use crate::identification::campaign::{
-    GravityRecording, LoadPattern, MomentNoise, TrackerNoise,
+    CampaignSchedule, GravityRecording, LoadPattern, MomentNoise, TrackerNoise,
+    MAX_PLAUSIBLE_INCREMENT,
 };
 use crate::identification::{CsjmDataset, CsjmMeasurement, IdentificationError};
-
-/// Largest load increment a simulated CSJM campaign accepts, N·m: far beyond what a
-/// cable-driven joint of the prototype's size carries (its weight makes ≈ 1 N·m).
-pub const MAX_PLAUSIBLE_INCREMENT: f64 = 100.0;
 
 /// Largest number of fixed-point iterations on the cables' sliding directions per load step.
 pub const MAX_FRICTION_ITERATIONS: usize = 8;
@@ -95,82 +92,34 @@ impl CsjmEffects {
     }
 }
 
-/// Settings of a diagnosis campaign.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Settings of a diagnosis campaign: its schedule (the same as an identification campaign's)
+/// and the effects hidden in it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[non_exhaustive]
 pub struct CsjmCampaignSpec {
-    /// External pre-load τ₀ at the reference pose, N·m, frame A (seed Table 3).
-    pub preload: Vector3<f64>,
-    /// Number of load increments, applied one after another (the seed used 85).
-    pub increments: usize,
-    /// Largest ‖Δτ‖ from the pre-load, N·m.
-    pub max_increment: f64,
-    /// How increments are spread ([`LoadPattern::Symmetric`] by default: every axis is loaded
-    /// and unloaded).
-    pub pattern: LoadPattern,
-    /// Pose noise.
-    pub tracker: TrackerNoise,
-    /// Moment noise.
-    pub moment_noise: MomentNoise,
+    /// The loads, the instruments and the seed.
+    pub schedule: CampaignSchedule,
     /// Hidden effects.
     pub effects: CsjmEffects,
-    /// RNG seed: the same seed gives the same campaign.
-    pub seed: u64,
-}
-
-impl Default for CsjmCampaignSpec {
-    fn default() -> Self {
-        CsjmCampaignSpec {
-            preload: Vector3::from(crate::identification::campaign::PAPER_TABLE3_PRELOAD),
-            increments: 85,
-            max_increment: 1.0,
-            pattern: LoadPattern::Symmetric,
-            tracker: TrackerNoise::default(),
-            moment_noise: MomentNoise::default(),
-            effects: CsjmEffects::none(),
-            seed: 0,
-        }
-    }
 }
 
 impl CsjmCampaignSpec {
     /// The default campaign with the given effects and seed.
     pub fn new(effects: CsjmEffects, seed: u64) -> Self {
         CsjmCampaignSpec {
+            schedule: CampaignSchedule::with_seed(seed),
             effects,
-            seed,
-            ..Self::default()
         }
     }
 
     fn validate(&self) -> Result<(), IdentificationError> {
-        let bad = |field: &'static str, message: String| {
-            Err(IdentificationError::InvalidSetting { field, message })
-        };
-        if !self.preload.iter().all(|x| x.is_finite()) {
-            return bad("preload", "must be finite".into());
-        }
-        if self.increments < crate::identification::dataset::MIN_INCREMENTS {
-            return bad(
-                "increments",
-                format!("at least 3 needed, got {}", self.increments),
-            );
-        }
-        if !(self.max_increment > 0.0 && self.max_increment <= MAX_PLAUSIBLE_INCREMENT) {
-            return bad(
-                "max_increment",
-                format!(
-                    "must be > 0 and at most {MAX_PLAUSIBLE_INCREMENT} N·m, got {}",
-                    self.max_increment
-                ),
-            );
-        }
+        self.schedule.validate()?;
         for (i, f) in self.effects.cable_friction.iter().enumerate() {
             if !(f.is_finite() && *f >= 0.0) {
-                return bad(
-                    "cable_friction",
-                    format!("cable {}: must be finite and ≥ 0 N, got {f}", i + 1),
-                );
+                return Err(IdentificationError::InvalidSetting {
+                    field: "cable_friction",
+                    message: format!("cable {}: must be finite and ≥ 0 N, got {f}", i + 1),
+                });
             }
         }
         Ok(())
@@ -328,7 +277,7 @@ impl EffectSimulator {
 /// ```
 /// use so3_stiffness::testbed::{simulate_campaign, CsjmCampaignSpec, CsjmEffects};
 /// let mut spec = CsjmCampaignSpec::new(CsjmEffects::friction(1.0), 3);
-/// spec.increments = 10;
+/// spec.schedule.increments = 10;
 /// let campaign = simulate_campaign(&spec).unwrap();
 /// assert_eq!(campaign.dataset.measurements().len(), 10);
 /// ```
@@ -364,21 +313,23 @@ pub fn simulate_campaign_on(
     };
     let physics = EffectSimulator::new(cables.clone(), spec.effects.cable_friction, weight)?;
 
-    let mut rng = StdRng::seed_from_u64(spec.seed);
+    let mut rng = StdRng::seed_from_u64(spec.schedule.seed);
     // The reference: the pre-load applied from rest at home.
     let mut state = physics
-        .apply(&PathState::at(home), &spec.preload)
+        .apply(&PathState::at(home), &spec.schedule.preload)
         .map_err(sim_error(0))?;
     let true_r0 = state.pose;
     let true_stiffness = cables.stiffness(&true_r0).map_err(sim_error(0))?;
 
-    let (lo, hi) = match spec.pattern {
+    let (lo, hi) = match spec.schedule.pattern {
         LoadPattern::OneSided => (-0.25, 1.0),
         _ => (-1.0, 1.0),
     };
-    let per_axis = spec.max_increment / 3f64.sqrt();
-    let applied: Vec<Vector3<f64>> = (0..spec.increments)
-        .map(|_| spec.preload + Vector3::from_fn(|_, _| rng.random_range(lo..=hi) * per_axis))
+    let per_axis = spec.schedule.max_increment / 3f64.sqrt();
+    let applied: Vec<Vector3<f64>> = (0..spec.schedule.increments)
+        .map(|_| {
+            spec.schedule.preload + Vector3::from_fn(|_, _| rng.random_range(lo..=hi) * per_axis)
+        })
         .collect();
     let mut true_poses = Vec::with_capacity(applied.len());
     let mut sliding = Vec::with_capacity(applied.len());
@@ -388,10 +339,14 @@ pub fn simulate_campaign_on(
         sliding.push(state.sliding);
     }
 
-    let recorder = Recorder::new(&spec.tracker, &spec.moment_noise, spec.effects.gravity)?;
+    let recorder = Recorder::new(
+        &spec.schedule.tracker,
+        &spec.schedule.moment_noise,
+        spec.effects.gravity,
+    )?;
     let mut measure =
         |pose: &Rotation3<f64>, external: &Vector3<f64>| recorder.record(&mut rng, pose, external);
-    let reference = measure(&true_r0, &spec.preload);
+    let reference = measure(&true_r0, &spec.schedule.preload);
     let rows: Vec<CsjmMeasurement> = true_poses
         .iter()
         .zip(&applied)

@@ -184,10 +184,11 @@ pub fn paper_like_simulator() -> Result<CsjmSimulator, IdentificationError> {
 }
 
 /// Whether the platform weight acts, and whether it is recorded.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[non_exhaustive]
 pub enum GravityRecording {
     /// No weight acts on the platform.
+    #[default]
     Absent,
     /// The weight acts and its moment (eq. 56, at the measured pose) is added to each row.
     Recorded(PointLoad),
@@ -268,70 +269,59 @@ impl MomentNoise {
     }
 }
 
-/// Settings of a virtual campaign.
+/// Largest load increment a simulated CSJM campaign accepts, N·m: far beyond what a
+/// cable-driven joint of the prototype's size carries (its weight makes ≈ 1 N·m).
+pub const MAX_PLAUSIBLE_INCREMENT: f64 = 100.0;
+
+/// What a simulated CSJM campaign applies and records, whatever its physics: the loads, the
+/// instruments and the seed. The one part of both campaign specs ([`CampaignConfig`] for
+/// identification, [`crate::testbed::CsjmCampaignSpec`] for diagnosis), with one default and
+/// one check.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
-pub struct CampaignConfig {
+pub struct CampaignSchedule {
     /// External pre-load τ₀ at the reference pose, N·m, frame A (seed Table 3).
     pub preload: Vector3<f64>,
-    /// Number of load increments (the seed used 85).
+    /// Number of load increments, applied one after another (the seed used 85).
     pub increments: usize,
-    /// Largest ‖Δτ‖, N·m.
+    /// Largest ‖Δτ‖ from the pre-load, N·m (at most [`MAX_PLAUSIBLE_INCREMENT`]).
     pub max_increment: f64,
-    /// How increments are spread.
+    /// How increments are spread ([`LoadPattern::Symmetric`] by default: every axis is loaded
+    /// and unloaded).
     pub pattern: LoadPattern,
     /// Pose noise.
     pub tracker: TrackerNoise,
     /// Moment noise.
     pub moment_noise: MomentNoise,
-    /// Platform weight.
-    pub gravity: GravityRecording,
-    /// Friction moment h in the cables, N·m (0: conservative).
-    pub hysteresis_moment: f64,
     /// RNG seed: the same seed gives the same campaign.
     pub seed: u64,
 }
 
-impl Default for CampaignConfig {
+impl Default for CampaignSchedule {
     fn default() -> Self {
-        CampaignConfig {
+        CampaignSchedule {
             preload: Vector3::from(PAPER_TABLE3_PRELOAD),
             increments: 85,
             max_increment: 1.0,
             pattern: LoadPattern::Symmetric,
             tracker: TrackerNoise::default(),
             moment_noise: MomentNoise::default(),
-            gravity: GravityRecording::Absent,
-            hysteresis_moment: 0.0,
             seed: 0,
         }
     }
 }
 
-impl CampaignConfig {
-    /// The default campaign with another seed.
+impl CampaignSchedule {
+    /// The default schedule with another seed.
     pub fn with_seed(seed: u64) -> Self {
-        CampaignConfig {
+        CampaignSchedule {
             seed,
-            ..CampaignConfig::default()
+            ..CampaignSchedule::default()
         }
     }
 
-    /// The seed's experiment as far as it is printed: Table 3's pre-load, 85 increments up to
-    /// `max_increment` N·m in the sense of Table 4's counterweight loads
-    /// ([`LoadPattern::PaperTable4`]), tracker and F/T noise of Tables 1–2. Use with
-    /// [`paper_like_simulator`].
-    pub fn paper_like(max_increment: f64, seed: u64) -> Self {
-        CampaignConfig {
-            preload: Vector3::from(PAPER_TABLE3_PRELOAD),
-            max_increment,
-            pattern: LoadPattern::PaperTable4,
-            seed,
-            ..CampaignConfig::default()
-        }
-    }
-
-    fn validate(&self) -> Result<(), IdentificationError> {
+    /// Refuses a schedule no campaign can run, naming the field.
+    pub(crate) fn validate(&self) -> Result<(), IdentificationError> {
         let bad = |field: &'static str, message: String| {
             Err(IdentificationError::InvalidSetting { field, message })
         };
@@ -348,11 +338,11 @@ impl CampaignConfig {
                 ),
             );
         }
-        if !(self.max_increment.is_finite() && self.max_increment > 0.0) {
+        if !(self.max_increment > 0.0 && self.max_increment <= MAX_PLAUSIBLE_INCREMENT) {
             return bad(
                 "max_increment",
                 format!(
-                    "must be finite and > 0 N·m, got {}",
+                    "must be > 0 and at most {MAX_PLAUSIBLE_INCREMENT} N·m, got {}",
                     stiffness_core::num::Short(self.max_increment)
                 ),
             );
@@ -387,14 +377,59 @@ impl CampaignConfig {
                 ),
             );
         }
+        Ok(())
+    }
+}
+
+/// Settings of a virtual identification campaign: its schedule and the physics it adds to the
+/// conservative cables (the weight, a friction moment).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
+pub struct CampaignConfig {
+    /// The loads, the instruments and the seed.
+    pub schedule: CampaignSchedule,
+    /// Platform weight.
+    pub gravity: GravityRecording,
+    /// Friction moment h in the cables, N·m (0: conservative).
+    pub hysteresis_moment: f64,
+}
+
+impl CampaignConfig {
+    /// The default campaign with another seed.
+    pub fn with_seed(seed: u64) -> Self {
+        CampaignConfig {
+            schedule: CampaignSchedule::with_seed(seed),
+            ..CampaignConfig::default()
+        }
+    }
+
+    /// The seed's experiment as far as it is printed: Table 3's pre-load, 85 increments up to
+    /// `max_increment` N·m in the sense of Table 4's counterweight loads
+    /// ([`LoadPattern::PaperTable4`]), tracker and F/T noise of Tables 1–2. Use with
+    /// [`paper_like_simulator`].
+    pub fn paper_like(max_increment: f64, seed: u64) -> Self {
+        CampaignConfig {
+            schedule: CampaignSchedule {
+                preload: Vector3::from(PAPER_TABLE3_PRELOAD),
+                max_increment,
+                pattern: LoadPattern::PaperTable4,
+                seed,
+                ..CampaignSchedule::default()
+            },
+            ..CampaignConfig::default()
+        }
+    }
+
+    fn validate(&self) -> Result<(), IdentificationError> {
+        self.schedule.validate()?;
         if !(self.hysteresis_moment.is_finite() && self.hysteresis_moment >= 0.0) {
-            return bad(
-                "hysteresis_moment",
-                format!(
+            return Err(IdentificationError::InvalidSetting {
+                field: "hysteresis_moment",
+                message: format!(
                     "must be finite and ≥ 0 N·m, got {}",
                     stiffness_core::num::Short(self.hysteresis_moment)
                 ),
-            );
+            });
         }
         Ok(())
     }
@@ -425,7 +460,7 @@ pub struct Campaign {
 /// use so3_stiffness::identification::{identify, FitOptions};
 /// let sim = prototype_simulator().unwrap();
 /// let mut config = CampaignConfig::with_seed(1);
-/// config.increments = 20;
+/// config.schedule.increments = 20;
 /// let campaign = simulate_campaign(&sim, &config).unwrap();
 /// let est = identify(&campaign.dataset, &FitOptions::default()).unwrap();
 /// let k = campaign.true_stiffness.covariant;
@@ -436,7 +471,7 @@ pub fn simulate_campaign(
     config: &CampaignConfig,
 ) -> Result<Campaign, IdentificationError> {
     config.validate()?;
-    let mut rng = StdRng::seed_from_u64(config.seed);
+    let mut rng = StdRng::seed_from_u64(config.schedule.seed);
     let weight = match config.gravity {
         GravityRecording::Absent => None,
         GravityRecording::Recorded(w) | GravityRecording::Omitted(w) => Some(w),
@@ -463,7 +498,7 @@ pub fn simulate_campaign(
     // Reference: the pre-load, reached from zero load.
     let reference = physics
         .equilibrium(
-            &(config.preload - h * unit(config.preload)),
+            &(config.schedule.preload - h * unit(config.schedule.preload)),
             &EquilibriumOptions::default(),
         )
         .map_err(sim_error(0))?;
@@ -471,10 +506,10 @@ pub fn simulate_campaign(
     let true_tau0 = cables.holding_moment(&true_r0).map_err(sim_error(0))?;
     let true_stiffness = cables.stiffness(&true_r0).map_err(sim_error(0))?;
 
-    let m = config.max_increment;
-    let applied: Vec<Vector3<f64>> = (0..config.increments)
+    let m = config.schedule.max_increment;
+    let applied: Vec<Vector3<f64>> = (0..config.schedule.increments)
         .map(|_| {
-            let d = match config.pattern {
+            let d = match config.schedule.pattern {
                 LoadPattern::OneSided => Vector3::from_fn(|_, _| rng.random_range(-0.25..=1.0)),
                 LoadPattern::Symmetric => Vector3::from_fn(|_, _| rng.random_range(-1.0..=1.0)),
                 LoadPattern::PaperTable4 => {
@@ -482,12 +517,12 @@ pub fn simulate_campaign(
                 }
             } * m;
             // Radial clip onto the ball ‖Δτ‖ ≤ m (keeps the direction).
-            config.preload + if d.norm() > m { d * (m / d.norm()) } else { d }
+            config.schedule.preload + if d.norm() > m { d * (m / d.norm()) } else { d }
         })
         .collect();
 
     let mut true_poses = Vec::with_capacity(applied.len());
-    let mut previous_load = config.preload;
+    let mut previous_load = config.schedule.preload;
     let mut previous_pose = true_r0;
     for (index, load) in applied.iter().enumerate() {
         let effective = load - h * unit(load - previous_load);
@@ -499,10 +534,14 @@ pub fn simulate_campaign(
         previous_pose = eq.pose;
     }
 
-    let recorder = Recorder::new(&config.tracker, &config.moment_noise, config.gravity)?;
+    let recorder = Recorder::new(
+        &config.schedule.tracker,
+        &config.schedule.moment_noise,
+        config.gravity,
+    )?;
     let mut measure =
         |pose: &Rotation3<f64>, external: &Vector3<f64>| recorder.record(&mut rng, pose, external);
-    let reference_row = measure(&true_r0, &config.preload);
+    let reference_row = measure(&true_r0, &config.schedule.preload);
     let rows: Vec<CsjmMeasurement> = true_poses
         .iter()
         .zip(&applied)

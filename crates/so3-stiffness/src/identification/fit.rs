@@ -1,5 +1,6 @@
 //! Stiffness identification from load increments: K_D ≈ ΨΩ⁺ (seed eq. 49) plus the
-//! connection term, solved by a rank-revealing SVD (faer).
+//! connection term, solved by the workspace's column-scaled SVD
+//! ([`stiffness_core::lsq::ScaledSvd`], faer), which refuses a degenerate design.
 //!
 //! # Model
 //! With Δζ_k = log(R₀ᵀR_k) (rad, body frame A at R₀) and τ_k the external moment (N·m, A):
@@ -22,6 +23,7 @@
 
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
+use stiffness_core::lsq::{RankPolicy, ScaledSvd};
 
 use super::dataset::CsjmDataset;
 use super::error::IdentificationError;
@@ -439,6 +441,16 @@ struct LinearFit {
 }
 
 impl LinearFit {
+    /// The column scaling and SVD of the workspace's least-squares layer
+    /// ([`ScaledSvd`]): every column is in the data (none may be zero) and no singular value
+    /// is cut, because the fit refuses rather than truncates (a CSJM fit with a degenerate
+    /// design has no meaningful subset to report).
+    const POLICY: RankPolicy = RankPolicy {
+        rank_rtol: 0.0,
+        null_tol: RankPolicy::IDENTIFICATION.null_tol,
+        zero_column_rtol: 0.0,
+    };
+
     /// β = D⁻¹ V Σ⁻¹ Uᵀ y for each moment component, cov(β) = σ² D⁻¹ V Σ⁻² Vᵀ D⁻¹; refused
     /// when Ω (the displacements) or the scaled regressor is too ill-conditioned.
     fn of(
@@ -449,17 +461,12 @@ impl LinearFit {
     ) -> Result<Self, IdentificationError> {
         let (m, p) = (samples.len(), options.parameters());
         let mut row = Vec::with_capacity(p);
-        let mut x = Mat::<f64>::zeros(m, p);
+        let mut cols = vec![vec![0.0; m]; p];
         for (i, (z, _)) in samples.iter().enumerate() {
             regressor(z, options, &mut row);
-            for (j, v) in row.iter().enumerate() {
-                x[(i, j)] = *v;
+            for (col, v) in cols.iter_mut().zip(&row) {
+                col[i] = *v;
             }
-        }
-        // Column scaling makes the condition number independent of units and load size.
-        let mut scale = vec![0.0; p];
-        for (j, s) in scale.iter_mut().enumerate() {
-            *s = (0..m).map(|i| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
         }
         if !(omega_condition <= options.max_condition) {
             return Err(IdentificationError::IllConditioned {
@@ -469,46 +476,31 @@ impl LinearFit {
                 omega_singular_values,
             });
         }
-        if scale.iter().any(|s| !(*s > 0.0)) {
-            return Err(IdentificationError::IllConditioned {
-                matrix: "column-scaled regressor",
-                condition: f64::INFINITY,
-                max_condition: MAX_REGRESSOR_CONDITION,
-                omega_singular_values,
-            });
+        let ill = |condition: f64| IdentificationError::IllConditioned {
+            matrix: "column-scaled regressor",
+            condition,
+            max_condition: MAX_REGRESSOR_CONDITION,
+            omega_singular_values,
+        };
+        // Column scaling makes the condition number independent of units and load size.
+        let svd = ScaledSvd::of_columns(&cols, &Self::POLICY, true, "SVD of the regressor")
+            .map_err(|_| IdentificationError::SvdFailed)?;
+        if svd.in_data().contains(&false) {
+            return Err(ill(f64::INFINITY));
         }
-        for j in 0..p {
-            for i in 0..m {
-                x[(i, j)] /= scale[j];
-            }
-        }
-        let svd = x.thin_svd().map_err(|_| IdentificationError::SvdFailed)?;
-        let s: Vec<f64> = (0..p).map(|k| svd.S().column_vector()[k]).collect();
+        let s = svd.singular_values();
         let condition = s[0] / s[p - 1];
         if !(condition <= MAX_REGRESSOR_CONDITION) {
-            return Err(IdentificationError::IllConditioned {
-                matrix: "column-scaled regressor",
-                condition,
-                max_condition: MAX_REGRESSOR_CONDITION,
-                omega_singular_values,
-            });
+            return Err(ill(condition));
         }
-        let u = svd.U();
-        let v = svd.V();
         let mut beta = vec![[0.0; 3]; p];
         for comp in 0..3 {
-            let uty: Vec<f64> = (0..p)
-                .map(|k| (0..m).map(|i| u[(i, k)] * samples[i].1[comp]).sum::<f64>() / s[k])
-                .collect();
-            for (j, b) in beta.iter_mut().enumerate() {
-                b[comp] = (0..p).map(|k| v[(j, k)] * uty[k]).sum::<f64>() / scale[j];
+            let y: Vec<f64> = samples.iter().map(|(_, tau)| tau[comp]).collect();
+            for (b, x) in beta.iter_mut().zip(svd.solve(&y)) {
+                b[comp] = x;
             }
         }
-        let cov_diag: Vec<f64> = (0..p)
-            .map(|j| {
-                (0..p).map(|k| (v[(j, k)] / s[k]).powi(2)).sum::<f64>() / (scale[j] * scale[j])
-            })
-            .collect();
+        let cov_diag = svd.covariance(1.0).diagonal().iter().copied().collect();
         Ok(Self {
             beta,
             cov_diag,

@@ -27,7 +27,7 @@ fn run(spec: &CsjmCampaignSpec) -> CsjmDiagnosis {
 
 fn spec(effects: CsjmEffects, seed: u64, max_increment: f64) -> CsjmCampaignSpec {
     let mut s = CsjmCampaignSpec::new(effects, seed);
-    s.max_increment = max_increment;
+    s.schedule.max_increment = max_increment;
     s
 }
 
@@ -314,8 +314,8 @@ fn balanced_stiffening_leaves_tau_of_dzeta_almost_linear() {
     // (0.032 N·m), while the same k₂ on three cables leaves a larger misfit.
     let noiseless = |effects: CsjmEffects| {
         let mut s = spec(effects, 7, 3.0);
-        s.tracker = TrackerNoise::none();
-        s.moment_noise = MomentNoise::none();
+        s.schedule.tracker = TrackerNoise::none();
+        s.schedule.moment_noise = MomentNoise::none();
         let campaign = simulate_campaign(&s).unwrap();
         let fit = identify(&campaign.dataset, &FitOptions::default()).unwrap();
         fit.residual_rms.norm()
@@ -365,8 +365,8 @@ fn omitted_gravity_is_aliased_with_the_linear_stiffness_and_biases_k_by_the_grav
         4001,
         0.02,
     );
-    s.tracker = TrackerNoise::none();
-    s.moment_noise = MomentNoise::none();
+    s.schedule.tracker = TrackerNoise::none();
+    s.schedule.moment_noise = MomentNoise::none();
     let campaign = simulate_campaign(&s).unwrap();
     let k_id = identify(&campaign.dataset, &FitOptions::default())
         .unwrap()

@@ -190,7 +190,7 @@ fn an_effect_is_a_finding_or_an_alias_never_both_and_engine_aliases_state_their_
     let mut engine_aliases = 0;
     for seed in 9000..9020 {
         let mut spec = CsjmCampaignSpec::new(effects, seed);
-        spec.max_increment = 3.0;
+        spec.schedule.max_increment = 3.0;
         let data = simulate_campaign(&spec).unwrap().dataset;
         let d = diagnose(&data, &options).unwrap();
         let found = d.defect_effects();

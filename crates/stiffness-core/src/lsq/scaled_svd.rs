@@ -47,6 +47,11 @@ pub struct ScaledSvd {
     /// U) and its right singular vector in the columns' units, D V_k (0 for a column not in
     /// the data): the rank decision is made once, here.
     kept: Vec<(f64, Vec<f64>, Vec<f64>)>,
+    /// Every singular value of the scaled design, decreasing (the kept ones first).
+    singular_values: Vec<f64>,
+    /// The right singular vectors beyond the rank, in the scaled coordinates: an orthonormal
+    /// basis of the scaled design's null space (when it has at least as many rows as columns).
+    null_space: Vec<Vec<f64>>,
 }
 
 impl ScaledSvd {
@@ -87,8 +92,9 @@ impl ScaledSvd {
         let s_max = (0..sigma.nrows()).map(|k| sigma[k]).fold(0.0, f64::max);
         let cut = policy.rank_rtol * s_max.max(f64::MIN_POSITIVE);
         let (u, v) = (svd.U(), svd.V());
+        let keep = |k: usize| sigma[k] > cut && sigma[k].is_finite();
         let kept = (0..sigma.nrows())
-            .filter(|&k| sigma[k] > cut && sigma[k].is_finite())
+            .filter(|&k| keep(k))
             .map(|k| {
                 let uk = if with_u {
                     (0..u.nrows()).map(|i| u[(i, k)]).collect()
@@ -103,7 +109,17 @@ impl ScaledSvd {
                 (sigma[k], uk, dv)
             })
             .collect();
-        Ok(ScaledSvd { scales, kept })
+        let singular_values = (0..sigma.nrows()).map(|k| sigma[k]).collect();
+        let null_space = (0..v.ncols())
+            .filter(|&k| !keep(k))
+            .map(|k| (0..v.nrows()).map(|j| v[(j, k)]).collect())
+            .collect();
+        Ok(ScaledSvd {
+            scales,
+            kept,
+            singular_values,
+            null_space,
+        })
     }
 
     /// Whether each column is in the data (a column that is not gets coefficient 0 and a NaN
@@ -131,6 +147,25 @@ impl ScaledSvd {
     /// minimum-norm coefficients of `y` are `Σ_k D V_k (U_kᵀ y) / σ_k`.
     pub fn kept_triplets(&self) -> &[(f64, Vec<f64>, Vec<f64>)] {
         &self.kept
+    }
+
+    /// Every singular value of the column-scaled design, in decreasing order (the first
+    /// [`rank`](Self::rank) are the kept ones).
+    pub fn singular_values(&self) -> &[f64] {
+        &self.singular_values
+    }
+
+    /// An orthonormal basis of the column-scaled design's null space: its right singular
+    /// vectors beyond the rank, in the scaled coordinates (a column not in the data is a zero
+    /// column there, so its unit vector is in this space). Complete when the design has at
+    /// least as many rows as columns (a thin SVD has no more right singular vectors than rows).
+    pub fn null_space(&self) -> &[Vec<f64>] {
+        &self.null_space
+    }
+
+    /// Each column's norm (the scale of its coefficient), `None` for a column not in the data.
+    pub fn column_norms(&self) -> &[Option<f64>] {
+        &self.scales
     }
 
     /// The minimum-norm least-squares coefficients of `y` (one per column, in the columns'

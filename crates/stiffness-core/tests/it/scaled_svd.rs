@@ -95,6 +95,31 @@ proptest! {
         prop_assert!((beta[0] * n0 - beta[3] * 1e3 * n0).abs() <= 1e-9 * (beta[0] * n0).abs().max(1e-12));
         let cov = fit.covariance(1.0);
         prop_assert!(cov[(4, 4)].is_nan() && cov[(0, 4)].is_nan() && cov[(1, 1)].is_finite());
+        // The null space of the scaled design: p − rank orthonormal vectors that the scaled
+        // columns annihilate, spanning the aliased pair's difference and the missing column.
+        let null = fit.null_space();
+        prop_assert_eq!(null.len(), 2);
+        prop_assert_eq!(fit.singular_values().len(), 5);
+        prop_assert!(fit.singular_values()[3] <= 1e-12 * fit.singular_values()[0]);
+        let norms = fit.column_norms();
+        for (a, va) in null.iter().enumerate() {
+            for (b, vb) in null.iter().enumerate() {
+                let dot: f64 = va.iter().zip(vb).map(|(x, y)| x * y).sum();
+                prop_assert!((dot - f64::from(u8::from(a == b))).abs() < 1e-12, "{} {}: {}", a, b, dot);
+            }
+            let mut xv = [0.0; 12];
+            for ((col, norm), vj) in cols.iter().zip(norms).zip(va) {
+                for (x, c) in xv.iter_mut().zip(col) {
+                    *x += norm.map_or(0.0, |n| c / n) * vj;
+                }
+            }
+            prop_assert!(xv.iter().all(|x| x.abs() < 1e-12), "{:?}", xv);
+            // Only the aliased pair (0, 3) and the missing column 4 move in the null space.
+            prop_assert!(va[1].abs() < 1e-12 && va[2].abs() < 1e-12, "{:?}", va);
+        }
+        // The missing column's unit vector is in the span: its weight over the basis is 1.
+        let e4: f64 = null.iter().map(|v| v[4] * v[4]).sum();
+        prop_assert!((e4 - 1.0).abs() < 1e-12, "{}", e4);
     }
 }
 

@@ -4,7 +4,9 @@
 //! [`TriangularAccumulator`](super::TriangularAccumulator) or a dense QR). Steps:
 //! 1. Column scaling: s_k = ‖A e_k‖ = ‖R e_k‖, so that the rank decision does not depend
 //!    on the units of the parameters.
-//! 2. SVD of the scaled m×m factor (faer); rank r = #{σ_i > rank_rtol·σ_1}.
+//! 2. SVD of the scaled m×m factor; rank r = #{σ_i > rank_rtol·σ_1}. Steps 1 and 2 are the
+//!    workspace's one scaled SVD, [`stiffness_core::lsq::ScaledSvd`], under the rank policy
+//!    the options carry.
 //! 3. The null space in reduced row echelon form gives, canonically, which parameters
 //!    alias which (connected supports), which are identifiable alone, and r base
 //!    parameters `c_k + Σ β_kd c_d` (k independent, d dependent).
@@ -15,7 +17,7 @@
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
-use stiffness_core::lsq::{RankPolicy, WeakDirections};
+use stiffness_core::lsq::{RankPolicy, ScaledSvd, WeakDirections};
 
 use super::nnls::nnls;
 use super::TriangularFactor;
@@ -173,14 +175,52 @@ pub fn solve_factor(
     let (m, rows) = factor_shape(factor)?;
     let (p, r) = (m + 1, factor.r());
     let rss0 = r[m * p + m] * r[m * p + m];
-    let (scale, zero_col) = column_scale(r, m, opts);
-    let svd = ScaledSvd::of(r, m, &scale, &zero_col, opts)?;
-    let (rank, sv) = (svd.rank, &svd.sv);
-    let y = svd.solution(opts)?;
+    // A's columns in the triangle (R e_k), and z = Qᵀb, the triangle's last column.
+    let cols: Vec<Vec<f64>> = (0..m)
+        .map(|k| {
+            (0..m)
+                .map(|i| if i <= k { r[i * p + k] } else { 0.0 })
+                .collect()
+        })
+        .collect();
+    let z: Vec<f64> = (0..m).map(|i| r[i * p + m]).collect();
+    let policy = RankPolicy {
+        rank_rtol: opts.rank_rtol,
+        null_tol: opts.null_tol,
+        zero_column_rtol: opts.zero_column_rtol,
+    };
+    let svd =
+        ScaledSvd::of_columns(&cols, &policy, true, "SVD of the scaled factor").map_err(|e| {
+            VjmError::Numerical {
+                message: e.to_string(),
+            }
+        })?;
+    // A column not in the data keeps the scale 1: its coefficient and covariance are 0 and
+    // its unit vector is in the null space.
+    let scale: Vec<f64> = svd
+        .column_norms()
+        .iter()
+        .map(|n| n.unwrap_or(1.0))
+        .collect();
+    let rank = svd.rank();
+    let solution = if opts.nonnegative {
+        let in_data = svd.in_data();
+        let a = DMatrix::from_fn(m, m, |i, k| {
+            if in_data[k] {
+                cols[k][i] / scale[k]
+            } else {
+                0.0
+            }
+        });
+        let y = nnls(&a, &DVector::from_column_slice(&z), opts.rank_rtol)?;
+        y.iter().zip(&scale).map(|(yk, s)| yk / s).collect()
+    } else {
+        svd.solve(&z)
+    };
     // Residual of the whitened equations: the part of b outside span(Q) plus the in-span misfit.
     let mut rss = rss0;
     for i in 0..m {
-        let ri: f64 = (i..m).map(|j| svd.rs[(i, j)] * y[j]).sum::<f64>() - svd.z[i];
+        let ri: f64 = (i..m).map(|k| cols[k][i] * solution[k]).sum::<f64>() - z[i];
         rss += ri * ri;
     }
     let dof = rows - rank;
@@ -193,18 +233,17 @@ pub fn solve_factor(
     };
     let mut covariance = vec![0.0; m * m];
     if let Some(s2) = sigma2 {
-        for (i, s) in sv.iter().enumerate().take(rank) {
-            let w = s2 / (s * s);
+        for (sigma, _, dv) in svd.kept_triplets() {
+            let w = s2 / (sigma * sigma);
             for a in 0..m {
-                let va = svd.v[(a, i)] * w / scale[a];
+                let va = dv[a] * w;
                 for b in 0..m {
-                    covariance[a * m + b] += va * svd.v[(b, i)] / scale[b];
+                    covariance[a * m + b] += va * dv[b];
                 }
             }
         }
     }
-    let solution: Vec<f64> = y.iter().zip(&scale).map(|(yk, s)| yk / s).collect();
-    let null = NullStructure::of(&svd.v, rank, opts.null_tol);
+    let null = NullStructure::of(svd.null_space(), m, opts.null_tol);
     let eval = |w: &[f64]| -> (f64, Option<f64>) {
         let value = w.iter().zip(&solution).map(|(a, b)| a * b).sum();
         let stderr = sigma2.map(|_| {
@@ -222,8 +261,10 @@ pub fn solve_factor(
         (value, stderr)
     };
     let combinations = null.base_parameters(&scale, opts.null_tol, eval);
-    let null_space: Vec<Vec<f64>> = (0..m - rank)
-        .map(|i| (0..m).map(|k| svd.v[(k, rank + i)] / scale[k]).collect())
+    let null_space: Vec<Vec<f64>> = svd
+        .null_space()
+        .iter()
+        .map(|v| v.iter().zip(&scale).map(|(vk, s)| vk / s).collect())
         .collect();
     let mut estimate = vec![None; m];
     let mut stderr = vec![None; m];
@@ -244,7 +285,7 @@ pub fn solve_factor(
         combinations,
         aliases: null.aliases,
         null_space,
-        singular_values: svd.sv,
+        singular_values: svd.singular_values().to_vec(),
         column_scale: scale,
         rss,
         sigma2,
@@ -276,97 +317,6 @@ fn factor_shape(factor: &TriangularFactor) -> Result<(usize, usize), VjmError> {
     Ok((m, rows))
 }
 
-/// s_k = ‖R e_k‖ per parameter column of the row-major factor `r` (p = m + 1 columns), and
-/// which columns are zero up to rounding (e.g. a torsion about an axis through the tip point,
-/// whose column is |J|·1e-17): those must not be blown up to unit norm by the scaling —
-/// columns below ZERO_COLUMN_RTOL × the largest are the parameter not entering the data; their
-/// scale is 1 and their scaled column zero.
-fn column_scale(r: &[f64], m: usize, opts: &SolveOptions) -> (Vec<f64>, Vec<bool>) {
-    let p = m + 1;
-    let mut scale = vec![0.0; m];
-    for (k, s) in scale.iter_mut().enumerate() {
-        *s = (0..=k)
-            .map(|i| r[i * p + k] * r[i * p + k])
-            .sum::<f64>()
-            .sqrt();
-    }
-    let smax_col = scale.iter().copied().fold(0.0, f64::max);
-    let zero_col: Vec<bool> = scale
-        .iter()
-        .map(|&s| s <= opts.zero_column_rtol * smax_col || !s.is_finite())
-        .collect();
-    for (s, &z) in scale.iter_mut().zip(&zero_col) {
-        if z {
-            *s = 1.0;
-        }
-    }
-    (scale, zero_col)
-}
-
-/// The SVD of the column-scaled m×m factor, its rank and the scaled right-hand side z.
-struct ScaledSvd {
-    rs: faer::Mat<f64>,
-    z: Vec<f64>,
-    u: faer::Mat<f64>,
-    v: faer::Mat<f64>,
-    sv: Vec<f64>,
-    rank: usize,
-}
-
-impl ScaledSvd {
-    fn of(
-        r: &[f64],
-        m: usize,
-        scale: &[f64],
-        zero_col: &[bool],
-        opts: &SolveOptions,
-    ) -> Result<Self, VjmError> {
-        let p = m + 1;
-        let rs = faer::Mat::<f64>::from_fn(m, m, |i, j| {
-            if i <= j && !zero_col[j] {
-                r[i * p + j] / scale[j]
-            } else {
-                0.0
-            }
-        });
-        let z: Vec<f64> = (0..m).map(|i| r[i * p + m]).collect();
-        let svd = rs.svd().map_err(|e| VjmError::Numerical {
-            message: format!("SVD of the scaled {m}×{m} factor did not converge: {e:?}"),
-        })?;
-        let sv: Vec<f64> = (0..m).map(|i| svd.S().column_vector()[i]).collect();
-        let smax = sv.first().copied().unwrap_or(0.0);
-        let rank = sv
-            .iter()
-            .filter(|&&s| s > opts.rank_rtol * smax && s > 0.0)
-            .count();
-        Ok(Self {
-            u: svd.U().to_owned(),
-            v: svd.V().to_owned(),
-            rs,
-            z,
-            sv,
-            rank,
-        })
-    }
-
-    /// The scaled minimum-norm solution y = V_r Σ_r⁻¹ U_rᵀ z, or the non-negative one.
-    fn solution(&self, opts: &SolveOptions) -> Result<Vec<f64>, VjmError> {
-        let m = self.z.len();
-        let mut y = vec![0.0; m];
-        for i in 0..self.rank {
-            let uz: f64 = (0..m).map(|k| self.u[(k, i)] * self.z[k]).sum::<f64>() / self.sv[i];
-            for (k, yk) in y.iter_mut().enumerate() {
-                *yk += self.v[(k, i)] * uz;
-            }
-        }
-        if opts.nonnegative {
-            let a = DMatrix::from_fn(m, m, |i, j| self.rs[(i, j)]);
-            y = nnls(&a, &DVector::from_column_slice(&self.z), opts.rank_rtol)?;
-        }
-        Ok(y)
-    }
-}
-
 /// The null space (scaled coordinates, orthonormal columns of V beyond the rank) in reduced
 /// row echelon form: which parameters are identifiable alone and which alias which.
 struct NullStructure {
@@ -380,10 +330,10 @@ struct NullStructure {
 }
 
 impl NullStructure {
-    fn of(v: &faer::Mat<f64>, rank: usize, null_tol: f64) -> Self {
-        let m = v.nrows();
-        let d = m - rank;
-        let mut nt = DMatrix::from_fn(d, m, |i, k| v[(k, rank + i)]);
+    /// From an orthonormal basis of the scaled null space (`null`, vectors of length `m`).
+    fn of(null: &[Vec<f64>], m: usize, null_tol: f64) -> Self {
+        let d = null.len();
+        let mut nt = DMatrix::from_fn(d, m, |i, k| null[i][k]);
         let pivots = rref_from_right(&mut nt, null_tol);
         let is_pivot: Vec<bool> = (0..m).map(|k| pivots.contains(&k)).collect();
         let mut identifiable = vec![true; m];

@@ -29,10 +29,10 @@ fn error_of(c: &Campaign, order: FitOrder) -> f64 {
 #[test]
 fn noise_free_small_increments_recover_the_true_covariant_stiffness() {
     let mut config = CampaignConfig::with_seed(9);
-    config.tracker = TrackerNoise::none();
-    config.moment_noise = MomentNoise::none();
-    config.max_increment = 0.01;
-    config.increments = 30;
+    config.schedule.tracker = TrackerNoise::none();
+    config.schedule.moment_noise = MomentNoise::none();
+    config.schedule.max_increment = 0.01;
+    config.schedule.increments = 30;
     let c = campaign(&config);
     let k_true = c.true_stiffness.covariant;
     let e = identify(&c.dataset, &FitOptions::with_order(FitOrder::Second)).unwrap();
@@ -76,7 +76,7 @@ fn first_order_fit_within_3_percent_for_1_nm_increments() {
 fn second_order_fit_within_3_percent_for_3_nm_increments() {
     for seed in SEEDS {
         let mut config = CampaignConfig::with_seed(seed);
-        config.max_increment = 3.0;
+        config.schedule.max_increment = 3.0;
         let c = campaign(&config);
         let first = error_of(&c, FitOrder::First);
         let second = error_of(&c, FitOrder::Second);
@@ -92,10 +92,10 @@ fn second_order_fit_removes_the_curvature_bias_of_one_sided_loading() {
     for seed in SEEDS {
         let bias = |m: f64, order: FitOrder| {
             let mut config = CampaignConfig::with_seed(seed);
-            config.pattern = LoadPattern::OneSided;
-            config.max_increment = m;
-            config.tracker = TrackerNoise::none();
-            config.moment_noise = MomentNoise::none();
+            config.schedule.pattern = LoadPattern::OneSided;
+            config.schedule.max_increment = m;
+            config.schedule.tracker = TrackerNoise::none();
+            config.schedule.moment_noise = MomentNoise::none();
             error_of(&campaign(&config), order)
         };
         let (first_1, first_3) = (bias(1.0, FitOrder::First), bias(3.0, FitOrder::First));
@@ -145,10 +145,10 @@ fn det_k_converges_with_the_number_of_measurements() {
 #[test]
 fn predictions_from_k_d_match_the_true_poses_better_than_k() {
     let mut config = CampaignConfig::with_seed(8);
-    config.tracker = TrackerNoise::none();
-    config.moment_noise = MomentNoise::none();
-    config.max_increment = 0.3;
-    config.increments = 30;
+    config.schedule.tracker = TrackerNoise::none();
+    config.schedule.moment_noise = MomentNoise::none();
+    config.schedule.max_increment = 0.3;
+    config.schedule.increments = 30;
     let c = campaign(&config);
     let e = identify(&c.dataset, &FitOptions::with_order(FitOrder::Second)).unwrap();
     let r0 = c.dataset.reference().orientation;
@@ -173,9 +173,9 @@ fn recorded_gravity_is_harmless_and_omitted_gravity_biases_k() {
     let weight = PointLoad::prototype_gravity();
     let mut recorded = CampaignConfig::with_seed(5);
     recorded.gravity = GravityRecording::Recorded(weight);
-    recorded.tracker = TrackerNoise::none();
-    recorded.moment_noise = MomentNoise::none();
-    recorded.max_increment = 0.05;
+    recorded.schedule.tracker = TrackerNoise::none();
+    recorded.schedule.moment_noise = MomentNoise::none();
+    recorded.schedule.max_increment = 0.05;
     let mut omitted = recorded;
     omitted.gravity = GravityRecording::Omitted(weight);
     let (c_rec, c_omit) = (campaign(&recorded), campaign(&omitted));
@@ -191,8 +191,8 @@ fn recorded_gravity_is_harmless_and_omitted_gravity_biases_k() {
 #[test]
 fn cable_hysteresis_biases_k() {
     let mut config = CampaignConfig::with_seed(6);
-    config.tracker = TrackerNoise::none();
-    config.moment_noise = MomentNoise::none();
+    config.schedule.tracker = TrackerNoise::none();
+    config.schedule.moment_noise = MomentNoise::none();
     let clean = error_of(&campaign(&config), FitOrder::First);
     config.hysteresis_moment = 0.05;
     let with = error_of(&campaign(&config), FitOrder::First);
@@ -212,9 +212,13 @@ fn campaigns_are_reproducible_and_symmetric_pattern_is_available() {
         (LoadPattern::OneSided, -0.25),
     ] {
         let mut config = CampaignConfig::with_seed(3);
-        config.pattern = pattern;
+        config.schedule.pattern = pattern;
         let c = campaign(&config);
-        let d: Vec<_> = c.applied.iter().map(|t| t - config.preload).collect();
+        let d: Vec<_> = c
+            .applied
+            .iter()
+            .map(|t| t - config.schedule.preload)
+            .collect();
         assert!(d.iter().all(|v| v.norm() <= 1.0 + 1e-12));
         let min = d
             .iter()
@@ -242,7 +246,7 @@ fn campaigns_are_reproducible_and_symmetric_pattern_is_available() {
 fn invalid_settings_are_named() {
     let sim = prototype_simulator().unwrap();
     let mut config = CampaignConfig::default();
-    config.max_increment = -1.0;
+    config.schedule.max_increment = -1.0;
     assert!(matches!(
         simulate_campaign(&sim, &config),
         Err(IdentificationError::InvalidSetting {
@@ -251,7 +255,7 @@ fn invalid_settings_are_named() {
         })
     ));
     let mut config = CampaignConfig::default();
-    config.increments = 2;
+    config.schedule.increments = 2;
     assert!(matches!(
         simulate_campaign(&sim, &config),
         Err(IdentificationError::InvalidSetting {
@@ -268,6 +272,54 @@ fn invalid_settings_are_named() {
             ..
         })
     ));
+}
+
+/// Both campaign specs hold one schedule, checked once: a schedule the identification campaign
+/// refuses, the diagnosis testbed refuses with the same field and message (the two specs used
+/// to copy the fields and check them apart: the testbed capped `max_increment` at 100 N·m and
+/// the identification campaign did not; only the latter checked the instruments' noise).
+#[test]
+fn both_campaign_specs_refuse_a_schedule_alike() {
+    use so3_stiffness::identification::campaign::CampaignSchedule;
+    use so3_stiffness::testbed::{self, CsjmCampaignSpec, CsjmEffects};
+    let sim = prototype_simulator().unwrap();
+    type Spoil = fn(&mut CampaignSchedule);
+    let cases: [(&str, Spoil); 6] = [
+        ("max_increment", |s| s.max_increment = 150.0),
+        ("max_increment", |s| s.max_increment = f64::NAN),
+        ("increments", |s| s.increments = 2),
+        ("tracker", |s| s.tracker.constant = -1e-6),
+        ("moment_noise", |s| {
+            s.moment_noise.full_scale = f64::INFINITY
+        }),
+        ("preload", |s| s.preload.x = f64::NAN),
+    ];
+    for (field, spoil) in cases {
+        let mut config = CampaignConfig::with_seed(1);
+        spoil(&mut config.schedule);
+        let mut spec = CsjmCampaignSpec::new(CsjmEffects::none(), 1);
+        spoil(&mut spec.schedule);
+        let refusals = (
+            simulate_campaign(&sim, &config).err(),
+            testbed::simulate_campaign(&spec).err(),
+        );
+        match refusals {
+            (
+                Some(IdentificationError::InvalidSetting {
+                    field: a,
+                    message: ma,
+                }),
+                Some(IdentificationError::InvalidSetting {
+                    field: b,
+                    message: mb,
+                }),
+            ) => {
+                assert_eq!((a, b), (field, field));
+                assert_eq!(ma, mb, "{field}");
+            }
+            other => panic!("{field}: not refused alike: {other:?}"),
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -291,8 +343,8 @@ mod paper_like {
     fn paper_like(max_increment: f64, seed: u64, noisy: bool) -> Campaign {
         let mut config = CampaignConfig::paper_like(max_increment, seed);
         if !noisy {
-            config.tracker = TrackerNoise::none();
-            config.moment_noise = MomentNoise::none();
+            config.schedule.tracker = TrackerNoise::none();
+            config.schedule.moment_noise = MomentNoise::none();
         }
         simulate_campaign(&paper_like_simulator().unwrap(), &config).unwrap()
     }
