@@ -641,11 +641,9 @@ class Diagnosis(_Result):
 
 # ----------------------------------------------------------------------------- building
 
-
+# The per-pose errors arrive as columns (or, from JSON, as a list of records), not as a mapping
+# of their fields: they build themselves.
 register_builder(PoseErrors, PoseErrors._from_core)
-
-
-# ----------------------------------------------------------------------------- building
 
 
 def _unbuild(obj: object, model: Optional[str]) -> Json:
