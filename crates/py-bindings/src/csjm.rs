@@ -180,7 +180,7 @@ pub fn dataset_from_arrays(
 /// unless `project`; accepted ones are replaced by their nearest rotation, as the file reader does.
 #[pyfunction]
 #[pyo3(signature = (r, tau, reference, order = 1, project = false, tol = None, convergence = true))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn csjm_identify<'py>(
     py: Python<'py>,
     r: PyReadonlyArrayDyn<'py, f64>,

@@ -152,7 +152,7 @@ fn options(
 /// cancels the run and propagates.
 #[pyfunction]
 #[pyo3(signature = (r, tau, reference, fdr = None, test_fraction = None, split_seed = None, project = false, progress = None))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn csjm_diagnose<'py>(
     py: Python<'py>,
     r: PyReadonlyArrayDyn<'py, f64>,

@@ -19,7 +19,7 @@ use crate::vjm_data::dataset_from_arrays;
 /// an exception it raises stops the run and propagates, as does Ctrl-C (`KeyboardInterrupt`).
 #[pyfunction]
 #[pyo3(signature = (robot, q, wrench, displacement, rotation = None, pose = None, set = None, baseline = None, fdr = None, test_fraction = None, split_seed = None, max_findings = None, progress = None, allow_outside_limits = false, tracker_sigma = None, force_sigma = None, moment_sigma = None, per_row = true, gravity = None))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_diagnose<'py>(
     py: Python<'py>,
     robot: &PyRobot,

@@ -11,29 +11,36 @@ use crate::convert::{batch, fixed, to_numpy};
 use crate::errors::{run, value_error, PyResultExt};
 use crate::vjm::{parse_model, PyRobot};
 
-/// The gravity vector and optional payload `(mass, (cx, cy, cz))` of a call.
-fn parse(
-    gravity: [f64; 3],
-    payload: Option<(f64, [f64; 3])>,
-) -> PyResult<(Gravity, Option<PointMass>)> {
-    let g = Gravity::new(gravity).py()?;
-    let p = match payload {
-        None => None,
-        Some((m, c)) => Some(PointMass::new(m, c).map_err(|e| value_error(e.to_string()))?),
-    };
-    Ok((g, p))
+/// The weight a call evaluates: gravity (m/s², base frame) and an optional payload (kg, centre
+/// in the tip frame, m).
+struct Weight {
+    gravity: Gravity,
+    payload: Option<PointMass>,
 }
 
-/// Evaluates `f` at every configuration of `q` ((N, n) rad) with the parsed model, gravity and
-/// payload, each call giving `width` numbers; returns them as an array of shape `(N, *shape)`.
-#[allow(clippy::too_many_arguments)]
+impl Weight {
+    /// From the Python arguments: the gravity vector and the payload `(mass, (cx, cy, cz))`.
+    fn parse(gravity: [f64; 3], payload: Option<(f64, [f64; 3])>) -> PyResult<Self> {
+        let payload = match payload {
+            None => None,
+            Some((m, c)) => Some(PointMass::new(m, c).map_err(|e| value_error(e.to_string()))?),
+        };
+        Ok(Self {
+            gravity: Gravity::new(gravity).py()?,
+            payload,
+        })
+    }
+}
+
+/// Evaluates `f` at every configuration of `q` ((N, n) rad) with the parsed model and `weight`,
+/// each call giving the numbers of one `shape(m)` block (m: the model's springs); returns them
+/// as an array of shape `(N, *shape)`.
 fn per_configuration<'py, F>(
     py: Python<'py>,
     robot: &PyRobot,
     q: PyReadonlyArrayDyn<'py, f64>,
     model: &Bound<'py, PyAny>,
-    gravity: [f64; 3],
-    payload: Option<(f64, [f64; 3])>,
+    weight: Weight,
     shape: impl Fn(usize) -> Vec<usize>,
     f: F,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>>
@@ -51,7 +58,10 @@ where
     let chain = &robot.chain;
     let n = chain.n_joints();
     let model = parse_model(n, model)?;
-    let (g, p) = parse(gravity, payload)?;
+    let Weight {
+        gravity: g,
+        payload: p,
+    } = weight;
     let q = batch(&q, "q", &[n])?;
     let shape = shape(model.n_params());
     let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
@@ -83,8 +93,7 @@ pub fn vjm_gravity_torques<'py>(
         robot,
         q,
         model,
-        gravity,
-        payload,
+        Weight::parse(gravity, payload)?,
         |m| vec![m],
         gravity_torques,
     )
@@ -107,8 +116,7 @@ pub fn vjm_gravity_stiffness<'py>(
         robot,
         q,
         model,
-        gravity,
-        payload,
+        Weight::parse(gravity, payload)?,
         |m| vec![m, m],
         |c, mo, q, g, p| Ok(gravity_stiffness(c, mo, q, g, p)?.as_slice().to_vec()),
     )
@@ -134,8 +142,7 @@ pub fn vjm_gravity_sag<'py>(
         robot,
         q,
         model,
-        gravity,
-        payload,
+        Weight::parse(gravity, payload)?,
         |_| vec![6],
         |ch, mo, q, g, p| Ok(gravity_sag(ch, mo, &c, q, g, p)?.to_vec()),
     )
@@ -145,7 +152,7 @@ pub fn vjm_gravity_sag<'py>(
 /// (+ payload), (N, 6) `[dx, dy, dz, rx, ry, rz]` (m, rad), base frame.
 #[pyfunction]
 #[pyo3(signature = (robot, compliance, q, wrench, model, gravity, payload = None))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_deflection_under_gravity<'py>(
     py: Python<'py>,
     robot: &PyRobot,
@@ -159,7 +166,10 @@ pub fn vjm_deflection_under_gravity<'py>(
     let chain = &robot.chain;
     let n = chain.n_joints();
     let model = parse_model(n, model)?;
-    let (g, p) = parse(gravity, payload)?;
+    let Weight {
+        gravity: g,
+        payload: p,
+    } = Weight::parse(gravity, payload)?;
     let c = fixed(&compliance, "compliance", &[model.n_params()])?;
     let q = batch(&q, "q", &[n])?;
     let w = batch(&wrench, "wrench", &[6])?;

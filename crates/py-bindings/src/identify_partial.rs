@@ -69,7 +69,7 @@ impl PyIdentificationPartial {
     /// `Robot.identify`.
     #[staticmethod]
     #[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, allow_outside_limits = false))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
     fn accumulate<'py>(
         py: Python<'py>,
         robot: &PyRobot,

@@ -65,7 +65,7 @@ fn same_rows(name: &str, rows: usize, expected: usize) -> PyResult<()> {
 /// their standard deviations are written.
 #[pyfunction]
 #[pyo3(signature = (path, q, wrench, deflection, stddev, identified, sag=None))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)] // a Python signature
 pub fn vjm_write_predictions(
     py: Python<'_>,
     path: PathBuf,
@@ -125,7 +125,7 @@ pub fn vjm_write_predictions(
 /// inverse_condition; iterations (N,) and limit_joint (N,) int64 (0-based, −1 for none);
 /// status: N status names.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_write_compensation(
     py: Python<'_>,
     path: PathBuf,

@@ -170,8 +170,8 @@ impl PyStiffnessModel {
     /// `(mass, [cx, cy, cz])`, with this model's springs and compliances: `(q, rows, status)`
     /// as `vjm_compensate`. `match_orientation` defaults to whether the model has rotations;
     /// `gravity` / `recorded_gravity` as `vjm_compensate_model_file`.
-    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false, gravity = None, recorded_gravity = false))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (q, wrench = None, payload = None, match_orientation = None, with_kc = true, allow_outside_limits = false, gravity = None, recorded_gravity = false))]
+    #[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
     fn compensate<'py>(
         &self,
         py: Python<'py>,
@@ -180,10 +180,6 @@ impl PyStiffnessModel {
         payload: Option<(f64, [f64; 3])>,
         match_orientation: Option<bool>,
         with_kc: bool,
-        max_iterations: usize,
-        position_tol: f64,
-        rotation_tol: f64,
-        check_limits: bool,
         allow_outside_limits: bool,
         gravity: Option<[f64; 3]>,
         recorded_gravity: bool,
@@ -200,10 +196,6 @@ impl PyStiffnessModel {
         let opts = crate::use_model::ModelCompensation {
             match_orientation,
             with_kc,
-            max_iterations,
-            position_tol,
-            rotation_tol,
-            check_limits,
             gravity,
         };
         crate::use_model::compensate_with_model(py, &self.model, &self.chain, &q.data, load, &opts)
@@ -290,7 +282,7 @@ impl PyStiffnessModel {
 /// `robust_covariance` gives the model the cluster-robust covariance (one more data pass).
 #[pyfunction]
 #[pyo3(signature = (robot, q, wrench, displacement, model, rotation = None, noise_sigma = None, noise_scale_known = false, nonnegative = false, dense = false, method = "auto", data_file = None, robust_covariance = false, allow_outside_limits = false, gravity = None, data_sha256 = None))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_identify_model<'py>(
     py: Python<'py>,
     robot: &PyRobot,

@@ -25,8 +25,8 @@ const ROW_COLUMNS: [&str; 7] = [
 /// `rows` are `position_error, rotation_error, deflection, rotation_deflection,
 /// inverse_condition, iterations, limit_joint` (0-based joint, −1 when none).
 #[pyfunction]
-#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false, gravity = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (robot, model, compliance, q, wrench = None, payload = None, match_orientation = false, with_kc = true, allow_outside_limits = false, gravity = None))]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_compensate<'py>(
     py: Python<'py>,
     robot: &PyRobot,
@@ -37,10 +37,6 @@ pub fn vjm_compensate<'py>(
     payload: Option<(f64, [f64; 3])>,
     match_orientation: bool,
     with_kc: bool,
-    max_iterations: usize,
-    position_tol: f64,
-    rotation_tol: f64,
-    check_limits: bool,
     allow_outside_limits: bool,
     gravity: Option<[f64; 3]>,
 ) -> PyResult<CompensationArrays<'py>> {
@@ -62,10 +58,6 @@ pub fn vjm_compensate<'py>(
     let mut opts = CompensateOptions::default();
     opts.match_orientation = match_orientation;
     opts.with_kc = with_kc;
-    opts.max_iterations = max_iterations;
-    opts.position_tol = position_tol;
-    opts.rotation_tol = rotation_tol;
-    opts.check_limits = check_limits;
     opts.gravity = gravity;
     let out = run(py, || {
         vjm::compensate(chain, &model, &c, &q.data, load, &opts)
@@ -201,8 +193,8 @@ fn arrays(py: Python<'_>, out: vjm::Compensation, n: usize) -> PyResult<Compensa
 /// `recorded_gravity` the gravity is the one the model file records (standard gravity when it
 /// records none) and `gravity` must be `None`.
 #[pyfunction]
-#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, max_iterations = 50, position_tol = 1e-9, rotation_tol = 1e-9, check_limits = true, allow_outside_limits = false, gravity = None, recorded_gravity = false))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (robot, path, q, wrench = None, payload = None, match_orientation = None, with_kc = true, allow_outside_limits = false, gravity = None, recorded_gravity = false))]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_compensate_model_file<'py>(
     py: Python<'py>,
     robot: &PyRobot,
@@ -212,10 +204,6 @@ pub fn vjm_compensate_model_file<'py>(
     payload: Option<(f64, [f64; 3])>,
     match_orientation: Option<bool>,
     with_kc: bool,
-    max_iterations: usize,
-    position_tol: f64,
-    rotation_tol: f64,
-    check_limits: bool,
     allow_outside_limits: bool,
     gravity: Option<[f64; 3]>,
     recorded_gravity: bool,
@@ -235,10 +223,6 @@ pub fn vjm_compensate_model_file<'py>(
     let opts = ModelCompensation {
         match_orientation,
         with_kc,
-        max_iterations,
-        position_tol,
-        rotation_tol,
-        check_limits,
         gravity,
     };
     compensate_with_model(py, &model, chain, &q.data, load, &opts)
@@ -271,10 +255,6 @@ pub(crate) enum ModelGravity {
 pub(crate) struct ModelCompensation {
     pub match_orientation: Option<bool>,
     pub with_kc: bool,
-    pub max_iterations: usize,
-    pub position_tol: f64,
-    pub rotation_tol: f64,
-    pub check_limits: bool,
     pub gravity: ModelGravity,
 }
 
@@ -292,10 +272,6 @@ pub(crate) fn compensate_with_model<'py>(
     let mut opts = CompensateOptions::default();
     opts.match_orientation = o.match_orientation.unwrap_or(model.has_rotations());
     opts.with_kc = o.with_kc;
-    opts.max_iterations = o.max_iterations;
-    opts.position_tol = o.position_tol;
-    opts.rotation_tol = o.rotation_tol;
-    opts.check_limits = o.check_limits;
     opts.gravity = match o.gravity {
         ModelGravity::Given(g) => g,
         ModelGravity::Recorded => Some(model.gravity().unwrap_or_default()),
@@ -316,7 +292,7 @@ pub(crate) fn compensate_with_model<'py>(
 /// given, is called on the calling thread.
 #[pyfunction]
 #[pyo3(signature = (robot, model, poses = 24, wrenches_per_pose = 4, seed = 0, margin = 0.1, pool_size = 300, force = 80.0, moment = 3.0, progress = None, gravity = None))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
 pub fn vjm_design(
     py: Python<'_>,
     robot: &PyRobot,

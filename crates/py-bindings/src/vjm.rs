@@ -215,7 +215,7 @@ impl PyRobot {
     /// The poses and wrenches get identify's plausibility checks (angles inside the URDF limits
     /// unless `allow_outside_limits`, magnitudes), as `StiffnessModel.predict` does.
     #[pyo3(signature = (compliance, q, wrench, model, with_kc = false, allow_outside_limits = false))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)] // a Python signature: its keywords and their defaults
     fn predict_deflection<'py>(
         &self,
         py: Python<'py>,

@@ -318,7 +318,7 @@ fn true_model(
 /// `wrenches_per_pose`, `force_max` and `moment_max` are then not used.
 #[pyfunction]
 #[pyo3(signature = (robot, effects, n_poses = 40, wrenches_per_pose = 4, seed = 0, noise = true, torsion = None, force_max = None, moment_max = None, test_fraction = None, gravity = None, plan = None))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)] // a Python signature
 pub fn vjm_simulate<'py>(
     py: Python<'py>,
     robot: &PyRobot,

@@ -9,8 +9,9 @@
 use std::time::Instant;
 
 use vjm::{
-    compensate_in_place, CompensateOptions, CompensatedRow, CompensationStatus,
-    CompensationWorkspace, Load, PointMass, SerialChain, VirtualJointModel,
+    compensate_in_place, CompensateOptions, CompensatedRow, CompensationBuffers,
+    CompensationStatus, CompensationTargets, CompensationWorkspace, Load, PointMass, SerialChain,
+    VirtualJointModel,
 };
 
 /// CPU seconds (user + system) of this process from /proc/self/stat (Linux, 100 Hz ticks).
@@ -64,18 +65,16 @@ fn main() {
         let mut q_out = vec![0.0; q.len()];
         let mut report = vec![blank; rows];
         let (t0, c0) = (Instant::now(), cpu_seconds());
-        compensate_in_place(
-            &chain,
-            &model,
-            &compliance,
-            &q,
+        let targets = CompensationTargets {
+            q_nominal: &q,
             load,
-            &opts,
-            &mut ws,
-            &mut q_out,
-            &mut report,
-        )
-        .expect("compensation");
+        };
+        let out = CompensationBuffers {
+            q: &mut q_out,
+            rows: &mut report,
+        };
+        compensate_in_place(&chain, &model, &compliance, targets, &opts, &mut ws, out)
+            .expect("compensation");
         let (wall, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
         let iters: usize = report.iter().map(|r| r.iterations).sum();
         let mut counts = std::collections::BTreeMap::new();

@@ -667,28 +667,52 @@ pub fn compensate_with_gears(
                 compliance,
                 curved,
             };
-            compensate_rows(
-                chain, &spring, q_nominal, load, opts, &mut ws, range, q, rows,
-            )
+            let targets = CompensationTargets { q_nominal, load };
+            let out = CompensationBuffers { q, rows };
+            compensate_rows(chain, &spring, targets, opts, &mut ws, range, out)
         },
     )?;
     Ok(Compensation { q, rows })
 }
 
-/// [`compensate`] into caller-owned buffers (`q_out` N×n, `rows_out` N) with a reusable
-/// workspace: no allocation per row. Every input is checked before anything is written.
-#[allow(clippy::too_many_arguments)]
+/// The rows a batch compensation corrects: nominal joint targets `q_nominal` (N×n row-major,
+/// rad, base frame as the chain's) and the load they carry ([`Load`]: one wrench per row, or
+/// one payload for all).
+#[derive(Debug, Clone, Copy)]
+pub struct CompensationTargets<'a> {
+    /// Nominal joint targets, N×n row-major, rad.
+    pub q_nominal: &'a [f64],
+    /// The load of every row.
+    pub load: Load<'a>,
+}
+
+/// The caller-owned outputs of [`compensate_in_place`]: the corrected joint targets `q` (N×n
+/// row-major, rad) and one report per row `rows` (N), for the N rows of its [`CompensationTargets`].
+#[derive(Debug)]
+pub struct CompensationBuffers<'a> {
+    /// Corrected joint targets, N×n row-major, rad.
+    pub q: &'a mut [f64],
+    /// One report per row.
+    pub rows: &'a mut [CompensatedRow],
+}
+
+/// [`compensate`] of `targets` into caller-owned buffers `out` (targets N×n, reports N) with
+/// a reusable workspace: no allocation per row. Every input is checked before anything is
+/// written.
 pub fn compensate_in_place(
     chain: &SerialChain,
     model: &VirtualJointModel,
     compliance: &[f64],
-    q_nominal: &[f64],
-    load: Load<'_>,
+    targets: CompensationTargets<'_>,
     opts: &CompensateOptions,
     ws: &mut CompensationWorkspace,
-    q_out: &mut [f64],
-    rows_out: &mut [CompensatedRow],
+    out: CompensationBuffers<'_>,
 ) -> Result<(), VjmError> {
+    let CompensationTargets { q_nominal, load } = targets;
+    let CompensationBuffers {
+        q: q_out,
+        rows: rows_out,
+    } = out;
     let rows = check_inputs(chain, model, compliance, q_nominal, load, opts)?;
     let n = chain.n_joints();
     if q_out.len() != rows * n {
@@ -718,13 +742,14 @@ pub fn compensate_in_place(
     compensate_rows(
         chain,
         &spring,
-        q_nominal,
-        load,
+        targets,
         opts,
         ws,
         0..rows,
-        q_out,
-        rows_out,
+        CompensationBuffers {
+            q: q_out,
+            rows: rows_out,
+        },
     )
 }
 
@@ -788,20 +813,22 @@ fn check_inputs(
     Ok(rows)
 }
 
-/// The rows `range` of checked inputs into their block of the outputs (`q_out` and
-/// `rows_out` hold those rows only).
-#[allow(clippy::too_many_arguments)]
+/// The rows `range` of checked targets into their block of the outputs (`out` holds those
+/// rows only).
 fn compensate_rows(
     chain: &SerialChain,
     springs: &ModelSprings<'_>,
-    q_nominal: &[f64],
-    load: Load<'_>,
+    targets: CompensationTargets<'_>,
     opts: &CompensateOptions,
     ws: &mut CompensationWorkspace,
     range: std::ops::Range<usize>,
-    q_out: &mut [f64],
-    rows_out: &mut [CompensatedRow],
+    out: CompensationBuffers<'_>,
 ) -> Result<(), VjmError> {
+    let CompensationTargets { q_nominal, load } = targets;
+    let CompensationBuffers {
+        q: q_out,
+        rows: rows_out,
+    } = out;
     let n = chain.n_joints();
     let first = range.start;
     for i in range {

@@ -75,7 +75,8 @@ pub use chain::{
 };
 pub use compensate::{
     compensate, compensate_in_place, compensate_with_gears, CompensateOptions, CompensatedRow,
-    Compensation, CompensationStatus, CompensationWorkspace,
+    Compensation, CompensationBuffers, CompensationStatus, CompensationTargets,
+    CompensationWorkspace,
 };
 pub use design::plan::{
     design, design_monitored, pose_compliance_wrenches, predicted_stderr, NoiseModel, Plan,

@@ -12,6 +12,8 @@ Submodules:
   ``StiffnessModel.load``) and predictions with standard deviations.
 * :mod:`robot_stiffness.results` — the typed diagnosis result (``Diagnosis``, ``Finding``, …),
   the same classes for ``vjm.diagnose`` and ``csjm.diagnose``.
+* :mod:`robot_stiffness.testbed` — the typed truth and spec of a simulated campaign
+  (``TrueModel`` and its effects, ``CampaignSpec``) and a plan's ``NoiseModel``.
 
 Units are SI (m, rad, N, N·m); frames are named in every docstring and follow
 ``docs/conventions.md``. Every error derives from :class:`StiffnessError`.
@@ -59,10 +61,10 @@ __version__: str = _core.__version__
 # The submodules load on first use (PEP 562): `robot_stiffness.vjm`, `from robot_stiffness
 # import vjm` and `import robot_stiffness.vjm` work as before, and a command of the console
 # script pays only for the modules it uses (the five took ≈ 35 ms of every start-up).
-_SUBMODULES = ("csjm", "model", "results", "so3", "vjm")
+_SUBMODULES = ("csjm", "model", "results", "so3", "testbed", "vjm")
 
 if _TYPE_CHECKING:
-    from . import csjm, model, results, so3, vjm  # noqa: F401
+    from . import csjm, model, results, so3, testbed, vjm  # noqa: F401
 
 
 def __getattr__(name: str) -> _Any:
@@ -80,6 +82,7 @@ __all__ = [
     "model",
     "results",
     "so3",
+    "testbed",
     "vjm",
     "StiffnessError",
     "ShapeError",

@@ -106,7 +106,7 @@ def csjm_identify(
     convergence: bool = True,
 ) -> CsjmEstimate: ...
 def csjm_simulate(
-    effects_list: List[Dict[str, Any]],
+    effects_list: List[Dict[str, _CoreValue]],
     seed: int = 0,
     increments: Optional[int] = None,
     max_increment: Optional[float] = None,
@@ -143,7 +143,7 @@ def vjm_to_csv(
 ) -> str: ...
 def vjm_simulate(
     robot: Robot,
-    effects: List[Dict[str, Any]],
+    effects: List[Dict[str, _CoreValue]],
     n_poses: int = 40,
     wrenches_per_pose: int = 4,
     seed: int = 0,
@@ -244,10 +244,6 @@ def vjm_compensate(
     payload: Optional[Tuple[float, Sequence[float]]] = None,
     match_orientation: bool = False,
     with_kc: bool = True,
-    max_iterations: int = 50,
-    position_tol: float = 1e-9,
-    rotation_tol: float = 1e-9,
-    check_limits: bool = True,
     allow_outside_limits: bool = False,
     gravity: Optional[Tuple[float, float, float]] = None,
 ) -> Tuple[_F64, _F64, List[str]]: ...
@@ -259,10 +255,6 @@ def vjm_compensate_model_file(
     payload: Optional[Tuple[float, Sequence[float]]] = None,
     match_orientation: Optional[bool] = None,
     with_kc: bool = True,
-    max_iterations: int = 50,
-    position_tol: float = 1e-9,
-    rotation_tol: float = 1e-9,
-    check_limits: bool = True,
     allow_outside_limits: bool = False,
     gravity: Optional[Tuple[float, float, float]] = None,
     recorded_gravity: bool = False,
@@ -457,7 +449,7 @@ class DesignPlan:
     @property
     def worst_stderr(self) -> Optional[float]: ...
     @property
-    def noise(self) -> Dict[str, Any]: ...
+    def noise(self) -> Dict[str, _CoreValue]: ...
     @property
     def pose_compliance_wrenches(self) -> int: ...
 
@@ -489,9 +481,9 @@ class VjmCampaign:
     @property
     def tip(self) -> _F64: ...
     @property
-    def truth(self) -> Dict[str, Any]: ...
+    def truth(self) -> Dict[str, _CoreValue]: ...
     @property
-    def spec(self) -> Dict[str, Any]: ...
+    def spec(self) -> Dict[str, _CoreValue]: ...
 
 @final
 class CsjmEstimate:
@@ -686,10 +678,6 @@ class StiffnessModel:
         payload: Optional[Tuple[float, Sequence[float]]] = None,
         match_orientation: Optional[bool] = None,
         with_kc: bool = True,
-        max_iterations: int = 50,
-        position_tol: float = 1e-9,
-        rotation_tol: float = 1e-9,
-        check_limits: bool = True,
         allow_outside_limits: bool = False,
         gravity: Optional[Tuple[float, float, float]] = None,
         recorded_gravity: bool = False,

@@ -3,7 +3,9 @@
 The core hands its result structs to Python as plain values (dicts, lists, numbers);
 :func:`build` fills a dataclass from them field by field (by JSON key), lists item by item, a
 ``Union`` by its first fitting arm, null floats as NaN. A type that builds itself from its core
-value (e.g. a columnar sequence) is registered with :func:`register_builder`.
+value (e.g. a columnar sequence, or a tagged union) is registered with :func:`register_builder`.
+:class:`Record` is the base of the classes built so: ``obj["key"]`` and ``to_dict()`` give the
+core's keys back (:func:`unbuild`).
 
 It is its own module, not part of :mod:`robot_stiffness.results`, so that a command that
 builds an identification does not import the diagnosis classes (a quarter of a command's
@@ -16,6 +18,13 @@ import dataclasses
 import math
 import typing
 from typing import Any, Callable, Dict, List, Mapping, Optional, Union
+
+import numpy as np
+
+from ._equality import FieldEq
+
+#: A JSON-ready value (what ``to_dict`` returns).
+Json = Union[None, bool, int, float, str, List["Json"], Dict[str, "Json"]]
 
 _SELF_BUILDING: Dict[object, Callable[[object], object]] = {}
 
@@ -88,7 +97,7 @@ def flat_builder(tp: object) -> Optional[Callable[[Any], object]]:
     (lists of such items are the long ones). ``None`` for any other type."""
     if tp not in _FLAT:
         builder: Optional[Callable[[Any], object]] = None
-        if dataclasses.is_dataclass(tp) and isinstance(tp, type):
+        if dataclasses.is_dataclass(tp) and isinstance(tp, type) and tp not in _SELF_BUILDING:
             types = hints(tp)
             convert: Dict[object, Optional[Callable[[Any], object]]] = {int: int, float: float_or_nan, str: None, bool: None}
             fields = dataclasses.fields(tp)
@@ -139,3 +148,57 @@ def build(tp: object, value: object) -> object:
     if tp is int:
         return int(value)  # type: ignore[call-overload]
     return value
+
+
+class Record(FieldEq):
+    """Base of the classes :func:`build` fills: ``obj["key"]`` reads a field by its JSON key
+    (the dict access of earlier versions keeps working), ``to_dict`` gives the JSON form, and
+    ``==`` compares field by field with NaN equal to NaN (a result equals its pickled copy, or
+    the same computation run elsewhere, even where a statistic is undefined)."""
+
+    def __getitem__(self, key: str) -> object:
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            if json_key(f) == key:
+                return getattr(self, f.name)
+        raise KeyError(key)
+
+    def get(self, key: str, default: object = None) -> object:
+        """``self[key]``, or ``default`` when there is no such field or it is None."""
+        try:
+            value = self[key]
+        except KeyError:
+            return default
+        return default if value is None else value
+
+    def to_dict(self) -> Dict[str, Json]:
+        """The JSON-ready form (NaN stays a float; the CLI writes it as null)."""
+        out = unbuild(self, getattr(self, "model_kind", None))
+        assert isinstance(out, dict)
+        return out
+
+
+def unbuild(obj: object, model: Optional[str]) -> Json:
+    """The JSON-ready form of a built value, the inverse of :func:`build`: a dataclass by its
+    fields' JSON keys (less those marked ``json: False``, those of the other ``model``, and
+    those marked ``omit_none`` that are None), a columnar value by its ``records()``, arrays
+    and tuples as lists."""
+    if hasattr(obj, "records") and not isinstance(obj, type):
+        return list(obj.records())
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        out: Dict[str, Json] = {}
+        for f in dataclasses.fields(obj):
+            if f.metadata.get("json", True) is False:
+                continue
+            only = f.metadata.get("model")
+            if only is not None and model is not None and only != model:
+                continue
+            value = getattr(obj, f.name)
+            if value is None and f.metadata.get("omit_none"):
+                continue
+            out[json_key(f)] = unbuild(value, model)
+        return out
+    if isinstance(obj, (list, tuple)):
+        return [unbuild(v, model) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()  # type: ignore[no-any-return]
+    return obj  # type: ignore[return-value]

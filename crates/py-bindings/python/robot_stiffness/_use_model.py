@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, Any, Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +28,9 @@ from ._arguments import (
 from ._arrays import f64
 from ._errors import ArgumentTypeError, ShapeError
 from ._robot_handle import RobotHandle
+
+if TYPE_CHECKING:
+    from .testbed import NoiseModel
 
 Array = npt.NDArray[np.float64]
 
@@ -63,8 +66,8 @@ class Plan(FieldEq):
     combinations: Tuple[PlannedCombination, ...]
     #: The largest predicted standard error, rad/(N·m).
     worst_stderr: float
-    #: The noise model assumed (tracker, force sensor, prior compliance).
-    noise: Dict[str, Any]
+    #: The noise model assumed (tracker, force sensor, prior compliance, gravity).
+    noise: NoiseModel
     #: Fewest wrenches per pose with which diagnose's ``pose_compliance`` block (compliance
     #: that changes from pose to pose) can test a pose: 3W > 3 + n (4 for 6 or 7 joints).
     pose_compliance_wrenches: int
@@ -279,6 +282,11 @@ def design(
         )
         for c in plan.combinations
     )
+    from ._core_values import build
+    from .testbed import NoiseModel
+
+    noise = build(NoiseModel, plan.noise)
+    assert isinstance(noise, NoiseModel)
     return Plan(
         q=plan.q,
         wrench=plan.wrench,
@@ -286,6 +294,6 @@ def design(
         rank=int(plan.rank),
         combinations=combos,
         worst_stderr=math.inf if plan.worst_stderr is None else float(plan.worst_stderr),
-        noise=plan.noise,
+        noise=noise,
         pose_compliance_wrenches=int(plan.pose_compliance_wrenches),
     )

@@ -21,6 +21,7 @@ from ._tables import DISPLACEMENT, ROTATION, WRENCH, blame_rows, column, column_
 
 if TYPE_CHECKING:  # a runtime import would be circular (vjm re-exports this module)
     from .results import Diagnosis
+    from .testbed import CampaignSpec, TrueModel
     from .vjm import Robot
 
 Array = npt.NDArray[np.float64]
@@ -205,15 +206,16 @@ class Campaign(FieldEq):
     """A simulated measurement campaign: what the instruments recorded (``measurements``,
     ``csv``) and the hidden truth (``true_displacement`` (N, 3) m, ``applied_wrench`` (N, 6),
     ``tip`` (N, 3) unloaded tip points m, ``truth`` the true model (its effects' joints
-    1-based, as given to :func:`simulate`), all base frame)."""
+    1-based, as given to :func:`simulate`), ``spec`` how it was simulated, all base frame;
+    :mod:`robot_stiffness.testbed`)."""
 
     measurements: Measurements
     csv: str
     true_displacement: Array
     applied_wrench: Array
     tip: Array
-    truth: Dict[str, Any]
-    spec: Dict[str, Any]
+    truth: TrueModel
+    spec: CampaignSpec
 
 
 @checked
@@ -283,14 +285,20 @@ def simulate(
         gravity=None if gravity is None else gravity_vector(gravity),
         plan=None if plan is None else _planned_rows(plan),
     )
+    # Here, not at the top: the classes cost the start-up of every command that does not simulate.
+    from ._core_values import build
+    from .testbed import CampaignSpec, TrueModel
+
+    truth, spec = build(TrueModel, d.truth), build(CampaignSpec, d.spec)
+    assert isinstance(truth, TrueModel) and isinstance(spec, CampaignSpec)
     return Campaign(
         measurements=Measurements._from_core(d.measurements),
         csv=d.csv,
         true_displacement=d.true_displacement,
         applied_wrench=d.applied_wrench,
         tip=d.tip,
-        truth=d.truth,
-        spec=d.spec,
+        truth=truth,
+        spec=spec,
     )
 
 

@@ -77,7 +77,7 @@ def cmd_demo(args: argparse.Namespace, out: Outputs) -> int:
     study = in_worker(paper_study, robot, seed=args.seed)
     structural = in_worker(paper_study, robot, links=True, seed=args.seed)
     (staged / "campaign.csv").write_text(campaign.csv, encoding="utf-8")
-    (staged / "truth.json").write_text(json_text({"truth": campaign.truth, "spec": campaign.spec}), encoding="utf-8")
+    (staged / "truth.json").write_text(json_text({"truth": campaign.truth.to_dict(), "spec": campaign.spec.to_dict()}), encoding="utf-8")
     (staged / "diagnosis.json").write_text(json_text(result.to_dict()), encoding="utf-8")
     report_dir = staged / "report"
     report_dir.mkdir()

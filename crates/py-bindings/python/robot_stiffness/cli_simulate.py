@@ -183,7 +183,7 @@ def cmd_simulate(args: argparse.Namespace, out: Outputs) -> int:
                       gravity=gravity_of(args), plan=plan, **draw)
     csv_out.write_text(c.csv)
     if truth_out is not None:
-        truth_out.write_text(json_text({"truth": c.truth, "spec": c.spec}))
+        truth_out.write_text(json_text({"truth": c.truth.to_dict(), "spec": c.spec.to_dict()}))
     out.commit()
     names = ", ".join(e["effect"] for e in effects) or "none (torsional springs only)"
     print(f"wrote {path}: {len(c.measurements)} rows ({size}), "

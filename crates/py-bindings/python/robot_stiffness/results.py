@@ -36,8 +36,8 @@ from ._core_values import fits as _fits
 from ._core_values import float_or_nan as _float
 from ._core_values import hints as _hints
 from ._core_values import json_key as _key
+from ._core_values import Json, Record as _Result
 from ._core_values import register_builder
-from ._equality import FieldEq
 
 __all__ = [
     "Diagnosis",
@@ -66,9 +66,6 @@ __all__ = [
     "MomentRows",
 ]
 
-#: A JSON-ready value (what ``to_dict`` returns).
-Json = Union[None, bool, int, float, str, List["Json"], Dict[str, "Json"]]
-
 VJM = "vjm"
 CSJM = "csjm"
 
@@ -78,39 +75,6 @@ def _only(model: str, default: object = None, key: Optional[str] = None, former:
     JSON. ``former``: the key earlier versions wrote it under (read as well)."""
     meta = {"model": model, **({"key": key} if key else {}), **({"former": former} if former else {})}
     return field(default=default, metadata=meta)
-
-
-class _Result(FieldEq):
-    """Shared behaviour: ``obj["key"]`` reads a field by its JSON key (the dict access of
-    earlier versions keeps working), ``to_dict`` gives the JSON form, and ``==`` compares field
-    by field with NaN equal to NaN (a result equals its pickled copy, or the same diagnosis run
-    elsewhere, even where a statistic is undefined)."""
-
-    def __getitem__(self, key: str) -> object:
-        for f in dataclasses.fields(self):  # type: ignore[arg-type]
-            if _key(f) == key:
-                return getattr(self, f.name)
-        raise KeyError(key)
-
-    def get(self, key: str, default: object = None) -> object:
-        """``self[key]``, or ``default`` when there is no such field or it is None."""
-        try:
-            value = self[key]
-        except KeyError:
-            return default
-        return default if value is None else value
-
-    def to_dict(self) -> Dict[str, Json]:
-        """The JSON-ready form (NaN stays a float; the CLI writes it as null)."""
-        out = _unbuild(self, _model_of(self))
-        assert isinstance(out, dict)
-        return out
-
-
-
-
-def _model_of(obj: object) -> Optional[str]:
-    return getattr(obj, "model_kind", None)
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -644,26 +608,6 @@ class Diagnosis(_Result):
 # The per-pose errors arrive as columns (or, from JSON, as a list of records), not as a mapping
 # of their fields: they build themselves.
 register_builder(PoseErrors, PoseErrors._from_core)
-
-
-def _unbuild(obj: object, model: Optional[str]) -> Json:
-    if isinstance(obj, (_Rows, PoseErrors)):
-        return list(obj.records())
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        out: Dict[str, Json] = {}
-        for f in dataclasses.fields(obj):
-            if f.metadata.get("json", True) is False:
-                continue
-            only = f.metadata.get("model")
-            if only is not None and model is not None and only != model:
-                continue
-            out[_key(f)] = _unbuild(getattr(obj, f.name), model)
-        return out
-    if isinstance(obj, (list, tuple)):
-        return [_unbuild(v, model) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()  # type: ignore[no-any-return]
-    return obj  # type: ignore[return-value]
 
 
 def _finite(x: Json) -> Json:

@@ -6,8 +6,8 @@ use vjm::testbed::{simulate, Campaign, CampaignSpec, Effect, TrueModel};
 use vjm::Measurements;
 use vjm::{
     compensate, compensate_in_place, identify, predict_deflection, CompensateOptions,
-    CompensatedRow, CompensationStatus, CompensationWorkspace, IdentifyOptions, Load, PointMass,
-    SerialChain, VirtualJointModel,
+    CompensatedRow, CompensationBuffers, CompensationStatus, CompensationTargets,
+    CompensationWorkspace, IdentifyOptions, Load, PointMass, SerialChain, VirtualJointModel,
 };
 
 const G: f64 = vjm::stiffness_model::GRAVITY;
@@ -386,16 +386,22 @@ fn in_place_equals_allocating() {
     let mut ro = vec![all.rows[0]; 1];
     for i in 0..rows.len() {
         let w = Load::Wrench(&loads[6 * i..6 * i + 6]);
+        let targets = CompensationTargets {
+            q_nominal: &q[7 * i..7 * i + 7],
+            load: w,
+        };
+        let out = CompensationBuffers {
+            q: &mut qo,
+            rows: &mut ro,
+        };
         compensate_in_place(
             &chain,
             &model,
             &truth.compliance,
-            &q[7 * i..7 * i + 7],
-            w,
+            targets,
             &opts,
             &mut ws,
-            &mut qo,
-            &mut ro,
+            out,
         )
         .unwrap();
         assert_eq!(qo, all.q[7 * i..7 * i + 7]);
@@ -466,12 +472,16 @@ fn bad_input_names_the_cause() {
         &chain,
         &model,
         &c,
-        &q,
-        Load::Wrench(&nan_w),
+        CompensationTargets {
+            q_nominal: &q,
+            load: Load::Wrench(&nan_w),
+        },
         &Default::default(),
         &mut ws,
-        &mut qo,
-        &mut ro,
+        CompensationBuffers {
+            q: &mut qo,
+            rows: &mut ro,
+        },
     );
     assert!(r.is_err());
     assert!(qo.iter().all(|x| *x == 7.0));
@@ -483,12 +493,16 @@ fn bad_input_names_the_cause() {
         &chain,
         &model,
         &c,
-        &q,
-        Load::Wrench(&ok),
+        CompensationTargets {
+            q_nominal: &q,
+            load: Load::Wrench(&ok),
+        },
         &Default::default(),
         &mut ws2,
-        &mut qo,
-        &mut ro,
+        CompensationBuffers {
+            q: &mut qo,
+            rows: &mut ro,
+        },
     );
     assert!(r.is_err());
 }
@@ -576,12 +590,16 @@ fn blocked_compensation_is_the_serial_one_on_any_number_of_threads() {
         &chain,
         &model,
         &c,
-        &q,
-        Load::Wrench(&w),
+        CompensationTargets {
+            q_nominal: &q,
+            load: Load::Wrench(&w),
+        },
         &opts,
         &mut ws,
-        &mut q_serial,
-        &mut rows_serial,
+        CompensationBuffers {
+            q: &mut q_serial,
+            rows: &mut rows_serial,
+        },
     )
     .unwrap();
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -653,12 +671,16 @@ fn a_row_does_not_depend_on_the_rows_before_it() {
                     &chain,
                     &model,
                     &truth.compliance,
-                    &q[7 * i..7 * i + 7],
-                    Load::Wrench(&w[6 * i..6 * i + 6]),
+                    CompensationTargets {
+                        q_nominal: &q[7 * i..7 * i + 7],
+                        load: Load::Wrench(&w[6 * i..6 * i + 6]),
+                    },
                     &opts,
                     &mut ws,
-                    &mut qo,
-                    &mut ro,
+                    CompensationBuffers {
+                        q: &mut qo,
+                        rows: &mut ro,
+                    },
                 )
                 .unwrap();
                 let mut bits: Vec<u64> = qo.iter().map(|x| x.to_bits()).collect();
