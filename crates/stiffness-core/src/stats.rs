@@ -8,6 +8,8 @@
 
 use serde::Serialize;
 
+use crate::lsq::{RankPolicy, ScaledSvd};
+
 /// ln Γ(x) for x > 0 (Lanczos approximation, g = 7, 9 terms; relative error < 1e-14).
 pub fn ln_gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
@@ -375,22 +377,36 @@ pub fn cluster_robust_wald(
             *s += x[(o, j)] * r[o];
         }
     }
-    cluster_robust_wald_from_sums(&(x.transpose() * x), &sums, beta.as_slice(), k)
+    let columns: Vec<Vec<f64>> = x
+        .column_iter()
+        .map(|c| c.iter().copied().collect())
+        .collect();
+    cluster_robust_wald_from_sums(&columns, &sums, beta.as_slice(), k)
 }
 
-/// [`cluster_robust_wald`] from its sufficient statistics: the Gram `XᵀX` (p×p) and the
-/// per-cluster score sums `s_g = Σ_{i∈g} x_i r_i` (one p-vector per cluster), so that the
-/// rows never need to be held at once. `None` with fewer than 3 clusters or inconsistent
-/// shapes.
+/// [`cluster_robust_wald`] from its sufficient statistics: the design's `columns` (p of them,
+/// all of one length; the columns of its R factor serve as well, having the same `XᵀX`) and
+/// the per-cluster score sums `s_g = Σ_{i∈g} x_i r_i` (one p-vector per cluster), so that the
+/// rows never need to be held at once. The bread `(XᵀX)⁺` is the column-scaled SVD's under the
+/// diagnosis' rank policy ([`ScaledSvd`], as the wild cluster test's pseudo-inverse), so the
+/// statistic does not depend on the columns' units; a column not in the data contributes
+/// nothing. `None` with fewer than 3 clusters, inconsistent shapes or an SVD that does not
+/// converge.
 pub fn cluster_robust_wald_from_sums(
-    xtx: &nalgebra::DMatrix<f64>,
+    columns: &[Vec<f64>],
     sums: &[Vec<f64>],
     beta: &[f64],
     k: usize,
 ) -> Option<FTest> {
-    let p = xtx.nrows();
+    let p = columns.len();
     let g = sums.len();
-    if k == 0 || k > p || xtx.ncols() != p || beta.len() != p || sums.iter().any(|s| s.len() != p) {
+    let rows = columns.first().map_or(0, Vec::len);
+    if k == 0
+        || k > p
+        || beta.len() != p
+        || sums.iter().any(|s| s.len() != p)
+        || columns.iter().any(|c| c.len() != rows)
+    {
         return None;
     }
     if g < 3 {
@@ -401,15 +417,25 @@ pub fn cluster_robust_wald_from_sums(
         let s = nalgebra::DVector::from_column_slice(s);
         meat += &s * s.transpose();
     }
-    // Capped SVDs (nalgebra's `pseudo_inverse` loops forever on NaN).
+    let bread = ScaledSvd::of_columns(
+        columns,
+        &RankPolicy::DIAGNOSIS,
+        false,
+        "SVD of the cluster-robust test's design",
+    )
+    .ok()?
+    .covariance(1.0)
+    // NaN marks a column not in the data: it has no coefficient to vary.
+    .map(|b| if b.is_nan() { 0.0 } else { b });
+    let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
+    // Capped SVD (nalgebra's `pseudo_inverse` loops forever on NaN): the k×k block is a
+    // covariance, inverted for the statistic; only its exact zeros are cut.
     let pinv = |m: nalgebra::DMatrix<f64>, eps: f64| {
         crate::decompose::svd(m, true, true, "SVD of the cluster-robust covariance")
             .ok()?
             .pseudo_inverse(eps)
             .ok()
     };
-    let bread = pinv(xtx.clone(), 1e-12)?;
-    let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
     let vcc = v.view((p - k, p - k), (k, k)).into_owned();
     let bc = nalgebra::DVector::from_column_slice(&beta[p - k..]);
     let vinv = pinv(vcc, 1e-300)?;

@@ -208,11 +208,9 @@ pub fn cluster_robust_from_sums<P: Problem>(
     if k == 0 || k > p {
         return None;
     }
+    // The compressed (R-factor) columns have the training rows' XᵀX.
     let x = fit
         .compressed
         .columns(RowSet::Train, &term_columns(problem, &fit.terms));
-    let pp = fit.compressed.ncols();
-    let xm = nalgebra::DMatrix::from_fn(pp, p, |i, j| x[j][i]);
-    let xtx = xm.transpose() * xm;
-    crate::stats::cluster_robust_wald_from_sums(&xtx, sums, &fit.coef, k)
+    crate::stats::cluster_robust_wald_from_sums(&x, sums, &fit.coef, k)
 }

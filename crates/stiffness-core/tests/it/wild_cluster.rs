@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use stiffness_core::engine::verdict::factor_sse;
 use stiffness_core::engine::wild_cluster::WildClusterTest;
 use stiffness_core::lsq::{TriangularAccumulator, TriangularFactor};
-use stiffness_core::stats::nested_f_test;
+use stiffness_core::stats::{cluster_robust_wald, nested_f_test};
 
 /// Rows `[1, t, t², t³, y]` with y = 1 + 2t + a t² + noise whose standard deviation grows
 /// with t² (heteroscedastic the way the block is shaped), t uniform in [−1, 1].
@@ -81,6 +81,40 @@ fn the_statistic_is_the_dense_cluster_robust_wald_statistic() {
             (w - dense).abs() <= 1e-8 * dense,
             "seed {seed}: {w} vs {dense}"
         );
+    }
+}
+
+/// The cluster-robust Wald test (`stats::cluster_robust_wald`, CR1: V·G/(G − 1), F = W/k) is
+/// the dense statistic, and does not depend on the units of the tested columns: the block's
+/// columns times s and its coefficients over s give the same F for s = 1e-9 and 1e9. (The
+/// bread from an absolute cut of 1e-12 on XᵀX's singular values, as before, dropped the block's
+/// directions at s = 1e-9 and gave F = 6.5e37 for 0.47: a false alarm.)
+#[test]
+fn the_cluster_robust_wald_test_does_not_depend_on_the_columns_units() {
+    for seed in 0..3 {
+        let rows = rows(90, 0.3, seed);
+        let x = DMatrix::from_fn(rows.len(), 4, |i, j| rows[i][j]);
+        let y = DVector::from_fn(rows.len(), |i, _| rows[i][4]);
+        let beta = (x.transpose() * &x)
+            .cholesky()
+            .unwrap()
+            .solve(&(x.transpose() * &y));
+        let e = &y - &x * &beta;
+        let cluster: Vec<usize> = (0..rows.len()).map(|i| i / 3).collect();
+        let g = 30.0;
+        let expected = dense_wald(&x, &y) * (g - 1.0) / g / 2.0;
+        for s in [1.0, 1e-9, 1e9] {
+            let d = [1.0, 1.0, s, s];
+            let xs = DMatrix::from_fn(x.nrows(), 4, |i, j| x[(i, j)] * d[j]);
+            let bs = DVector::from_fn(4, |j, _| beta[j] / d[j]);
+            let t = cluster_robust_wald(&xs, &e, &bs, &cluster, 2).expect("30 clusters");
+            assert!(
+                (t.f - expected).abs() <= 1e-8 * expected,
+                "seed {seed}, s = {s:e}: F = {} against {expected}",
+                t.f
+            );
+            assert_eq!((t.df_num, t.df_den), (2.0, g - 1.0));
+        }
     }
 }
 
