@@ -21,27 +21,27 @@ struct Weight {
 impl Weight {
     /// From the Python arguments: the gravity vector and the payload `(mass, (cx, cy, cz))`.
     fn parse(gravity: [f64; 3], payload: Option<(f64, [f64; 3])>) -> PyResult<Self> {
+        // The gravity's error first, then the payload's (as before the two were one value).
+        let gravity = Gravity::new(gravity).py()?;
         let payload = match payload {
             None => None,
             Some((m, c)) => Some(PointMass::new(m, c).map_err(|e| value_error(e.to_string()))?),
         };
-        Ok(Self {
-            gravity: Gravity::new(gravity).py()?,
-            payload,
-        })
+        Ok(Self { gravity, payload })
     }
 }
 
-/// Evaluates `f` at every configuration of `q` ((N, n) rad) with the parsed model and `weight`,
-/// each call giving the numbers of one `shape(m)` block (m: the model's springs); returns them
-/// as an array of shape `(N, *shape)`.
+/// Evaluates `f` at every configuration of `q` ((N, n) rad) with `model` and `weight`, each
+/// call giving the numbers of one `shape` block; returns them as an array of shape
+/// `(N, *shape)`. The callers parse the model before the weight, so that an error names the
+/// first bad argument in the signature's order.
 fn per_configuration<'py, F>(
     py: Python<'py>,
     robot: &PyRobot,
     q: PyReadonlyArrayDyn<'py, f64>,
-    model: &Bound<'py, PyAny>,
+    model: &vjm::VirtualJointModel,
     weight: Weight,
-    shape: impl Fn(usize) -> Vec<usize>,
+    shape: &[usize],
     f: F,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>>
 where
@@ -57,23 +57,21 @@ where
 {
     let chain = &robot.chain;
     let n = chain.n_joints();
-    let model = parse_model(n, model)?;
     let Weight {
         gravity: g,
         payload: p,
     } = weight;
     let q = batch(&q, "q", &[n])?;
-    let shape = shape(model.n_params());
     let out = run(py, || -> Result<Vec<f64>, vjm::VjmError> {
         let mut out = Vec::with_capacity(q.rows * shape.iter().product::<usize>());
         for qi in q.data.chunks_exact(n) {
-            out.extend(f(chain, &model, qi, &g, p.as_ref())?);
+            out.extend(f(chain, model, qi, &g, p.as_ref())?);
         }
         Ok(out)
     })?
     .py()?;
     let mut full = vec![q.rows];
-    full.extend(shape);
+    full.extend_from_slice(shape);
     to_numpy(py, out, &full)
 }
 
@@ -88,15 +86,10 @@ pub fn vjm_gravity_torques<'py>(
     gravity: [f64; 3],
     payload: Option<(f64, [f64; 3])>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    per_configuration(
-        py,
-        robot,
-        q,
-        model,
-        Weight::parse(gravity, payload)?,
-        |m| vec![m],
-        gravity_torques,
-    )
+    let model = parse_model(robot.chain.n_joints(), model)?;
+    let weight = Weight::parse(gravity, payload)?;
+    let shape = [model.n_params()];
+    per_configuration(py, robot, q, &model, weight, &shape, gravity_torques)
 }
 
 /// The stiffness of gravity K_G on the springs of `model`, (N, m, m), N·m/rad.
@@ -110,16 +103,13 @@ pub fn vjm_gravity_stiffness<'py>(
     gravity: [f64; 3],
     payload: Option<(f64, [f64; 3])>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let model = parse_model(robot.chain.n_joints(), model)?;
+    let weight = Weight::parse(gravity, payload)?;
+    let shape = [model.n_params(), model.n_params()];
     // Symmetric, so its column-major storage reads as row-major.
-    per_configuration(
-        py,
-        robot,
-        q,
-        model,
-        Weight::parse(gravity, payload)?,
-        |m| vec![m, m],
-        |c, mo, q, g, p| Ok(gravity_stiffness(c, mo, q, g, p)?.as_slice().to_vec()),
-    )
+    per_configuration(py, robot, q, &model, weight, &shape, |c, mo, q, g, p| {
+        Ok(gravity_stiffness(c, mo, q, g, p)?.as_slice().to_vec())
+    })
 }
 
 /// The tip's sag under its own weight (+ payload) against the rigid kinematics, (N, 6),
@@ -135,17 +125,12 @@ pub fn vjm_gravity_sag<'py>(
     gravity: [f64; 3],
     payload: Option<(f64, [f64; 3])>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    let m = parse_model(robot.chain.n_joints(), model)?.n_params();
-    let c = fixed(&compliance, "compliance", &[m])?;
-    per_configuration(
-        py,
-        robot,
-        q,
-        model,
-        Weight::parse(gravity, payload)?,
-        |_| vec![6],
-        |ch, mo, q, g, p| Ok(gravity_sag(ch, mo, &c, q, g, p)?.to_vec()),
-    )
+    let model = parse_model(robot.chain.n_joints(), model)?;
+    let c = fixed(&compliance, "compliance", &[model.n_params()])?;
+    let weight = Weight::parse(gravity, payload)?;
+    per_configuration(py, robot, q, &model, weight, &[6], |ch, mo, q, g, p| {
+        Ok(gravity_sag(ch, mo, &c, q, g, p)?.to_vec())
+    })
 }
 
 /// Tip under `wrench` minus tip unloaded, both at the static equilibrium under gravity

@@ -54,6 +54,8 @@ def test_error_classes_are_exported_and_derive_from_builtins():
         (lambda r: so3.log(np.eye(3), tol="x"), rs.ArgumentTypeError, ["tol"]),
         (lambda r: vjm.diagnose(r, {"q1": [0.0]}, progress=3), rs.ArgumentTypeError, ["progress"]),
         (lambda r: vjm.diagnose(r, 42), rs.ArgumentTypeError, ["data"]),
+        (lambda r: r.gravity_torques(np.zeros(7), payload=(2.0,)), rs.ShapeError, ["payload", "(2.0,)"]),
+        (lambda r: r.gravity_torques(np.zeros(7), payload=(2.0, (0.0, 0.1))), rs.ShapeError, ["centre", "3"]),
     ],
 )
 def test_bad_arguments_raise_package_errors_naming_the_argument(panda, call, cls, words):

@@ -182,8 +182,9 @@ def unbuild(obj: object, model: Optional[str]) -> Json:
     fields' JSON keys (less those marked ``json: False``, those of the other ``model``, and
     those marked ``omit_none`` that are None), a columnar value by its ``records()``, arrays
     and tuples as lists."""
-    if hasattr(obj, "records") and not isinstance(obj, type):
-        return list(obj.records())
+    records = getattr(obj, "records", None)
+    if callable(records) and not isinstance(obj, type):  # a method, not a field of that name
+        return list(records())
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         out: Dict[str, Json] = {}
         for f in dataclasses.fields(obj):

@@ -139,6 +139,9 @@ def _gravity_args(
     g = gravity_vector(gravity)
     p = None
     if payload is not None:
+        if not isinstance(payload, (tuple, list)) or len(payload) != 2:
+            raise ShapeError(f"payload must be (mass_kg, (cx, cy, cz)) with the centre in the tip frame, m; "
+                             f"got {payload!r}")
         mass, centre = payload
         c = tuple(float(x) for x in centre)
         if len(c) != 3:
