@@ -424,21 +424,16 @@ pub fn cluster_robust_wald_from_sums(
         "SVD of the cluster-robust test's design",
     )
     .ok()?
-    .covariance(1.0)
-    // NaN marks a column not in the data: it has no coefficient to vary.
-    .map(|b| if b.is_nan() { 0.0 } else { b });
+    .covariance_in_data(1.0);
     let v = &bread * meat * &bread * (g as f64 / (g as f64 - 1.0));
-    // Capped SVD (nalgebra's `pseudo_inverse` loops forever on NaN): the k×k block is a
-    // covariance, inverted for the statistic; only its exact zeros are cut.
-    let pinv = |m: nalgebra::DMatrix<f64>, eps: f64| {
-        crate::decompose::svd(m, true, true, "SVD of the cluster-robust covariance")
-            .ok()?
-            .pseudo_inverse(eps)
-            .ok()
-    };
     let vcc = v.view((p - k, p - k), (k, k)).into_owned();
     let bc = nalgebra::DVector::from_column_slice(&beta[p - k..]);
-    let vinv = pinv(vcc, 1e-300)?;
+    // The k×k block is a covariance, inverted for the statistic: only its exact zeros are cut
+    // (a capped SVD: nalgebra's `pseudo_inverse` loops forever on NaN).
+    let vinv = crate::decompose::svd(vcc, true, true, "SVD of the cluster-robust covariance")
+        .ok()?
+        .pseudo_inverse(1e-300)
+        .ok()?;
     let w = (bc.transpose() * vinv * &bc)[(0, 0)];
     let f = w / k as f64;
     let d2 = (g - 1) as f64;

@@ -190,19 +190,29 @@ impl ScaledSvd {
     /// in the data.
     pub fn covariance(&self, s2: f64) -> DMatrix<f64> {
         let p = self.scales.len();
-        let mut cov = DMatrix::zeros(p, p);
-        for (sigma, _, vk) in &self.kept {
-            let w = s2 / (sigma * sigma);
-            for i in 0..p {
-                for j in 0..p {
-                    cov[(i, j)] += vk[i] * vk[j] * w;
-                }
-            }
-        }
+        let mut cov = self.covariance_in_data(s2);
         for i in 0..p {
             for j in 0..p {
                 if self.scales[i].is_none() || self.scales[j].is_none() {
                     cov[(i, j)] = f64::NAN;
+                }
+            }
+        }
+        cov
+    }
+
+    /// [`covariance`](Self::covariance) with 0 instead of NaN for a column not in the data:
+    /// its coefficient is held at 0, so it neither varies nor covaries (a sandwich or a
+    /// report that sums over every column wants numbers there).
+    pub fn covariance_in_data(&self, s2: f64) -> DMatrix<f64> {
+        let p = self.scales.len();
+        let mut cov = DMatrix::zeros(p, p);
+        for (sigma, _, vk) in &self.kept {
+            let w = s2 / (sigma * sigma);
+            for i in 0..p {
+                let vw = vk[i] * w;
+                for j in 0..p {
+                    cov[(i, j)] += vw * vk[j];
                 }
             }
         }

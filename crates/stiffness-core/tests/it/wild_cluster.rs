@@ -59,8 +59,7 @@ fn tests(rows: &[[f64; 5]], seed: u64) -> (WildClusterTest, f64, Option<f64>, f6
 fn the_statistic_is_the_dense_cluster_robust_wald_statistic() {
     for seed in 0..5 {
         let rows = rows(90, 0.3, seed);
-        let x = DMatrix::from_fn(rows.len(), 4, |i, j| rows[i][j]);
-        let y = DVector::from_fn(rows.len(), |i, _| rows[i][4]);
+        let (x, y) = dense(&rows);
         let f = factor(&rows);
         let test = WildClusterTest::new(&f, &MODEL, &FULL, 4);
         let x0 = x.columns(0, 2).into_owned();
@@ -92,15 +91,13 @@ fn the_statistic_is_the_dense_cluster_robust_wald_statistic() {
 #[test]
 fn the_cluster_robust_wald_test_does_not_depend_on_the_columns_units() {
     for seed in 0..3 {
-        let rows = rows(90, 0.3, seed);
-        let x = DMatrix::from_fn(rows.len(), 4, |i, j| rows[i][j]);
-        let y = DVector::from_fn(rows.len(), |i, _| rows[i][4]);
+        let (x, y) = dense(&rows(90, 0.3, seed));
         let beta = (x.transpose() * &x)
             .cholesky()
             .unwrap()
             .solve(&(x.transpose() * &y));
         let e = &y - &x * &beta;
-        let cluster: Vec<usize> = (0..rows.len()).map(|i| i / 3).collect();
+        let cluster: Vec<usize> = (0..x.nrows()).map(|i| i / 3).collect();
         let g = 30.0;
         let expected = dense_wald(&x, &y) * (g - 1.0) / g / 2.0;
         for s in [1.0, 1e-9, 1e9] {
@@ -116,6 +113,13 @@ fn the_cluster_robust_wald_test_does_not_depend_on_the_columns_units() {
             assert_eq!((t.df_num, t.df_den), (2.0, g - 1.0));
         }
     }
+}
+
+/// The rows as the dense design `x` (N×4) and the observations `y`.
+fn dense(rows: &[[f64; 5]]) -> (DMatrix<f64>, DVector<f64>) {
+    let x = DMatrix::from_fn(rows.len(), 4, |i, j| rows[i][j]);
+    let y = DVector::from_fn(rows.len(), |i, _| rows[i][4]);
+    (x, y)
 }
 
 /// The block's cluster-robust (CR0) Wald statistic of the dense full fit of `y` on `x`
@@ -143,8 +147,7 @@ fn dense_wald(x: &DMatrix<f64>, y: &DVector<f64>) -> f64 {
 fn every_draw_is_the_dense_wald_statistic_of_its_bootstrap_sample() {
     for seed in 0..3 {
         let rows = rows(90, 0.3, 100 + seed);
-        let x = DMatrix::from_fn(rows.len(), 4, |i, j| rows[i][j]);
-        let y = DVector::from_fn(rows.len(), |i, _| rows[i][4]);
+        let (x, y) = dense(&rows);
         let test = WildClusterTest::new(&factor(&rows), &MODEL, &FULL, 4);
         let b0 = test.restricted_coefficients().to_vec();
         let e0: Vec<f64> = rows.iter().map(|r| r[4] - b0[0] - b0[1] * r[1]).collect();

@@ -231,18 +231,14 @@ pub fn solve_factor(
     } else {
         None
     };
-    let mut covariance = vec![0.0; m * m];
-    if let Some(s2) = sigma2 {
-        for (sigma, _, dv) in svd.kept_triplets() {
-            let w = s2 / (sigma * sigma);
-            for a in 0..m {
-                let va = dv[a] * w;
-                for b in 0..m {
-                    covariance[a * m + b] += va * dv[b];
-                }
-            }
+    // Row-major; 0 for a column not in the data (its coefficient is held at 0).
+    let covariance = match sigma2 {
+        Some(s2) => {
+            let cov = svd.covariance_in_data(s2);
+            (0..m * m).map(|ab| cov[(ab / m, ab % m)]).collect()
         }
-    }
+        None => vec![0.0; m * m],
+    };
     let null = NullStructure::of(svd.null_space(), m, opts.null_tol);
     let eval = |w: &[f64]| -> (f64, Option<f64>) {
         let value = w.iter().zip(&solution).map(|(a, b)| a * b).sum();
